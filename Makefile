@@ -1,0 +1,23 @@
+# uw3p — all set-up is done here: a fresh machine with Python >= 3.10 needs only `make <target>`.
+PYTHON ?= python3
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: install test reproduce-figures bench clean
+
+$(STAMP): pyproject.toml
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test]"
+	@touch $(STAMP)
+
+install: $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m pytest -q
+
+reproduce-figures: $(STAMP)
+	$(PY) -m experiments --out figures
+
+clean:
+	rm -rf figures cache .pytest_cache

@@ -1,0 +1,47 @@
+"""Shared helpers of the figure scripts: output folder, saving PNG + PDF, CSV writing."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+#: Default output folder: ``figures/`` in the current directory (override with UW3P_FIGURES).
+def figures_dir(outdir=None) -> Path:
+    path = Path(outdir or os.environ.get("UW3P_FIGURES", "figures"))
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def save_figure(fig, name: str, outdir=None) -> list[Path]:
+    """Save ``fig`` as ``name``.png and ``name``.pdf; returns the paths."""
+    out = figures_dir(outdir)
+    paths = [out / f"{name}.png", out / f"{name}.pdf"]
+    for p in paths:
+        tmp = p.with_name(p.stem + ".tmp" + p.suffix)
+        fig.savefig(tmp, dpi=150, bbox_inches="tight", metadata=_metadata(p.suffix))
+        os.replace(tmp, p)
+    return paths
+
+
+def _metadata(suffix):
+    # fixed metadata so reruns write identical files
+    if suffix == ".pdf":
+        return {"CreationDate": None, "Creator": "uw3p", "Producer": "uw3p"}
+    return {"Software": "uw3p"}
+
+
+def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -> Path:
+    """Write rows to ``path`` atomically; ``comment`` lines go first, prefixed with '#'."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w", newline="", encoding="utf-8") as f:
+        if comment:
+            for line in comment.splitlines():
+                f.write(f"# {line}\n")
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        for row in rows:
+            w.writerow(row)
+    os.replace(tmp, path)
+    return path

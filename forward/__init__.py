@@ -1,0 +1,46 @@
+"""uw3p forward model: what a camera records of a Macbeth chart underwater.
+
+Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model" (eqs 1-14, Table 1).
+"""
+
+from .imaging import (
+    PATH_MODELS,
+    ChartSetup,
+    attenuation,
+    camera_response,
+    chart_setup,
+    path_length,
+    veiling_light,
+)
+from .render import chart_image, patch_srgb
+from .sensor import SensorSettings, capture, sensor_noise
+from .simulate import ChartSimulation, simulate_chart
+from .spectra import (
+    DEFAULT_CAMERA,
+    LAMBDA_0_NM,
+    MODEL_RANGE_NM,
+    camera_sensitivities,
+    chart_reflectances,
+    illuminant_spd,
+    phytoplankton_basis,
+    quadrature_weights,
+    wavelength_grid,
+)
+from .water import (
+    CDOM_SLOPE,
+    NAP_SLOPE,
+    absorption,
+    attenuation_coefficient,
+    backscattering,
+    cdom_absorption,
+    nap_absorption,
+    nap_absorption_440,
+    particle_scattering,
+    phytoplankton_absorption,
+    phytoplankton_absorption_440,
+    pure_water_absorption,
+    pure_water_scattering,
+    scattering,
+)
+
+__all__ = [name for name in dir() if not name.startswith("_")]

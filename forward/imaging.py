@@ -1,0 +1,156 @@
+"""Image formation: path attenuation k (eqs 3, 13, 14), veiling light (eq 2), camera response (eq 1).
+
+Lengths in m, wavelengths in nm. ``depth`` is the chart's depth below the surface, ``distance``
+the camera-to-chart distance (horizontal viewing, camera at the chart's depth); see DECISIONS.md.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import _validate
+from .spectra import (
+    DEFAULT_CAMERA,
+    camera_sensitivities,
+    chart_reflectances,
+    illuminant_spd,
+    quadrature_weights,
+    wavelength_grid,
+)
+from .water import attenuation_coefficient, backscattering, absorption
+
+#: Path models for the attenuation k: 'beam' uses c = a + b (eqs 3, 4), 'absorption' the
+#: literal eq 13 / 14 (absorption a only).
+PATH_MODELS = ("beam", "absorption")
+
+
+def length(name: str, value) -> np.ndarray:
+    """A path length in m (scalar or array): finite and >= 0, else ``ValueError`` naming it."""
+    v = np.asarray(value, dtype=float)
+    if v.size and not np.all(np.isfinite(v)):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    if v.size and np.any(v < 0):
+        raise ValueError(f"{name}: must be >= 0 m, got {value!r}")
+    return v
+
+
+def path_length(depth, distance) -> np.ndarray:
+    """Total path L = depth + distance in m: down to the chart, then to the camera (eq 3's d)."""
+    return length("depth", depth) + length("distance", distance)
+
+
+def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *,
+                path_model: str = "beam", **absorption_kwargs) -> np.ndarray:
+    """Path attenuation k(lambda) = exp(-(depth + distance) c(lambda)), dimensionless (eqs 3, 14).
+
+    ``path_model='absorption'`` uses the paper's literal eq 13, exp(-d a(lambda)).
+    Broadcasts over array ``chl``/``cdom``/``depth``/``distance`` (all of one shape S): (S..., q).
+    """
+    wl = wavelength_grid(wavelengths)
+    L = path_length(depth, distance)
+    if path_model == "beam":
+        coef = attenuation_coefficient(wl, chl, cdom, **absorption_kwargs)
+    elif path_model == "absorption":
+        coef = absorption(wl, chl, cdom, **absorption_kwargs)
+    else:
+        raise ValueError(f"path_model: must be one of {PATH_MODELS}, got {path_model!r}")
+    return np.exp(-L[..., None] * coef)
+
+
+def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *,
+                  illuminant=None, **absorption_kwargs) -> np.ndarray:
+    """Backscattered (veiling) light rho_b(lambda) of eq 2, in the units of i(lambda) x reflectance.
+
+    Single scattering along the camera ray of length ``distance`` at the chart's depth, lit by
+    the surface illuminant attenuated over ``depth``:
+
+        rho_b = i(lambda) exp(-c depth) (b_b / c) (1 - exp(-c distance)),
+
+    the classical veiling-light form (b_b / c is the asymptote of an infinitely long ray).
+    Uses the beam attenuation c (eq 4) and b_b from :func:`forward.water.backscattering`.
+    """
+    wl = wavelength_grid(wavelengths)
+    i = illuminant_spd(illuminant, wl)
+    d = length("depth", depth)
+    r = length("distance", distance)
+    c = attenuation_coefficient(wl, chl, cdom, **absorption_kwargs)
+    bb = backscattering(wl, chl)
+    return i * np.exp(-d[..., None] * c) * (bb / c) * -np.expm1(-r[..., None] * c)
+
+
+@dataclass(frozen=True, eq=False)
+class ChartSetup:
+    """The fixed matrices of eq 15 on one wavelength grid.
+
+    Attributes
+    ----------
+    wavelengths : (q,) nm
+    sensitivities : (q, m) the matrix P of eq 15: camera sensitivities times the quadrature
+        weights of eq 1, scaled so that a perfect white reflector in air under the illuminant
+        gives 1 in the most sensitive channel. Model signals are in these units.
+    illuminant : (q,) relative SPD i of the surface illuminant (max 1).
+    reflectances : (q, n) R.
+    camera : the camera's name (or 'custom').
+    """
+
+    wavelengths: np.ndarray
+    sensitivities: np.ndarray
+    illuminant: np.ndarray
+    reflectances: np.ndarray
+    camera: str
+    raw_sensitivities: np.ndarray
+
+    @property
+    def white_response(self) -> np.ndarray:
+        """Model signal (m,) of a perfect white reflector in air: P^T i."""
+        return self.sensitivities.T @ self.illuminant
+
+
+def chart_setup(camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavelengths=None) -> ChartSetup:
+    """Build the P, i, R of eq 15 on a grid; used by both the simulator and the estimator.
+
+    Named (string) inputs are cached, so repeated calls return the same object.
+    """
+    wl = wavelength_grid(wavelengths)
+    if all(x is None or (isinstance(x, str) and not x.lower().endswith((".csv", ".txt")))
+           for x in (camera, illuminant, reflectances)):
+        return _chart_setup_named(camera, illuminant, reflectances, tuple(wl))
+    return _build_setup(camera, illuminant, reflectances, wl)
+
+
+@functools.lru_cache(maxsize=32)
+def _chart_setup_named(camera, illuminant, reflectances, wl_key):
+    return _build_setup(camera, illuminant, reflectances, np.array(wl_key))
+
+
+def _build_setup(camera, illuminant, reflectances, wl) -> ChartSetup:
+    sens = camera_sensitivities(camera, wl)
+    i = illuminant_spd(illuminant, wl)
+    R = chart_reflectances(reflectances, wl)
+    P = sens * quadrature_weights(wl)[:, None]
+    white = P.T @ i
+    P = P / white.max()
+    name = camera if isinstance(camera, str) else "custom"
+    wl = np.array(wl, dtype=float)
+    for arr in (wl, P, i, R, sens):
+        arr.setflags(write=False)
+    return ChartSetup(wl, P, i, R, name, sens)
+
+
+def camera_response(sensitivities, illuminant, attenuation, reflectances, backscatter=None) -> np.ndarray:
+    """m = P^T diag(i) diag(k) R + s 1^T (eqs 1, 15): the noise-free (m, n) patch values.
+
+    ``attenuation`` may be (q,) or (N, q) (then the result is (N, m, n)); ``backscatter`` is
+    (m,) or (N, m).
+    """
+    P = np.asarray(sensitivities, dtype=float)
+    i = np.asarray(illuminant, dtype=float)
+    R = np.asarray(reflectances, dtype=float)
+    k = np.asarray(attenuation, dtype=float)
+    out = np.einsum("qm,...q,qn->...mn", P, i * k, R)
+    if backscatter is not None:
+        out = out + np.asarray(backscatter, dtype=float)[..., :, None]
+    return out

@@ -1,0 +1,71 @@
+"""Render simulated chart captures as sRGB images (the appearance figures, Figs 5-8).
+
+The camera's raw values (mean ADC codes over full scale, so auto-exposure and its cap are
+visible) are mapped to CIE XYZ with a 3x3 matrix fitted by least squares on the chart in air
+under the surface illuminant (a standard camera characterisation), then encoded to sRGB with
+colour-science. No white balance is applied: the water's colour cast is the point.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from .imaging import ChartSetup
+
+
+@functools.lru_cache(maxsize=16)
+def _camera_to_xyz(setup: ChartSetup) -> np.ndarray:
+    import colour
+
+    wl = setup.wavelengths
+    cmfs = np.asarray(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"][wl], dtype=float)
+    from .spectra import quadrature_weights
+
+    wq = quadrature_weights(wl)
+    light = setup.illuminant * wq
+    xyz = cmfs.T @ (light[:, None] * setup.reflectances)  # (3, n)
+    xyz = xyz / (cmfs[:, 1] @ light)  # Y of a perfect white = 1
+    cam = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (m, n)
+    M, *_ = np.linalg.lstsq(cam.T, xyz.T, rcond=None)
+    return M.T  # (3, m)
+
+
+def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.ndarray:
+    """sRGB values (n, 3) in [0, 1] of a :class:`forward.ChartSimulation`'s patches.
+
+    ``normalise='exposure'``: the raw codes over full scale (what the camera recorded, so deep
+    scenes whose exposure hit its cap get darker); ``'absolute'``: the exposure-normalised
+    ``rgb`` (a white reflector in air = 1), so everything fades with depth; ``'max'``: scaled so
+    the brightest patch value is 1. ``encode=False`` gives linear sRGB (the paper's Figs 5-6
+    are "not gamma encoded").
+    """
+    import colour
+
+    if normalise == "exposure":
+        cam = np.asarray(sim.codes) / (2 ** int(sim.sensor.adc_bits) - 1)
+    elif normalise == "absolute":
+        cam = np.asarray(sim.rgb)
+    elif normalise == "max":
+        cam = np.asarray(sim.rgb) / max(float(np.max(sim.rgb)), 1e-300)
+    else:
+        raise ValueError(f"normalise: must be 'exposure', 'absolute' or 'max', got {normalise!r}")
+    xyz = (_camera_to_xyz(sim.setup) @ cam).T
+    rgb = colour.XYZ_to_sRGB(xyz, apply_cctf_encoding=encode)
+    return np.clip(rgb, 0.0, 1.0)
+
+
+def chart_image(sim, *, rows: int = 4, cols: int = 6, patch_px: int = 20, gap_px: int = 3,
+                **kwargs) -> np.ndarray:
+    """An image (H, W, 3) of the chart, patches in reading order, black gaps between them."""
+    srgb = patch_srgb(sim, **kwargs)
+    if srgb.shape[0] != rows * cols:
+        raise ValueError(f"rows, cols: {rows} x {cols} does not match {srgb.shape[0]} patches")
+    step = patch_px + gap_px
+    img = np.zeros((rows * step + gap_px, cols * step + gap_px, 3))
+    for p, colour_value in enumerate(srgb):
+        r, c = divmod(p, cols)
+        y, x = gap_px + r * step, gap_px + c * step
+        img[y:y + patch_px, x:x + patch_px] = colour_value
+    return img

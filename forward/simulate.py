@@ -1,0 +1,123 @@
+"""Simulate what a camera records of a Macbeth chart underwater (eqs 1-14 and the sensor)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import _validate
+from .imaging import ChartSetup, attenuation, camera_response, chart_setup, veiling_light
+from .sensor import SensorSettings, capture
+from .spectra import DEFAULT_CAMERA, phytoplankton_basis
+from .water import CDOM_SLOPE, attenuation_coefficient
+
+
+@dataclass
+class ChartSimulation:
+    """One simulated chart capture.
+
+    ``rgb`` (m, n) are exposure-normalised patch values in model units: noise-free they equal
+    ``P^T diag(i) diag(k) R + s`` with ``camera`` = P, ``illuminant`` = i, ``reflectances`` = R,
+    ``attenuation`` = k and ``backscatter`` = s.
+    """
+
+    rgb: np.ndarray
+    rgb_expected: np.ndarray
+    attenuation: np.ndarray
+    backscatter: np.ndarray
+    wavelengths: np.ndarray
+    camera: np.ndarray
+    illuminant: np.ndarray
+    reflectances: np.ndarray
+    chl: float
+    cdom: float
+    depth: float
+    distance: float
+    camera_name: str
+    attenuation_coefficient: np.ndarray
+    veiling_light: np.ndarray
+    exposure_s: float
+    codes: np.ndarray
+    noise: bool
+    seed: int | None
+    path_model: str
+    sensor: SensorSettings
+    setup: ChartSetup = field(repr=False)
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict of the inputs and results (arrays as nested lists)."""
+        out = {}
+        for key in ("chl", "cdom", "depth", "distance", "camera_name", "noise", "seed",
+                    "path_model", "exposure_s"):
+            out[key] = getattr(self, key)
+        for key in ("wavelengths", "rgb", "rgb_expected", "attenuation", "backscatter",
+                    "attenuation_coefficient", "codes"):
+            out[key] = np.asarray(getattr(self, key)).tolist()
+        out["sensor"] = self.sensor.to_dict()
+        return out
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=1)
+
+
+def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: bool = True,
+                   seed=None, wavelengths=None, illuminant=None, reflectances=None, basis=None,
+                   weights=None, cdom_slope: float = CDOM_SLOPE, path_model: str = "beam",
+                   backscatter: bool = True, sensor: SensorSettings | None = None,
+                   setup: ChartSetup | None = None) -> ChartSimulation:
+    """Simulate the camera's patch values of a chart at ``depth`` m seen from ``distance`` m.
+
+    Parameters
+    ----------
+    chl : chlorophyll concentration C, mg m^-3.
+    cdom : CDOM absorption at 440 nm, m^-1.
+    depth, distance : m; light travels ``depth`` down and ``distance`` to the camera.
+    camera, illuminant, reflectances, wavelengths : see :func:`forward.imaging.chart_setup`
+        (defaults Nikon 5100 (NPL), D65, BabelColor Average, 400-700 nm at 10 nm). A prebuilt
+        ``setup`` replaces all four.
+    noise : sensor noise on (default) or the exact expectation.
+    seed : seed of the noise generator (``numpy.random.default_rng``).
+    basis, weights : phytoplankton basis T (eq 9) and weights for z > 1.
+    path_model : 'beam' (k = exp(-L c), default) or 'absorption' (the literal eq 13).
+    backscatter : include the veiling light of eq 2 (default True).
+    sensor : :class:`forward.sensor.SensorSettings` (defaults in DECISIONS.md).
+    """
+    chl = _validate.scalar("chl", chl)
+    cdom = _validate.scalar("cdom", cdom)
+    depth = _validate.scalar("depth", depth)
+    distance = _validate.scalar("distance", distance)
+    if setup is None:
+        setup = chart_setup(camera, illuminant, reflectances, wavelengths)
+    elif wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
+        raise ValueError("wavelengths: differ from the grid of the given setup")
+    sensor = SensorSettings() if sensor is None else sensor
+    if not isinstance(sensor, SensorSettings):
+        raise ValueError("sensor: expected a forward.SensorSettings")
+    wl = setup.wavelengths
+    if basis is not None or weights is not None:
+        phytoplankton_basis(wl, basis)  # validate early
+    kw = dict(basis=basis, weights=weights, cdom_slope=cdom_slope)
+    k = attenuation(wl, chl, cdom, depth, distance, path_model=path_model, **kw)
+    c = attenuation_coefficient(wl, chl, cdom, **kw)
+    if backscatter:
+        rho_b = veiling_light(wl, chl, cdom, depth, distance, illuminant=setup.illuminant, **kw)
+    else:
+        rho_b = np.zeros_like(wl)
+    s = setup.sensitivities.T @ rho_b
+    expected = camera_response(setup.sensitivities, setup.illuminant, k, setup.reflectances, s)
+    if not isinstance(noise, (bool, np.bool_)):
+        raise ValueError(f"noise: expected True or False, got {noise!r}")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
+        raise ValueError(f"seed: expected a non-negative integer or None, got {seed!r}")
+    rng = np.random.default_rng(seed)
+    cap = capture(expected, setup, sensor, noise=bool(noise), rng=rng)
+    return ChartSimulation(
+        rgb=cap["rgb"], rgb_expected=expected, attenuation=k, backscatter=s, wavelengths=wl,
+        camera=setup.sensitivities, illuminant=setup.illuminant, reflectances=setup.reflectances,
+        chl=chl, cdom=cdom, depth=depth, distance=distance, camera_name=setup.camera,
+        attenuation_coefficient=c, veiling_light=rho_b, exposure_s=cap["exposure_s"],
+        codes=cap["codes"], noise=bool(noise), seed=seed, path_model=path_model, sensor=sensor,
+        setup=setup,
+    )

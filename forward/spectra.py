@@ -1,0 +1,324 @@
+"""Wavelength grid, data tables and the spectra of camera, illuminant and chart.
+
+Everything spectral is put on one wavelength grid here, so that the rest of the package works
+with plain arrays:
+
+* the model range is 400-700 nm (the phytoplankton basis of ``data/`` stops there);
+* tables are resampled with colour-science (:class:`colour.SpectralDistribution` evaluated with
+  a linear interpolator: exact at the table's nodes, never overshooting);
+* ColorChecker reflectances, camera sensitivities and illuminants come from colour-science
+  (``colour.SDS_COLOURCHECKERS``, ``colour.MSDS_CAMERA_SENSITIVITIES``,
+  ``colour.SDS_ILLUMINANTS``), or from the caller as arrays on the grid or as CSV files.
+
+References: Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 1, 9,
+15 (the matrices P, i, R, T); data sources in ``data/README.md``.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from . import _validate
+
+#: Model wavelength range in nm (inclusive); the basis and pure-water tables cover it.
+MODEL_RANGE_NM = (400.0, 700.0)
+#: Default grid: 400-700 nm in 10 nm steps (q = 31).
+DEFAULT_STEP_NM = 10.0
+#: Reference wavelength of eqs 6, 7, 8, 10, 17 (nm).
+LAMBDA_0_NM = 440.0
+
+DEFAULT_CAMERA = "Nikon 5100 (NPL)"
+DEFAULT_ILLUMINANT = "D65"
+DEFAULT_CHART = "BabelColor Average"
+
+
+# --------------------------------------------------------------------------- grid
+def wavelength_grid(wavelengths=None) -> np.ndarray:
+    """Return the model wavelength grid in nm as a read-only float array.
+
+    ``None`` gives 400-700 nm at 10 nm. Any strictly increasing grid of at least 3 points inside
+    400-700 nm is accepted (uniform or not).
+    """
+    if wavelengths is None:
+        wl = np.arange(MODEL_RANGE_NM[0], MODEL_RANGE_NM[1] + 0.5 * DEFAULT_STEP_NM, DEFAULT_STEP_NM)
+    else:
+        wl = _validate.array("wavelengths", wavelengths, ndim=1).copy()
+        if wl.size < 3:
+            raise ValueError(f"wavelengths: need at least 3 wavelengths, got {wl.size}")
+        if np.any(np.diff(wl) <= 0):
+            raise ValueError("wavelengths: must be strictly increasing")
+        lo, hi = MODEL_RANGE_NM
+        if wl[0] < lo - 1e-9 or wl[-1] > hi + 1e-9:
+            raise ValueError(
+                f"wavelengths: grid {wl[0]:g}-{wl[-1]:g} nm leaves the model range "
+                f"{lo:g}-{hi:g} nm (the pure-water and phytoplankton tables end there)"
+            )
+    wl.setflags(write=False)
+    return wl
+
+
+def quadrature_weights(wavelengths) -> np.ndarray:
+    """Trapezoid weights (nm) that turn the integral of eq 1 into a sum over the grid."""
+    wl = np.asarray(wavelengths, dtype=float)
+    w = np.empty_like(wl)
+    d = np.diff(wl)
+    w[0] = d[0] / 2
+    w[-1] = d[-1] / 2
+    w[1:-1] = (d[:-1] + d[1:]) / 2
+    return w
+
+
+# --------------------------------------------------------------------------- tables
+def _data_dir():
+    return resources.files("uw3p_data")
+
+
+@functools.lru_cache(maxsize=None)
+def read_table(filename: str) -> tuple[tuple[str, ...], np.ndarray]:
+    """Read a CSV table of ``data/``: returns (column names, values); '#' lines are the header."""
+    text = (_data_dir() / filename).read_text(encoding="utf-8")
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    names = tuple(s.strip() for s in lines[0].split(","))
+    rows = [ln.split(",") for ln in lines[1:]]
+    return names, rows
+
+
+@functools.lru_cache(maxsize=None)
+def read_spectral_table(filename: str) -> tuple[np.ndarray, np.ndarray]:
+    """Return (wavelength_nm, values) of a spectral table of ``data/`` (values 2-D, one column each)."""
+    _, rows = read_table(filename)
+    arr = np.array(rows, dtype=float)
+    wl, vals = arr[:, 0], arr[:, 1:]
+    wl.setflags(write=False)
+    vals.setflags(write=False)
+    return wl, vals
+
+
+def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Read a user CSV: first column wavelength in nm, further columns values; '#' lines ignored.
+
+    A first non-comment line that is not numeric is taken as a header.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"{name}: file not found: {p}")
+    rows = []
+    for ln in p.read_text(encoding="utf-8").splitlines():
+        if not ln.strip() or ln.lstrip().startswith("#"):
+            continue
+        parts = [s.strip() for s in ln.replace(";", ",").split(",")]
+        try:
+            rows.append([float(s) for s in parts])
+        except ValueError:
+            if rows:
+                raise ValueError(f"{name}: non-numeric row in {p}: {ln!r}") from None
+            continue  # header
+    if not rows:
+        raise ValueError(f"{name}: no numeric rows in {p}")
+    if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
+        raise ValueError(f"{name}: {p} must have a wavelength column and >= 1 value column in every row")
+    arr = _validate.array(name, rows, ndim=2)
+    wl = arr[:, 0]
+    if np.any(np.diff(wl) <= 0):
+        raise ValueError(f"{name}: wavelengths in {p} must be strictly increasing")
+    return wl, arr[:, 1:]
+
+
+def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
+    """Resample tabulated spectra (rows = wavelengths) onto ``wavelengths`` with colour-science.
+
+    Raises ``ValueError`` naming ``name`` when the table does not cover the grid.
+    """
+    import colour
+
+    src = np.asarray(src_wavelengths, dtype=float)
+    vals = np.asarray(values, dtype=float)
+    wl = np.asarray(wavelengths, dtype=float)
+    if wl[0] < src[0] - 1e-9 or wl[-1] > src[-1] + 1e-9:
+        raise ValueError(
+            f"{name}: data cover {src[0]:g}-{src[-1]:g} nm but the wavelength grid is "
+            f"{wl[0]:g}-{wl[-1]:g} nm; choose a grid inside the data (e.g. wavelengths="
+            f"np.arange({max(src[0], 400):g}, {min(src[-1], 700) + 1:g}, 10))"
+        )
+    one_d = vals.ndim == 1
+    vals2 = vals[:, None] if one_d else vals
+    out = np.empty((wl.size, vals2.shape[1]))
+    for j in range(vals2.shape[1]):
+        sd = colour.SpectralDistribution(vals2[:, j], src, interpolator=colour.LinearInterpolator)
+        out[:, j] = sd[wl]
+    return out[:, 0] if one_d else out
+
+
+# --------------------------------------------------------------------------- user spectra
+def _is_path(x) -> bool:
+    return isinstance(x, (str, os.PathLike)) and (
+        str(x).lower().endswith((".csv", ".txt")) or Path(x).is_file()
+    )
+
+
+def _from_colour(obj, wl, name):
+    """Resample a colour-science (Multi)SpectralDistribution onto the grid."""
+    vals = np.asarray(obj.values, dtype=float)
+    return resample(obj.wavelengths, vals, wl, name=name)
+
+
+def _on_grid(value, wl, name, ncols):
+    arr = _validate.array(name, value, nonnegative=True)
+    if arr.ndim == 1 and ncols == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2 or arr.shape[0] != wl.size or (ncols is not None and arr.shape[1] != ncols):
+        want = f"({wl.size}, {ncols if ncols else 'n'})"
+        raise ValueError(
+            f"{name}: an array must be given on the wavelength grid with shape {want}, got {arr.shape}"
+        )
+    return arr
+
+
+@functools.lru_cache(maxsize=64)
+def _camera_named(name: str, wl_key: tuple) -> np.ndarray:
+    import colour
+
+    db = colour.MSDS_CAMERA_SENSITIVITIES
+    if name not in db:
+        raise ValueError(f"camera: unknown camera {name!r}; known: {sorted(db.keys())}")
+    return _from_colour(db[name], np.array(wl_key), "camera")
+
+
+def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
+    """Camera spectral sensitivities on the grid, (q, m), each channel scaled to peak 1.
+
+    ``camera``: a name of ``colour.MSDS_CAMERA_SENSITIVITIES`` (default 'Nikon 5100 (NPL)'), a
+    :class:`colour.MultiSpectralDistributions`, a CSV file (wavelength, one column per channel)
+    or an array (q, m) on the grid. These are the columns of P in eq 15 (before quadrature).
+    """
+    import colour
+
+    wl = wavelength_grid(wavelengths)
+    if isinstance(camera, str) and not _is_path(camera):
+        sens = _camera_named(camera, tuple(wl)).copy()
+    elif _is_path(camera):
+        sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera")
+    elif isinstance(camera, colour.MultiSpectralDistributions):
+        sens = _from_colour(camera, wl, "camera")
+    else:
+        sens = _on_grid(camera, wl, "camera", None)
+    sens = np.clip(sens, 0.0, None)
+    peak = sens.max(axis=0)
+    if np.all(peak <= 0):
+        raise ValueError("camera: all channels are zero on the wavelength grid")
+    # a channel that is zero on the grid stays zero (a legitimate, if useless, channel)
+    return sens / np.where(peak > 0, peak, 1.0)
+
+
+@functools.lru_cache(maxsize=64)
+def _illuminant_named(name: str, wl_key: tuple) -> np.ndarray:
+    import colour
+
+    db = colour.SDS_ILLUMINANTS
+    if name not in db:
+        raise ValueError(f"illuminant: unknown illuminant {name!r}; e.g. 'D65', 'D50', 'A', 'E'")
+    return _from_colour(db[name], np.array(wl_key), "illuminant")
+
+
+def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
+    """Relative spectral power distribution of the surface illuminant i on the grid, (q,).
+
+    ``None`` means CIE D65. A name of ``colour.SDS_ILLUMINANTS``, a
+    :class:`colour.SpectralDistribution`, a CSV file or an array (q,) on the grid. Scaled so
+    that its maximum on the grid is 1 (the absolute level is the sensor's ``illuminance_lux``).
+    """
+    import colour
+
+    wl = wavelength_grid(wavelengths)
+    if illuminant is None:
+        illuminant = DEFAULT_ILLUMINANT
+    if isinstance(illuminant, str) and not _is_path(illuminant):
+        spd = _illuminant_named(illuminant, tuple(wl)).copy()
+    elif _is_path(illuminant):
+        spd = resample(*read_spectral_csv(illuminant, name="illuminant"), wl, name="illuminant")[:, 0]
+    elif isinstance(illuminant, colour.SpectralDistribution):
+        spd = _from_colour(illuminant, wl, "illuminant")
+    else:
+        spd = _on_grid(illuminant, wl, "illuminant", 1)[:, 0]
+    if spd.max() <= 0:
+        raise ValueError("illuminant: is zero everywhere on the wavelength grid")
+    return np.clip(spd, 0, None) / spd.max()
+
+
+@functools.lru_cache(maxsize=64)
+def _chart_named(name: str, wl_key: tuple) -> np.ndarray:
+    import colour
+
+    db = colour.SDS_COLOURCHECKERS
+    if name not in db:
+        raise ValueError(f"reflectances: unknown chart {name!r}; known: {sorted(db.keys())}")
+    sds = list(db[name].values())
+    wl = np.array(wl_key)
+    return np.stack([_from_colour(sd, wl, "reflectances") for sd in sds], axis=1)
+
+
+def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
+    """Surface reflectances R on the grid, (q, n); default: the 24 'BabelColor Average' patches.
+
+    A name of ``colour.SDS_COLOURCHECKERS``, a dict or list of
+    :class:`colour.SpectralDistribution`, a :class:`colour.MultiSpectralDistributions`, a CSV
+    file (wavelength, one column per patch) or an array (q, n) on the grid. Patches are in the
+    chart's reading order (row by row, 4 x 6 for a ColorChecker).
+    """
+    import colour
+
+    wl = wavelength_grid(wavelengths)
+    if reflectances is None:
+        reflectances = DEFAULT_CHART
+    if isinstance(reflectances, str) and not _is_path(reflectances):
+        refl = _chart_named(reflectances, tuple(wl)).copy()
+    elif _is_path(reflectances):
+        refl = resample(*read_spectral_csv(reflectances, name="reflectances"), wl, name="reflectances")
+    elif isinstance(reflectances, colour.MultiSpectralDistributions):
+        refl = _from_colour(reflectances, wl, "reflectances")
+    elif isinstance(reflectances, dict) or (
+        isinstance(reflectances, (list, tuple))
+        and reflectances
+        and isinstance(reflectances[0], colour.SpectralDistribution)
+    ):
+        sds = list(reflectances.values()) if isinstance(reflectances, dict) else list(reflectances)
+        refl = np.stack([_from_colour(sd, wl, "reflectances") for sd in sds], axis=1)
+    else:
+        refl = _on_grid(reflectances, wl, "reflectances", None)
+    if np.any(refl < 0):
+        raise ValueError("reflectances: contain negative values")
+    return refl
+
+
+def phytoplankton_basis(wavelengths=None, basis=None) -> tuple[np.ndarray, np.ndarray]:
+    """The phytoplankton absorption basis T of eq 9 on the grid, (q, z), and its row at 440 nm.
+
+    ``None``: the single shape of ``data/phytoplankton_absorption_basis.csv``, normalised so that
+    t_1(440 nm) = 1. Otherwise an array (q,) or (q, z) on the grid, or a CSV file (wavelength,
+    one column per basis function). The second return value is t(440 nm), (z,), read from the
+    table (or interpolated linearly on the grid), used by eqs 10 and 17.
+    """
+    wl = wavelength_grid(wavelengths)
+    if basis is None:
+        src_wl, vals = read_spectral_table("phytoplankton_absorption_basis.csv")
+        t440 = np.array([np.interp(LAMBDA_0_NM, src_wl, v) for v in vals.T])
+        vals = vals / t440
+        return resample(src_wl, vals, wl, name="basis"), np.ones(vals.shape[1])
+    if _is_path(basis):
+        src_wl, vals = read_spectral_csv(basis, name="basis")
+        if np.any(vals < 0):
+            raise ValueError("basis: contains negative values")
+        t440 = np.array([np.interp(LAMBDA_0_NM, src_wl, v) for v in vals.T])
+        return resample(src_wl, vals, wl, name="basis"), t440
+    T = _on_grid(basis, wl, "basis", None)
+    if not (wl[0] <= LAMBDA_0_NM <= wl[-1]):
+        raise ValueError("basis: the wavelength grid must contain 440 nm (eq 17) for an array basis")
+    t440 = np.array([np.interp(LAMBDA_0_NM, wl, col) for col in T.T])
+    if np.all(t440 <= 0):
+        raise ValueError("basis: all basis functions are zero at 440 nm, so eq 17 cannot fix their scale")
+    return T, t440

@@ -1,0 +1,208 @@
+"""Inherent optical properties of sea water: absorption, scattering, attenuation (eqs 4-12).
+
+One function per physical term, each with its equation number. Wavelengths are in nm,
+coefficients in m^-1, chlorophyll concentration ``chl`` (C) in mg m^-3, ``cdom`` is
+a_CDOM(440 nm) in m^-1.
+
+``chl`` and ``cdom`` may be scalars or arrays (any shape S); a spectrum then has shape S + (q,).
+
+Reference: H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model".
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from . import _validate
+from .spectra import LAMBDA_0_NM, phytoplankton_basis, read_table, read_spectral_table, resample, wavelength_grid
+
+#: CDOM spectral slope S of eq 6 (nm^-1); the paper uses 0.014 (range 0.014-0.019).
+CDOM_SLOPE = 0.014
+#: NAP spectral slope of eq 7 (nm^-1); the paper uses 0.011 (range 0.006-0.014).
+NAP_SLOPE = 0.011
+
+
+def _conc(name, value):
+    x = np.asarray(value, dtype=float)
+    if x.size and not np.all(np.isfinite(x)):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    if x.size and np.any(x < 0):
+        raise ValueError(f"{name}: must be >= 0, got {value!r}")
+    return x
+
+
+def _outer(amount, shape):
+    return np.multiply.outer(amount, shape)
+
+
+@functools.lru_cache(maxsize=32)
+def _a_w(wl_key):
+    wl_src, vals = read_spectral_table("pure_water_absorption_smith_baker_1981.csv")
+    out = resample(wl_src, vals[:, 0], np.array(wl_key), name="wavelengths")
+    out.setflags(write=False)
+    return out
+
+
+def pure_water_absorption(wavelengths=None) -> np.ndarray:
+    """Pure-water absorption a_w(lambda) in m^-1, the first term of eq 5.
+
+    Smith & Baker (1981), Appl. Opt. 20(2):177-184, as tabulated by Mobley (1994) p. 90
+    (``data/pure_water_absorption_smith_baker_1981.csv``), linearly interpolated.
+    """
+    wl = wavelength_grid(wavelengths)
+    return _a_w(tuple(wl)).copy()
+
+
+def phytoplankton_absorption_440(chl, *, derivative: bool = False):
+    """a_phi(440 nm) = 0.0378 C^0.627 in m^-1 (eq 10; the right side of eq 17).
+
+    With ``derivative=True`` returns (value, d value / dC). The derivative is infinite at
+    C = 0 (the estimator evaluates it at a small floor, see DECISIONS.md).
+    """
+    c = _conc("chl", chl)
+    val = 0.0378 * c**0.627
+    if not derivative:
+        return val
+    with np.errstate(divide="ignore"):
+        d = np.where(c > 0, 0.627 * 0.0378 * np.power(np.where(c > 0, c, 1.0), -0.373), np.inf)
+    return val, d
+
+
+def phytoplankton_absorption(wavelengths=None, chl=1.0, *, basis=None, weights=None) -> np.ndarray:
+    """Phytoplankton absorption a_phi(lambda) = T w in m^-1 (eq 9), scaled by eq 10.
+
+    ``basis`` is the T of eq 9 (see :func:`forward.spectra.phytoplankton_basis`); ``weights``
+    (z,) give the shape for z > 1 basis functions and are rescaled so that
+    (T w)(440 nm) = 0.0378 C^0.627 (eq 10). With one basis function no weights are needed.
+    """
+    wl = wavelength_grid(wavelengths)
+    T, t440 = phytoplankton_basis(wl, basis)
+    z = T.shape[1]
+    if weights is None:
+        if z != 1:
+            raise ValueError(f"weights: required for a basis of z = {z} functions")
+        weights = np.ones(1)
+    w = _validate.array("weights", weights, shape=(z,), nonnegative=False)
+    scale440 = float(t440 @ w)
+    if scale440 <= 0:
+        raise ValueError("weights: the basis combination T w must be positive at 440 nm")
+    shape = T @ w / scale440
+    if np.any(shape < -1e-12):
+        raise ValueError("weights: T w is negative at some wavelength (violates eq 16)")
+    return _outer(phytoplankton_absorption_440(chl), shape)
+
+
+def cdom_absorption(wavelengths=None, cdom=0.1, *, slope: float = CDOM_SLOPE) -> np.ndarray:
+    """CDOM absorption a_CDOM(lambda) = a_CDOM,440 exp(-S (lambda - 440)) in m^-1 (eq 6)."""
+    wl = wavelength_grid(wavelengths)
+    s = _validate.scalar("slope", slope)
+    return _outer(_conc("cdom", cdom), np.exp(-s * (wl - LAMBDA_0_NM)))
+
+
+def nap_absorption_440(chl, *, derivative: bool = False):
+    """a_NAP(440 nm) = 0.0124 C^0.724 in m^-1 (eq 8). ``derivative=True``: also d/dC."""
+    c = _conc("chl", chl)
+    val = 0.0124 * c**0.724
+    if not derivative:
+        return val
+    with np.errstate(divide="ignore"):
+        d = np.where(c > 0, 0.724 * 0.0124 * np.power(np.where(c > 0, c, 1.0), -0.276), np.inf)
+    return val, d
+
+
+def nap_absorption(wavelengths=None, chl=1.0, *, slope: float = NAP_SLOPE, derivative: bool = False):
+    """Non-algal particle absorption a_NAP(lambda) = a_NAP,440 exp(-0.011 (lambda - 440)) (eqs 7, 8).
+
+    ``derivative=True`` returns (value, d value / dC).
+    """
+    wl = wavelength_grid(wavelengths)
+    s = _validate.scalar("slope", slope)
+    shape = np.exp(-s * (wl - LAMBDA_0_NM))
+    if not derivative:
+        return _outer(nap_absorption_440(chl), shape)
+    v, d = nap_absorption_440(chl, derivative=True)
+    return _outer(v, shape), _outer(d, shape)
+
+
+def absorption(wavelengths=None, chl=1.0, cdom=0.1, *, basis=None, weights=None,
+               phytoplankton=None, cdom_slope: float = CDOM_SLOPE) -> np.ndarray:
+    """Total absorption a = a_w + a_phi + a_CDOM + a_NAP in m^-1 (eq 5).
+
+    ``phytoplankton`` may give a_phi (= T w, shape (..., q)) directly, as the estimator does;
+    otherwise it is computed from ``chl`` with :func:`phytoplankton_absorption`.
+    """
+    wl = wavelength_grid(wavelengths)
+    if phytoplankton is None:
+        a_phi = phytoplankton_absorption(wl, chl, basis=basis, weights=weights)
+    else:
+        a_phi = _validate.array("phytoplankton", phytoplankton)
+    return (pure_water_absorption(wl) + a_phi + cdom_absorption(wl, cdom, slope=cdom_slope)
+            + nap_absorption(wl, chl))
+
+
+def pure_water_scattering(wavelengths=None) -> np.ndarray:
+    """Pure sea-water scattering b_w(lambda) = 0.00288 (lambda / 500)^-4.32 in m^-1 (eq 11).
+
+    Morel (1974), "Optical properties of pure water and pure sea water" (ref. [23]).
+    """
+    wl = wavelength_grid(wavelengths)
+    return 0.00288 * (wl / 500.0) ** -4.32
+
+
+@functools.lru_cache(maxsize=1)
+def table1() -> dict:
+    """The constants of Table 1 (eq 12), from ``data/particle_scattering_table1.csv``."""
+    _, rows = read_table("particle_scattering_table1.csv")
+    return {r[0].strip(): float(r[2]) for r in rows}
+
+
+def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False):
+    """Particle scattering b_p(lambda) in m^-1, eq 12 with the Table 1 constants (lambda_0 = 470 nm).
+
+    b_p = b*_p12 (l/l0)^-g12 [C12 (1 - e^(-S12 C))] + b*_p3 (l/l0)^-g3 [C - C12 (1 - e^(-S12 C))]
+          + b_k (l/l0)^-gk.
+    The Table 1 constants come from Brewin et al. (2012), who fit particle *back*scattering;
+    the paper (and this function) use them as b_p (DECISIONS.md). ``derivative=True`` also
+    returns d b_p / dC.
+    """
+    wl = wavelength_grid(wavelengths)
+    t = table1()
+    c = _conc("chl", chl)
+    r = wl / t["lambda_0"]
+    f12, f3, fk = r ** -t["gamma_12"], r ** -t["gamma_3"], r ** -t["gamma_k"]
+    small = t["C_12"] * (1.0 - np.exp(-t["S_12"] * c))  # pico + nano chlorophyll, mg m^-3
+    val = (_outer(t["b_p12_star"] * small, f12) + _outer(t["b_p3_star"] * (c - small), f3)
+           + t["b_k"] * fk)
+    if not derivative:
+        return val
+    dsmall = t["C_12"] * t["S_12"] * np.exp(-t["S_12"] * c)
+    d = _outer(t["b_p12_star"] * dsmall, f12) + _outer(t["b_p3_star"] * (1.0 - dsmall), f3)
+    return val, d
+
+
+def scattering(wavelengths=None, chl=1.0) -> np.ndarray:
+    """Total scattering b = b_w + b_p in m^-1 (eq 11)."""
+    wl = wavelength_grid(wavelengths)
+    return pure_water_scattering(wl) + particle_scattering(wl, chl)
+
+
+def backscattering(wavelengths=None, chl=1.0) -> np.ndarray:
+    """Backscattering coefficient b_b = 0.5 b_w + b_bp in m^-1, used by the veiling light (eq 2).
+
+    Pure water scatters symmetrically (half backwards). For particles we take eq 12 itself as
+    b_bp, which is what Brewin et al. (2012), the source of Table 1, fitted (DECISIONS.md).
+    """
+    wl = wavelength_grid(wavelengths)
+    return 0.5 * pure_water_scattering(wl) + particle_scattering(wl, chl)
+
+
+def attenuation_coefficient(wavelengths=None, chl=1.0, cdom=0.1, **absorption_kwargs) -> np.ndarray:
+    """Beam attenuation coefficient c = a + b in m^-1 (eq 4).
+
+    Keyword arguments go to :func:`absorption` (``basis``, ``weights``, ``phytoplankton``,
+    ``cdom_slope``).
+    """
+    wl = wavelength_grid(wavelengths)
+    return absorption(wl, chl, cdom, **absorption_kwargs) + scattering(wl, chl)
