@@ -1,0 +1,11 @@
+"""uw3p estimator: the paper's sequential convex loop (eqs 15-18) in cvxpy + Clarabel.
+
+Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
+"""
+
+from .estimate import MODES, Estimate, Estimator, estimate, rrmse
+from .model import CHL_DERIVATIVE_FLOOR, WaterModel
+from .subproblem import build_subproblem
+
+__all__ = ["MODES", "Estimate", "Estimator", "estimate", "rrmse", "WaterModel",
+           "CHL_DERIVATIVE_FLOOR", "build_subproblem"]

@@ -65,3 +65,22 @@ def test_appearance_figures_and_hue_trend(tmp_path):
     depths = sorted(spread)
     assert len(depths) == 4
     assert all(spread[a] > spread[b] for a, b in zip(depths, depths[1:])), spread
+
+
+def test_cli_estimate_round_trip(tmp_path):
+    f = tmp_path / "m.csv"
+    code, _, _ = run(["simulate", "--chl", "2", "--cdom", "0.3", "--depth", "10", "--distance", "5",
+                      "--no-noise", "--out", str(f)])
+    assert code == 0
+    code, out, err = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["converged"] and abs(res["chl"] / 2 - 1) < 1e-6 and abs(res["cdom"] / 0.3 - 1) < 1e-6
+    code, out, _ = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--mode", "paper"])
+    assert "chl (C)" in out and "wavelength_nm,attenuation_k" in out and code in (0, 1)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("patch,red,green,blue\n1,0.1,0.2\n")
+    code, _, err = run(["estimate", str(bad), "--depth", "10", "--distance", "5"])
+    assert code == 2 and "measurements" in err
+    code, _, err = run(["estimate", str(f), "--depth", "-1", "--distance", "5"])
+    assert code == 2 and "depth" in err

@@ -1,0 +1,433 @@
+"""The paper's estimator (eqs 15-18): sequential convex programming in cvxpy with Clarabel.
+
+At iteration t the attenuation k(x) and the equality (17) are replaced by their first-order
+Taylor expansions around x_t, the resulting QP (:mod:`sca.subproblem`) is solved, and its
+solution becomes x_{t+1}; the loop repeats until the objective, evaluated with the true
+nonlinear k, no longer decreases.
+
+Two modes (DECISIONS.md):
+
+* ``mode="paper"`` -- the literal loop: full Taylor steps, stop at the first step that does not
+  decrease the objective (the previous point is returned).
+* ``mode="safeguarded"`` (default) -- the same subproblem inside a trust region on the scaled
+  parameters, shrunk when the true objective rises and grown when the model predicts well;
+  iterates are put back on eq 17 (w rescaled) and s is re-fitted in closed form; stops when the
+  relative decrease of the objective falls below ``tol`` or the model predicts none.
+
+``converged`` is True only where the returned point is stationary (the subproblem predicts a
+relative decrease below ``tol``) or fits the data to rounding error; every other end is
+reported in ``status``.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+
+from forward import _validate
+from forward.imaging import ChartSetup, chart_setup
+from forward.spectra import DEFAULT_CAMERA
+from forward.water import CDOM_SLOPE
+
+from .model import WaterModel
+from .subproblem import build_subproblem, polish
+
+MODES = ("paper", "safeguarded")
+FIXABLE = ("chl", "cdom", "backscatter")
+
+#: Clarabel settings of the subproblem: its defaults (1e-8 tolerances on a subproblem that
+#: is normalised to O(1) every iteration), followed by an active-set polish
+#: (:func:`sca.subproblem.polish`) that makes the step exact where bounds are active.
+CLARABEL_SETTINGS = dict(max_iter=200)
+#: Tried in order when a solve fails (each failure is recorded; only when all fail is the loop
+#: stopped and reported in ``status``).
+CLARABEL_FALLBACKS = (
+    CLARABEL_SETTINGS,
+    dict(CLARABEL_SETTINGS, equilibrate_enable=False),
+    dict(CLARABEL_SETTINGS, tol_gap_abs=1e-6, tol_gap_rel=1e-6, tol_feas=1e-6),
+)
+
+#: Inequality bounds of the (normalised) subproblem are capped at this multiple of the
+#: unconstrained least-squares step (see the loop); a capped bound only excludes steps that
+#: long, which the safeguarded mode's trust region excludes anyway.
+BOUND_CAP = 1e4
+
+#: Scales (C in mg m^-3, a_CDOM in m^-1) below which parameters are not scaled further.
+CHL_SCALE_MIN = 1e-3
+CDOM_SCALE_MIN = 1e-3
+
+#: Coarse initial search grids (deterministic, independent of the data's truth).
+INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 26)])
+INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 18)])
+
+#: Relative objective at which the fit is exact to rounding error: ||residual|| <= 1e-12 ||M||.
+EXACT_FIT = 1e-24
+
+
+@dataclass
+class Estimate:
+    """Result of :func:`estimate`. Units: chl mg m^-3, cdom and attenuation coefficient m^-1,
+    backscatter and objective in the units of the measurements."""
+
+    chl: float
+    cdom: float
+    w: np.ndarray
+    backscatter: np.ndarray
+    attenuation: np.ndarray
+    attenuation_coefficient: np.ndarray
+    wavelengths: np.ndarray
+    objective: float
+    iterations: int
+    converged: bool
+    status: str
+    history: list
+    mode: str
+    initial: dict
+    fixed: dict
+    eq17_residual: float
+    solve_time_s: float = 0.0
+    n_solves: int = 0
+    step_history: list = field(default_factory=list, repr=False)
+
+    def to_dict(self) -> dict:
+        out = {}
+        for key, val in self.__dict__.items():
+            if key == "step_history":
+                continue
+            out[key] = val.tolist() if isinstance(val, np.ndarray) else val
+        out["fixed"] = {k: (np.asarray(v).tolist()) for k, v in self.fixed.items()}
+        return out
+
+
+class Estimator:
+    """Estimator for one (camera, illuminant, chart, grid, basis, path): build once, fit many.
+
+    The cvxpy subproblem is compiled once per problem structure and shared (see
+    :func:`sca.subproblem.build_subproblem`); only parameter values change per iteration.
+    """
+
+    def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
+                 reflectances=None, wavelengths=None, basis=None, path_model: str = "beam",
+                 cdom_slope: float = CDOM_SLOPE, fix=None, setup: ChartSetup | None = None):
+        depth = _validate.scalar("depth", depth)
+        distance = _validate.scalar("distance", distance)
+        if setup is None:
+            setup = chart_setup(camera, illuminant, reflectances, wavelengths)
+        elif wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
+            raise ValueError("wavelengths: differ from the grid of the given setup")
+        self.setup = setup
+        self.model = WaterModel(setup, depth, distance, basis=basis, path_model=path_model,
+                                cdom_slope=cdom_slope)
+        self.depth, self.distance = depth, distance
+        self.fixed = self._parse_fix(fix)
+        mdl = self.model
+        self.free_chl = "chl" not in self.fixed
+        self.free_cdom = "cdom" not in self.fixed
+        # with C fixed and one basis function, eq 17 fixes w too
+        self.free_w = self.free_chl or mdl.z > 1
+        self.free_s = "backscatter" not in self.fixed
+        n_pos = int(self.free_chl) + int(self.free_cdom)
+        self.n_pos = n_pos
+        self.n_free = n_pos + (mdl.z if self.free_w else 0)
+        if self.n_free == 0 and not self.free_s:
+            raise ValueError("fix: nothing is left to estimate")
+        self.w_slice = (n_pos, n_pos + mdl.z) if self.free_w else None
+
+    def _parse_fix(self, fix):
+        if fix is None:
+            return {}
+        if not isinstance(fix, dict):
+            raise ValueError("fix: expected a dict like {'backscatter': 0, 'cdom': 0.1}")
+        out = {}
+        for key, val in fix.items():
+            if key not in FIXABLE:
+                raise ValueError(f"fix: unknown parameter {key!r}; choose from {FIXABLE}")
+            if key == "backscatter":
+                arr = _validate.array("fix['backscatter']", np.broadcast_to(val, (self.model.m,)),
+                                      nonnegative=True)
+                out[key] = np.array(arr, dtype=float)
+            else:
+                out[key] = _validate.scalar(f"fix[{key!r}]", val)
+        return out
+
+    # ----------------------------------------------------------------------------- helpers
+    def _check_rgb(self, rgb):
+        shape = (self.model.m, self.model.n)
+        M = _validate.array("rgb", rgb, shape=shape)
+        if np.any(M < 0):
+            raise ValueError(f"rgb: contains negative values (min {M.min():g}); measurements are "
+                             "exposure-normalised sensor values >= 0")
+        return M
+
+    def _objective(self, Mv, chl, cdom, w, s):
+        k = self.model.attenuation(chl, cdom, w)
+        r = self.model.residual(Mv, k, s)
+        return float(r @ r), k
+
+    def initial_point(self, Mv, x0=None):
+        """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
+        closed-form s, unless ``x0`` (dict with 'chl' and/or 'cdom') gives it."""
+        mdl = self.model
+        chl_grid = np.array([self.fixed["chl"]]) if not self.free_chl else INIT_CHL
+        cdom_grid = np.array([self.fixed["cdom"]]) if not self.free_cdom else INIT_CDOM
+        if x0 is not None:
+            if not isinstance(x0, dict) or not set(x0) <= {"chl", "cdom"}:
+                raise ValueError("x0: expected a dict with keys 'chl' and/or 'cdom'")
+            if "chl" in x0 and self.free_chl:
+                chl_grid = np.array([_validate.scalar("x0['chl']", x0["chl"])])
+            if "cdom" in x0 and self.free_cdom:
+                cdom_grid = np.array([_validate.scalar("x0['cdom']", x0["cdom"])])
+        C, A = np.meshgrid(chl_grid, cdom_grid, indexing="ij")
+        C, A = C.ravel(), A.ravel()
+        u = np.full(mdl.z, 1.0 / mdl.z)
+        W = np.multiply.outer(mdl.phyto_scale(C) / float(mdl.t440 @ u), u)
+        k = mdl.attenuation(C, A, W)
+        G = mdl.signal(k)
+        s = mdl.best_backscatter(Mv, G, self._s_fixed)
+        r = Mv - G - np.repeat(s, mdl.n, axis=-1)
+        f = np.einsum("ij,ij->i", r, r)
+        j = int(np.argmin(f))
+        return float(C[j]), float(A[j]), W[j].copy()
+
+    # ----------------------------------------------------------------------------- the loop
+    def fit(self, rgb, *, mode: str = "safeguarded", max_iter: int = 100, tol: float = 1e-10,
+            x0=None) -> Estimate:
+        """Run the sequential convex loop on measured patch values ``rgb`` (m, n)."""
+        if mode not in MODES:
+            raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
+        if int(max_iter) != max_iter or max_iter < 1:
+            raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
+        tol = _validate.scalar("tol", tol, positive=True)
+        mdl = self.model
+        M = self._check_rgb(rgb)
+        scale = float(np.max(M))
+        if scale <= 0:
+            raise ValueError("rgb: all values are zero; nothing to fit")
+        Mv = M.ravel() / scale
+        # the model in scaled units: B / scale; restore on exit
+        B_orig = mdl.B
+        mdl.B = B_orig / scale
+        try:
+            return self._loop(Mv, scale, mode, int(max_iter), tol, x0)
+        finally:
+            mdl.B = B_orig
+
+    @property
+    def _s_fixed(self):
+        return None if self.free_s else self.fixed["backscatter"] / self._scale
+
+    def _loop(self, Mv, scale, mode, max_iter, tol, x0):
+        mdl = self.model
+        self._scale = scale
+        safeguarded = mode == "safeguarded"
+        n_s = mdl.m if self.free_s else 0
+        sub = build_subproblem(self.n_free, self.n_pos, self.w_slice, mdl.wavelengths.size, n_s,
+                               safeguarded, self.free_w)
+        E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))  # s -> every patch of its channel
+        f_exact = EXACT_FIT * float(Mv @ Mv)
+
+        chl, cdom, w = self.initial_point(Mv, x0)
+        initial = {"chl": chl, "cdom": cdom}
+        G = mdl.signal(mdl.attenuation(chl, cdom, w))
+        s = np.array(mdl.best_backscatter(Mv, G, self._s_fixed), dtype=float)
+        f, k = self._objective(Mv, chl, cdom, w, s)
+        history, steps = [f * scale**2], []
+        radius = 1.0
+        status, converged = "maximum number of iterations reached", False
+        n_solves, t_solve = 0, 0.0
+        it = 0
+        for it in range(1, max_iter + 1):
+            if f <= f_exact:
+                status, converged = "exact fit (objective at rounding level)", True
+                it -= 1
+                break
+            k, dk = mdl.attenuation_jacobian(chl, cdom, w)
+            G = mdl.signal(k)
+            J = dk.T @ mdl.B.T  # (2 + z, m n)
+            D_chl = max(chl, CHL_SCALE_MIN)
+            D_cdom = max(cdom, CDOM_SCALE_MIN)
+            w_min = float(mdl.phyto_scale(CHL_SCALE_MIN)) / (mdl.z * float(np.max(mdl.t440)))
+            D_w = np.maximum(np.abs(w), w_min)
+            cols, scales = [], []
+            if self.free_chl:
+                cols.append(0)
+                scales.append(D_chl)
+            if self.free_cdom:
+                cols.append(1)
+                scales.append(D_cdom)
+            if self.free_w:
+                cols += list(range(2, 2 + mdl.z))
+                scales += list(D_w)
+            scales = np.array(scales)
+            r0 = Mv - G - np.repeat(s, mdl.n)
+            AE = J[cols].T * scales
+            if self.free_s:
+                AE = np.hstack([AE, E])
+            Q, Rm = np.linalg.qr(AE)
+            b = Q.T @ r0
+            unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
+            c0 = max(float(r0 @ r0 - b @ b), 0.0)  # the part of ||r0||^2 no step can remove
+            if unit <= 1e-300:
+                status, converged = "converged: the gradient vanishes", True
+                break
+            sub.R.value = Rm
+            sub.b.value = b / unit
+            # Bounds far beyond any step the model can want only hurt the interior-point
+            # start; they are capped at BOUND_CAP times the unconstrained least-squares step.
+            v_ls = np.linalg.lstsq(Rm, b / unit, rcond=None)[0]
+            cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
+            if self.free_s:
+                sub.s_lo.value = np.maximum(-s / unit, -cap)
+            if self.n_pos:
+                lo = []
+                if self.free_chl:
+                    lo.append(-chl / D_chl)
+                if self.free_cdom:
+                    lo.append(-cdom / D_cdom)
+                sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
+            if safeguarded and self.n_free:
+                sub.hi.value = np.full(self.n_free, min(radius / unit, cap))
+            if self.free_w:
+                TDw = mdl.T * D_w
+                sub.TDw.value = TDw
+                sub.Tw_rhs.value = np.maximum(-(mdl.T @ w) / unit, -cap * np.abs(TDw).sum(axis=1))
+                alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
+                a_eq = np.zeros(self.n_free)
+                a_eq[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * D_w
+                if self.free_chl:
+                    a_eq[0] = -float(dalpha) * D_chl
+                    rhs = float(alpha) - float(mdl.t440 @ w)
+                else:
+                    rhs = float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
+                sub.a_eq.value = a_eq
+                sub.b_eq.value = rhs / unit
+            t0 = time.perf_counter()
+            failure = _solve(sub.problem)
+            t_solve += time.perf_counter() - t0
+            n_solves += 1
+            if failure:
+                status = f"solver failed at iteration {it}: {failure}"
+                break
+            v, _ = polish(sub, np.asarray(sub.v.value, float))
+            qp_value = float(np.sum((Rm @ v - b / unit) ** 2))
+            v = v * unit
+            delta = v[:self.n_free]
+            # decrease predicted by the linearised model
+            pred = f - (qp_value * unit**2 + c0)
+            # the candidate
+            full = np.zeros(2 + mdl.z)
+            full[cols] = delta * scales
+            chl_new = max(chl + full[0], 0.0) if self.free_chl else chl
+            cdom_new = max(cdom + full[1], 0.0) if self.free_cdom else cdom
+            w_new = w + full[2:] if self.free_w else w
+            if safeguarded:
+                w_new = mdl.feasible_w(chl_new, w_new)
+                G_new = mdl.signal(mdl.attenuation(chl_new, cdom_new, w_new))
+                s_new = np.array(mdl.best_backscatter(Mv, G_new, self._s_fixed), dtype=float)
+            else:
+                s_new = np.maximum(s + v[self.n_free:], 0.0) if self.free_s else s.copy()
+            f_new, _ = self._objective(Mv, chl_new, cdom_new, w_new, s_new)
+            steps.append(float(np.max(np.abs(delta))) if delta.size else 0.0)
+            stationary = pred <= tol * f or f <= f_exact
+            if not np.isfinite(f_new):
+                status = f"non-finite objective at iteration {it}"
+                break
+            if f_new < f:
+                decrease = f - f_new
+                chl, cdom, w, s, f = chl_new, cdom_new, w_new, s_new, f_new
+                history.append(f * scale**2)
+                if safeguarded:
+                    rho = decrease / pred if pred > 0 else 0.0
+                    at_edge = steps[-1] >= 0.9 * radius
+                    if rho > 0.75 and at_edge:
+                        radius = min(2.0 * radius, 1e4)
+                    elif rho < 0.25:
+                        radius = max(radius / 4.0, 1e-14)
+                    if decrease <= tol * (f + decrease) and pred <= 10 * tol * (f + decrease):
+                        status, converged = "converged: relative decrease below tol", True
+                        break
+                continue
+            # the objective did not decrease
+            if not safeguarded:
+                if stationary:
+                    status, converged = "objective stopped decreasing at a stationary point", True
+                else:
+                    status = ("objective stopped decreasing after a full Taylor step, but the "
+                              "point is not stationary (paper mode stopped early)")
+                break
+            if stationary:
+                status, converged = "converged: no further decrease predicted", True
+                break
+            radius = min(radius, steps[-1]) / 4.0
+            if radius < 1e-12:
+                status = "trust region collapsed without reaching a stationary point"
+                break
+        if f <= f_exact and not converged:
+            status, converged = "exact fit (objective at rounding level)", True
+        k = mdl.attenuation(chl, cdom, w)
+        return Estimate(
+            chl=float(chl), cdom=float(cdom), w=np.array(w, float), backscatter=s * scale,
+            attenuation=k, attenuation_coefficient=mdl.coefficient(chl, cdom, w),
+            wavelengths=mdl.wavelengths, objective=f * scale**2, iterations=it,
+            converged=bool(converged), status=status, history=history, mode=mode,
+            initial=initial, fixed=dict(self.fixed),
+            eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
+            solve_time_s=t_solve, n_solves=n_solves, step_history=steps,
+        )
+
+
+def _solve(problem) -> str:
+    """Solve with Clarabel; on failure retry with the fallbacks of ``CLARABEL_FALLBACKS``.
+
+    Returns '' on success, else the reasons of every attempt.
+    """
+    reasons = []
+    for settings in CLARABEL_FALLBACKS:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # 'Solution may be inaccurate': judged below
+                problem.solve(solver=cp.CLARABEL, **settings)
+        except (cp.SolverError, ValueError, ArithmeticError) as exc:
+            reasons.append(f"{type(exc).__name__}: {exc}")
+            continue
+        if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and problem.value is not None:
+            return ""
+        reasons.append(f"status {problem.status}")
+    return "; ".join(reasons)
+
+
+def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,
+             wavelengths=None, basis=None, mode: str = "safeguarded", max_iter: int = 100,
+             tol: float = 1e-10, fix=None, x0=None, path_model: str = "beam",
+             cdom_slope: float = CDOM_SLOPE, setup: ChartSetup | None = None) -> Estimate:
+    """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
+
+    Parameters
+    ----------
+    rgb : (m, n) measured patch values in the model units of :func:`forward.simulate_chart`
+        (exposure-normalised: a white reflector in air = 1 in the reference channel).
+    depth, distance : m, the path of the measurement (known to the diver).
+    camera, illuminant, reflectances, wavelengths, basis, path_model, cdom_slope : as in
+        :func:`forward.simulate_chart`; must describe the same camera and chart as the data.
+    mode : 'safeguarded' (default) or 'paper' (the literal loop).
+    max_iter : maximum number of convex subproblems.
+    tol : relative objective decrease at which the loop stops.
+    fix : hold parameters fixed, e.g. ``{'backscatter': 0}`` (chart a few cm away) or
+        ``{'cdom': 0.1}``; the loop then solves the smaller problem.
+    x0 : optional start ``{'chl': ..., 'cdom': ...}`` instead of the coarse grid search.
+    """
+    est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
+                    reflectances=reflectances, wavelengths=wavelengths, basis=basis,
+                    path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup)
+    return est.fit(rgb, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
+
+
+def rrmse(estimate, truth) -> float:
+    """Relative root-mean-squared error of eq 19: ||y_hat - y|| / (sqrt(q) ||y||)."""
+    y_hat = np.asarray(estimate, float)
+    y = np.asarray(truth, float)
+    return float(np.linalg.norm(y_hat - y) / (np.sqrt(y.size) * np.linalg.norm(y)))

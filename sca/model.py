@@ -1,0 +1,110 @@
+"""The nonlinear measurement model of eq 15 and its Jacobian, for the estimator.
+
+x = (C, a_CDOM(440), w) with w in R^z (eq 9). The attenuation coefficient is assembled from the
+physics functions of :mod:`forward.water` (nothing is re-derived here):
+
+    c(x) = a_w + T w + a_CDOM(x) + a_NAP(C) [+ b_w + b_p(C) for the 'beam' path model]
+    k(x) = exp(-L c(x)),   L = depth + distance                       (eqs 4-14)
+    G(x) = P^T diag(i) diag(k(x)) R,   vec(G) = B k  with B = (P (x) R) diag(i)   (eq 15)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from forward import water
+from forward.imaging import PATH_MODELS, ChartSetup, path_length
+from forward.spectra import phytoplankton_basis
+
+#: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated: both
+#: are infinite at C = 0 (DECISIONS.md).
+CHL_DERIVATIVE_FLOOR = 1e-6
+
+
+class WaterModel:
+    """k(x), G(x) and their derivatives for one chart setup, basis and path."""
+
+    def __init__(self, setup: ChartSetup, depth, distance, *, basis=None,
+                 path_model: str = "beam", cdom_slope: float = water.CDOM_SLOPE):
+        if path_model not in PATH_MODELS:
+            raise ValueError(f"path_model: must be one of {PATH_MODELS}, got {path_model!r}")
+        self.setup = setup
+        self.wavelengths = wl = setup.wavelengths
+        self.T, self.t440 = phytoplankton_basis(wl, basis)
+        self.z = self.T.shape[1]
+        self.L = np.asarray(path_length(depth, distance), dtype=float)
+        self.path_model = path_model
+        self.cdom_slope = cdom_slope
+        P, i, R = setup.sensitivities, setup.illuminant, setup.reflectances
+        self.m, self.n = P.shape[1], R.shape[1]
+        # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
+        self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
+        self.base = water.pure_water_absorption(wl)
+        if path_model == "beam":
+            self.base = self.base + water.pure_water_scattering(wl)
+        self.cdom_shape = water.cdom_absorption(wl, 1.0, slope=cdom_slope)
+
+    # --- eq 17 -----------------------------------------------------------------------------
+    def phyto_scale(self, chl, derivative=False):
+        """(T w)(440) required by eq 17: 0.0378 C^0.627 (and its derivative at the floor)."""
+        if not derivative:
+            return water.phytoplankton_absorption_440(chl)
+        val = water.phytoplankton_absorption_440(chl)
+        _, d = water.phytoplankton_absorption_440(np.maximum(chl, CHL_DERIVATIVE_FLOOR), derivative=True)
+        return val, d
+
+    def feasible_w(self, chl, w_shape=None) -> np.ndarray:
+        """w on the eq 17 manifold: ``w_shape`` rescaled so that t440 . w = 0.0378 C^0.627."""
+        shape = np.full(self.z, 1.0 / self.z) if w_shape is None else np.asarray(w_shape, float)
+        t = float(self.t440 @ shape)
+        if not t > 0:
+            shape = np.full(self.z, 1.0 / self.z)
+            t = float(self.t440 @ shape)
+        return shape * (float(self.phyto_scale(chl)) / t)
+
+    # --- attenuation -----------------------------------------------------------------------
+    def coefficient(self, chl, cdom, w):
+        """c(x) (or a(x) for the 'absorption' path model), m^-1, shape (..., q)."""
+        chl = np.asarray(chl, float)
+        cdom = np.asarray(cdom, float)
+        c = self.base + np.asarray(w, float) @ self.T.T + np.multiply.outer(cdom, self.cdom_shape)
+        c = c + water.nap_absorption(self.wavelengths, chl)
+        if self.path_model == "beam":
+            c = c + water.particle_scattering(self.wavelengths, chl)
+        return c
+
+    def attenuation(self, chl, cdom, w):
+        """k(x) = exp(-L c(x)), shape (..., q)."""
+        return np.exp(-self.L * self.coefficient(chl, cdom, w))
+
+    def attenuation_jacobian(self, chl, cdom, w):
+        """k (q,) and dk/dx (q, 2 + z), columns (C, a_CDOM, w_1..w_z).
+
+        The C column is evaluated at max(C, CHL_DERIVATIVE_FLOOR), so it is finite at C = 0.
+        """
+        k = self.attenuation(chl, cdom, w)
+        cf = max(float(chl), CHL_DERIVATIVE_FLOOR)
+        _, dnap = water.nap_absorption(self.wavelengths, cf, derivative=True)
+        dc_dchl = dnap
+        if self.path_model == "beam":
+            _, dbp = water.particle_scattering(self.wavelengths, cf, derivative=True)
+            dc_dchl = dc_dchl + dbp
+        dc = np.column_stack([dc_dchl, self.cdom_shape, self.T])
+        return k, (-self.L * k)[:, None] * dc
+
+    # --- measurements ----------------------------------------------------------------------
+    def signal(self, k):
+        """vec(P^T diag(i) diag(k) R), shape (..., m n)."""
+        return np.asarray(k) @ self.B.T
+
+    def best_backscatter(self, M_vec, G_vec, fixed=None):
+        """Closed-form s >= 0 minimising ||M - G - s 1^T||_F for fixed G: per channel, the clipped
+        mean residual. ``fixed`` (m,) returns that instead. Broadcasts over leading axes."""
+        if fixed is not None:
+            return np.broadcast_to(fixed, G_vec.shape[:-1] + (self.m,))
+        resid = (M_vec - G_vec).reshape(G_vec.shape[:-1] + (self.m, self.n))
+        return np.maximum(resid.mean(axis=-1), 0.0)
+
+    def residual(self, M_vec, k, s):
+        """vec(M - G(k) - s 1^T)."""
+        return M_vec - self.signal(k) - np.repeat(np.asarray(s), self.n, axis=-1)

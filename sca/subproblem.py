@@ -1,0 +1,171 @@
+"""The convex subproblem of the sequential convex loop, built once as a DPP cvxpy problem.
+
+At the centre (x_t, s_t), with the free parameters scaled, x = x_t + D delta, s = s_t + ds, the
+paper's Taylor linearisations of k(x) and of eq 17 give the QP in the step v = (delta, ds)
+
+    minimise    || r0 - [A E] v ||^2                                (eq 15, linearised k)
+    subject to  delta_pos >= -x_pos / D                             (eq 16: C, a_CDOM >= 0)
+                -hi <= delta <= hi                                  (trust region, if any)
+                T D_w delta_w >= -T w_t                             (eq 16: T w >= 0)
+                a_eq . delta = b_eq                                 (eq 17, linearised)
+                ds >= -s_t                                          (eq 18: s >= 0)
+
+where r0 = vec(M - G(x_t) - s_t 1^T) (72 entries for 3 x 24), A = dG/dx D and E maps s to
+every patch of its channel. Two exact reformulations keep the solver's numbers O(1):
+
+* the least-squares term is passed in QR-compressed form: with [A E] = Q R (thin QR),
+  ||r0 - [A E] v||^2 = ||Q^T r0 - R v||^2 + (||r0||^2 - ||Q^T r0||^2), a (p + m)-row
+  residual instead of m n rows, with the same minimiser;
+* the step is measured in units of rho = ||Q^T r0|| (every right-hand side is divided by rho),
+  so that near convergence, where the step and residual are tiny, the interior-point method
+  still solves a well-scaled problem and returns the step to full relative accuracy.
+
+R, Q^T r0 / rho and the bounds / rho are ``cp.Parameter`` s set each iteration (no product of
+two parameters, so the problem compiles once). The problem depends only on its
+*structure* (which unknowns are free, z, q, m, trust region or not), so one compiled problem
+serves every depth, distance and data set of that structure.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import cvxpy as cp
+import numpy as np
+
+
+@dataclass
+class Subproblem:
+    problem: cp.Problem
+    v: cp.Variable
+    R: cp.Parameter
+    b: cp.Parameter
+    lo: cp.Parameter | None
+    s_lo: cp.Parameter | None
+    hi: cp.Parameter | None
+    TDw: cp.Parameter | None
+    Tw_rhs: cp.Parameter | None
+    a_eq: cp.Parameter | None
+    b_eq: cp.Parameter | None
+    n_free: int
+    n_s: int
+
+
+@functools.lru_cache(maxsize=64)
+def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s: int,
+                     trust_region: bool, has_equality: bool) -> Subproblem:
+    """Build (once per structure) the DPP QP above.
+
+    ``n_free``: number of free entries of delta, the first ``n_pos`` of which (C, a_CDOM) are
+    bounded below; ``w_slice``: (start, stop) of the w entries inside delta (None if w is not
+    free); ``n_s``: number of free backscatter entries (m, or 0 when s is fixed);
+    ``has_equality``: whether eq 17 constrains delta.
+    """
+    nv = n_free + n_s
+    if nv == 0:
+        raise ValueError("fix: nothing is left to estimate")
+    v = cp.Variable(nv, name="v")
+    R = cp.Parameter((nv, nv), name="R")
+    b = cp.Parameter(nv, name="b")
+    lo = s_lo = hi = TDw = Tw_rhs = a_eq = b_eq = None
+    cons = []
+    delta = v[:n_free]
+    if n_pos:
+        lo = cp.Parameter(n_pos, name="lo")
+        cons.append(v[:n_pos] >= lo)
+    if trust_region and n_free:
+        hi = cp.Parameter(n_free, nonneg=True, name="hi")
+        cons += [delta <= hi, delta >= -hi]
+    if w_slice is not None:
+        zf = w_slice[1] - w_slice[0]
+        TDw = cp.Parameter((q, zf), name="TDw")
+        Tw_rhs = cp.Parameter(q, name="Tw_rhs")
+        cons.append(TDw @ v[w_slice[0]:w_slice[1]] >= Tw_rhs)
+    if has_equality:
+        a_eq = cp.Parameter(n_free, name="a_eq")
+        b_eq = cp.Parameter(name="b_eq")
+        cons.append(a_eq @ delta == b_eq)
+    if n_s:
+        s_lo = cp.Parameter(n_s, name="s_lo")
+        cons.append(v[n_free:] >= s_lo)
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(R @ v - b)), cons)
+    return Subproblem(problem, v, R, b, lo, s_lo, hi, TDw, Tw_rhs, a_eq, b_eq, n_free, n_s)
+
+
+def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol: float = 1e-9):
+    """Active-set polish of an interior-point solution ``v`` of ``sub`` (in its units).
+
+    Interior-point methods stop a little inside the bounds that are active at the solution,
+    and where a bound is weakly active (zero multiplier: e.g. s = 0 for a chart with no
+    backscatter, or a_CDOM = 0) they can be far less accurate than their tolerance. Here the
+    constraints within ``active_tol`` of their bound are taken as active, the equality-
+    constrained least-squares problem is solved exactly (KKT system), and the result is
+    returned if it satisfies every constraint to ``feas_tol`` and its objective is not worse
+    than that of ``v``; otherwise ``v`` itself is returned. Returns (v, polished: bool).
+    """
+    R, b = sub.R.value, sub.b.value
+    n_free, nv = sub.n_free, R.shape[1]
+    scale = 1.0 + float(np.max(np.abs(v)))
+    rows, rhs = [], []  # active constraints as equalities
+    ineq_A, ineq_b = [], []  # every inequality as A v >= b, for the feasibility check
+
+    def bound(idx, lower_values, sign=1.0):
+        for i, l_val in zip(idx, lower_values):
+            e = np.zeros(nv)
+            e[i] = sign
+            ineq_A.append(e)
+            ineq_b.append(l_val)
+            if sign * v[i] - l_val <= active_tol * scale:
+                rows.append(e)
+                rhs.append(l_val)
+
+    if sub.lo is not None:
+        bound(range(len(sub.lo.value)), sub.lo.value)
+    if sub.s_lo is not None:
+        bound(range(n_free, nv), sub.s_lo.value)
+    if sub.hi is not None:
+        bound(range(n_free), -sub.hi.value, sign=-1.0)
+        bound(range(n_free), -sub.hi.value, sign=1.0)
+    w0 = None
+    if sub.TDw is not None:
+        # the w block is the trailing z entries of delta
+        w0 = n_free - sub.TDw.value.shape[1]
+        lhs = sub.TDw.value @ v[w0:n_free]
+        slack = lhs - sub.Tw_rhs.value
+        for j in range(sub.TDw.value.shape[0]):
+            e = np.zeros(nv)
+            e[w0:n_free] = sub.TDw.value[j]
+            ineq_A.append(e)
+            ineq_b.append(sub.Tw_rhs.value[j])
+            if slack[j] <= active_tol * scale * (1 + np.abs(sub.TDw.value[j]).sum()):
+                rows.append(e)
+                rhs.append(sub.Tw_rhs.value[j])
+    if sub.a_eq is not None:
+        e = np.zeros(nv)
+        e[:n_free] = sub.a_eq.value
+        rows.append(e)
+        rhs.append(float(sub.b_eq.value))
+    H = R.T @ R
+    g = R.T @ b
+    if rows:
+        Ceq = np.array(rows)
+        k = Ceq.shape[0]
+        K = np.block([[H, Ceq.T], [Ceq, np.zeros((k, k))]])
+        sol = np.linalg.lstsq(K, np.concatenate([g, rhs]), rcond=None)[0]
+        vp = sol[:nv]
+    else:
+        vp = np.linalg.lstsq(R, b, rcond=None)[0]
+    if not np.all(np.isfinite(vp)):
+        return v, False
+    if ineq_A:
+        viol = np.array(ineq_b) - np.array(ineq_A) @ vp
+        if np.max(viol) > feas_tol * scale:
+            return v, False
+    if sub.a_eq is not None and abs(sub.a_eq.value @ vp[:n_free] - sub.b_eq.value) > feas_tol * scale:
+        return v, False
+    f_v = float(np.sum((R @ v - b) ** 2))
+    f_p = float(np.sum((R @ vp - b) ** 2))
+    if f_p <= f_v + 1e-14 * max(1.0, f_v):
+        return vp, True
+    return v, False

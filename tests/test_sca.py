@@ -1,0 +1,195 @@
+"""The estimator: DPP structure, noise-free round trips, hard cases, noise, fixing parameters."""
+
+import itertools
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+import forward
+import sca
+from sca.subproblem import build_subproblem
+
+CHLS = np.logspace(-2, np.log10(20), 5)  # 0.01 ... 20
+CDOMS = np.logspace(-2, 0, 4)  # 0.01 ... 1
+DEPTHS = (1.0, 5.0, 10.0, 20.0)
+DISTANCES = (0.5, 1.0, 5.0, 10.0)
+
+
+def rel(a, b):
+    return abs(a - b) / abs(b)
+
+
+@pytest.mark.parametrize("trust_region", [True, False])
+def test_subproblem_is_dpp_and_compiled_once(trust_region):
+    sub = build_subproblem(3, 2, (2, 3), 31, 3, trust_region, True)
+    assert sub.problem.is_dpp()
+    assert sub.problem.is_dcp(dpp=True)
+    before = build_subproblem.cache_info()
+    sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.0, noise=False)
+    mode = "safeguarded" if trust_region else "paper"
+    sca.estimate(sim.rgb, depth=5.0, distance=1.0, mode=mode)
+    sca.estimate(sim.rgb, depth=9.0, distance=2.0, mode=mode)
+    after = build_subproblem.cache_info()
+    assert after.misses == before.misses  # the same compiled problem served both fits
+
+
+@pytest.mark.parametrize("depth,distance", list(itertools.product(DEPTHS, DISTANCES)))
+def test_noise_free_round_trip_grid(depth, distance):
+    for chl, cdom in itertools.product(CHLS, CDOMS):
+        sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False)
+        est = sca.estimate(sim.rgb, depth=depth, distance=distance)
+        case = f"C={chl:g} cdom={cdom:g}: {est.status}"
+        assert est.converged, case
+        assert rel(est.chl, chl) < 1e-4, case
+        assert rel(est.cdom, cdom) < 1e-4, case
+        assert sca.rrmse(est.attenuation, sim.attenuation) < 1e-6, case
+        np.testing.assert_allclose(est.backscatter, sim.backscatter, rtol=1e-4, atol=1e-9)
+
+
+def test_paper_mode_stops_early_where_safeguarded_reaches_truth():
+    sim = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False)
+    paper = sca.estimate(sim.rgb, depth=10.0, distance=5.0, mode="paper")
+    safe = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
+    assert not paper.converged and "not stationary" in paper.status
+    assert rel(paper.chl, 1.0) > 0.1
+    assert safe.converged and rel(safe.chl, 1.0) < 1e-8 and rel(safe.cdom, 0.1) < 1e-8
+    # the paper mode's history never increases, and it did stop on a non-decrease
+    assert np.all(np.diff(paper.history) < 0) or len(paper.history) == 1
+
+
+def _recovered_or_flagged(chl, cdom, depth, distance, **kw):
+    sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False, **kw.pop("sim_kw", {}))
+    est = sca.estimate(sim.rgb, depth=depth, distance=distance, **kw)
+    for v in (est.chl, est.cdom, est.objective, *est.attenuation, *est.backscatter):
+        assert np.isfinite(v)
+    if est.converged:
+        assert sca.rrmse(est.attenuation, sim.attenuation) < 1e-6, est.status
+    else:
+        assert est.status and "converged" not in est.status.split(":")[0]
+    return sim, est
+
+
+@pytest.mark.parametrize("chl", [1e-3, 100.0])
+def test_hard_chlorophyll_extremes(chl):
+    sim, est = _recovered_or_flagged(chl, 0.1, 5.0, 1.0)
+    assert est.converged and rel(est.chl, chl) < 1e-4, est.status
+
+
+@pytest.mark.parametrize("cdom", [0.0, 2.0])
+def test_hard_cdom_extremes(cdom):
+    sim, est = _recovered_or_flagged(1.0, cdom, 5.0, 1.0)
+    assert est.converged, est.status
+    assert abs(est.cdom - cdom) < 1e-4 * max(cdom, 1.0)
+    assert rel(est.chl, 1.0) < 1e-4
+
+
+def test_hard_deep_and_far_red_almost_dark():
+    sim, est = _recovered_or_flagged(1.0, 0.1, 30.0, 10.0)
+    # the red channel is almost dark: under 2 % of full scale, k(>= 650 nm) below 1e-6
+    assert sim.codes[0].max() < 0.02 * (2**14 - 1)
+    assert np.all(sim.attenuation[sim.wavelengths >= 650] < 1e-6)
+    assert est.converged and rel(est.chl, 1.0) < 1e-4 and rel(est.cdom, 0.1) < 1e-4, est.status
+
+
+def test_hard_one_channel_zero():
+    cam = forward.camera_sensitivities().copy()
+    cam[:, 0] = 0.0  # a camera whose red channel records nothing
+    sim, est = _recovered_or_flagged(2.0, 0.3, 5.0, 2.0, camera=cam, sim_kw=dict(camera=cam))
+    assert np.all(sim.rgb[0] == 0)
+    assert est.converged and rel(est.chl, 2.0) < 1e-4 and rel(est.cdom, 0.3) < 1e-4, est.status
+
+
+@pytest.mark.parametrize("truth,start", [((0.01, 0.01), (100.0, 2.0)), ((20.0, 1.0), (0.0, 0.0)),
+                                         ((1.0, 0.1), (1e-3, 3.0))])
+def test_hard_far_starting_points(truth, start):
+    chl, cdom = truth
+    sim, est = _recovered_or_flagged(chl, cdom, 5.0, 1.0, x0={"chl": start[0], "cdom": start[1]})
+    assert est.initial == {"chl": start[0], "cdom": start[1]}
+    assert est.converged and rel(est.chl, chl) < 1e-4 and rel(est.cdom, cdom) < 1e-4, est.status
+
+
+def test_zero_chlorophyll_never_nan():
+    sim, est = _recovered_or_flagged(0.0, 0.1, 5.0, 1.0)
+    assert est.chl < 1e-6 and abs(est.cdom - 0.1) < 1e-4
+
+
+def test_noisy_estimates_unbiased_at_5m():
+    chl, cdom, depth, distance = 1.0, 0.1, 5.0, 2.0
+    est = [sca.estimate(forward.simulate_chart(chl, cdom, depth, distance, seed=s).rgb,
+                        depth=depth, distance=distance) for s in range(40)]
+    assert all(e.converged for e in est)
+    for name, truth in (("chl", chl), ("cdom", cdom)):
+        vals = np.array([getattr(e, name) for e in est])
+        se = vals.std(ddof=1) / np.sqrt(vals.size)
+        assert se > 0
+        assert abs(vals.mean() - truth) < 3.5 * se, (name, vals.mean(), se)
+
+
+def test_fixing_at_truth_gives_same_answer():
+    # a chart a few centimetres away: no backscatter
+    sim = forward.simulate_chart(2.0, 0.3, 5.0, 0.05, noise=False, backscatter=False)
+    free = sca.estimate(sim.rgb, depth=5.0, distance=0.05)
+    fixed = sca.estimate(sim.rgb, depth=5.0, distance=0.05, fix={"backscatter": 0})
+    np.testing.assert_array_equal(fixed.backscatter, 0.0)
+    for e in (free, fixed):
+        assert e.converged and rel(e.chl, 2.0) < 1e-6 and rel(e.cdom, 0.3) < 1e-6
+    assert rel(free.chl, fixed.chl) < 1e-6
+    sim = forward.simulate_chart(2.0, 0.3, 10.0, 3.0, noise=False)
+    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"cdom": 0.3})
+    assert fixed.converged and fixed.cdom == 0.3 and rel(fixed.chl, 2.0) < 1e-6
+    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"chl": 2.0, "backscatter": sim.backscatter})
+    assert fixed.converged and rel(fixed.cdom, 0.3) < 1e-6
+
+
+def test_two_basis_functions():
+    T1, _ = forward.phytoplankton_basis()
+    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 31)])
+    sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], noise=False)
+    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T)
+    assert est.w.shape == (2,)
+    assert np.all(T @ est.w >= -1e-12)
+    assert abs(est.eq17_residual) < 1e-8
+    assert sca.rrmse(est.attenuation, sim.attenuation) < 1e-4, est.status
+
+
+@pytest.mark.parametrize("rgb,match", [
+    (np.full((3, 24), np.nan), "^rgb:.*NaN"), (-np.ones((3, 24)), "^rgb:.*negative"),
+    (np.ones((24, 3)), "^rgb:.*shape"), (np.zeros((3, 24)), "^rgb:.*zero"),
+])
+def test_bad_rgb(rgb, match):
+    with pytest.raises(ValueError, match=match):
+        sca.estimate(rgb, depth=5, distance=1)
+
+
+def test_bad_arguments():
+    rgb = forward.simulate_chart(1, 0.1, 5, 1, noise=False).rgb
+    with pytest.raises(ValueError, match="^depth:"):
+        sca.estimate(rgb, depth=-1, distance=1)
+    with pytest.raises(ValueError, match="^distance:"):
+        sca.estimate(rgb, depth=1, distance=np.nan)
+    with pytest.raises(ValueError, match="^mode:"):
+        sca.estimate(rgb, depth=1, distance=1, mode="fast")
+    with pytest.raises(ValueError, match="^fix:"):
+        sca.estimate(rgb, depth=1, distance=1, fix={"depth": 3})
+    with pytest.raises(ValueError, match=r"^fix\['backscatter'\]:"):
+        sca.estimate(rgb, depth=1, distance=1, fix={"backscatter": -1})
+    # mismatched wavelength grids: a camera or basis array on another grid
+    with pytest.raises(ValueError, match="^camera:"):
+        sca.estimate(rgb, depth=1, distance=1, camera=np.ones((61, 3)))
+    with pytest.raises(ValueError, match="^basis:"):
+        sca.estimate(rgb, depth=1, distance=1, basis=np.ones(61))
+    with pytest.raises(ValueError, match="^wavelengths:"):
+        sca.estimate(rgb, depth=1, distance=1, wavelengths=np.arange(380, 701, 10))
+
+
+def test_solver_failure_is_reported(monkeypatch):
+    rgb = forward.simulate_chart(1, 0.1, 5, 1, noise=False).rgb
+
+    def boom(self, *a, **k):
+        raise cp.SolverError("injected failure")
+
+    monkeypatch.setattr(cp.Problem, "solve", boom)
+    est = sca.estimate(rgb, depth=5, distance=1)
+    assert not est.converged and "solver failed" in est.status and "injected" in est.status
+    assert np.isfinite(est.chl)  # the best point so far (the initial point) is returned
