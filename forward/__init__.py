@@ -12,7 +12,7 @@ from .imaging import (
     path_length,
     veiling_light,
 )
-from .render import chart_image, patch_srgb
+from .render import camera_to_xyz_matrix, chart_image, patch_srgb, patches_image
 from .sensor import SensorSettings, capture, sensor_noise
 from .simulate import ChartSimulation, simulate_chart
 from .spectra import (

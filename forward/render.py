@@ -16,7 +16,9 @@ from .imaging import ChartSetup
 
 
 @functools.lru_cache(maxsize=16)
-def _camera_to_xyz(setup: ChartSetup) -> np.ndarray:
+def camera_to_xyz_matrix(setup: ChartSetup) -> np.ndarray:
+    """3 x m matrix from the camera's model-unit values to CIE XYZ (Y of a white in air = 1),
+    least-squares fitted on the setup's chart under its illuminant in air."""
     import colour
 
     wl = setup.wavelengths
@@ -51,7 +53,7 @@ def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.n
         cam = np.asarray(sim.rgb) / max(float(np.max(sim.rgb)), 1e-300)
     else:
         raise ValueError(f"normalise: must be 'exposure', 'absolute' or 'max', got {normalise!r}")
-    xyz = (_camera_to_xyz(sim.setup) @ cam).T
+    xyz = (camera_to_xyz_matrix(sim.setup) @ cam).T
     rgb = colour.XYZ_to_sRGB(xyz, apply_cctf_encoding=encode)
     return np.clip(rgb, 0.0, 1.0)
 
@@ -59,7 +61,14 @@ def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.n
 def chart_image(sim, *, rows: int = 4, cols: int = 6, patch_px: int = 20, gap_px: int = 3,
                 **kwargs) -> np.ndarray:
     """An image (H, W, 3) of the chart, patches in reading order, black gaps between them."""
-    srgb = patch_srgb(sim, **kwargs)
+    return patches_image(patch_srgb(sim, **kwargs), rows=rows, cols=cols, patch_px=patch_px,
+                         gap_px=gap_px)
+
+
+def patches_image(srgb, *, rows: int = 4, cols: int = 6, patch_px: int = 20,
+                  gap_px: int = 3) -> np.ndarray:
+    """Lay out patch colours (n, 3) as a chart image (H, W, 3)."""
+    srgb = np.asarray(srgb, dtype=float)
     if srgb.shape[0] != rows * cols:
         raise ValueError(f"rows, cols: {rows} x {cols} does not match {srgb.shape[0]} patches")
     step = patch_px + gap_px

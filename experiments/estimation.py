@@ -1,0 +1,45 @@
+"""Shared pieces of the estimation figures (Figs 9-13, noise study): conditions and plotting."""
+
+from __future__ import annotations
+
+import itertools
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402,F401
+import numpy as np  # noqa: E402
+
+from . import sweep  # noqa: E402
+from .grids import grid as get_grid  # noqa: E402
+
+
+def fig10_conditions(g, illuminance_lux=20000.0):
+    return [sweep.condition(c, a, d, r, s, illuminance_lux=illuminance_lux)
+            for d, r, c, a, s in itertools.product(g["fig10_depths_m"], g["fig10_distances_m"],
+                                                   g["fig10_chl"], g["fig10_cdom"],
+                                                   range(g["fig10_seeds"]))]
+
+
+def fig12_conditions(g, depths=None, illuminance_lux=20000.0):
+    depths = g["fig12_depths_m"] if depths is None else depths
+    return [sweep.condition(c, a, d, g["fig12_distance_m"], s, illuminance_lux=illuminance_lux)
+            for d, c, a, s in itertools.product(depths, g["fig12_chl"], g["fig12_cdom"],
+                                                range(g["fig12_seeds"]))]
+
+
+def noise_conditions(g, lux):
+    return [sweep.condition(c, a, d, r, s, illuminance_lux=lux)
+            for d, r, c, a, s in itertools.product(g["noise_depths_m"], g["noise_distances_m"],
+                                                   g["noise_chl"], g["noise_cdom"],
+                                                   range(g["noise_seeds"]))]
+
+
+def mean_se(values):
+    v = np.asarray(values, float)
+    se = v.std(ddof=1) / np.sqrt(v.size) if v.size > 1 else float("nan")
+    return float(v.mean()), float(se)
+
+
+def resolve(grid_name):
+    return get_grid(grid_name)

@@ -1,0 +1,11 @@
+"""Fig 13: estimated vs true a_CDOM(440) at distance 1 m, depths 5, 10, 20 m; coloured by C."""
+
+from .fig12_13_common import make
+
+
+def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
+    return make("cdom", "fig13_cdom", "chl", outdir, grid_name, cache_dir, workers)
+
+
+if __name__ == "__main__":
+    main()
