@@ -158,6 +158,32 @@ def table1() -> dict:
     return {r[0].strip(): float(r[2]) for r in rows}
 
 
+def particle_scattering_terms(wavelengths=None):
+    """The three spectral terms of eq 12 (Table 1 constants), each (q,) in m^-1 per unit weight:
+
+    b*_p12 (l/l0)^-g12 (weight: pico + nano chlorophyll C12 (1 - e^(-S12 C)), mg m^-3),
+    b*_p3 (l/l0)^-g3 (weight: micro chlorophyll C - C12 (1 - e^(-S12 C))),
+    b_k (l/l0)^-gk (weight 1, the background).
+    """
+    wl = wavelength_grid(wavelengths)
+    t = table1()
+    r = wl / t["lambda_0"]
+    return (t["b_p12_star"] * r ** -t["gamma_12"], t["b_p3_star"] * r ** -t["gamma_3"],
+            t["b_k"] * r ** -t["gamma_k"])
+
+
+def particle_scattering_weights(chl, *, derivative: bool = False):
+    """The chlorophyll weights of eq 12's first two terms: (C12 (1 - e^(-S12 C)),
+    C - C12 (1 - e^(-S12 C))) in mg m^-3; ``derivative=True`` also returns their d/dC."""
+    t = table1()
+    c = _conc("chl", chl)
+    small = t["C_12"] * (1.0 - np.exp(-t["S_12"] * c))
+    if not derivative:
+        return small, c - small
+    dsmall = t["C_12"] * t["S_12"] * np.exp(-t["S_12"] * c)
+    return (small, c - small), (dsmall, 1.0 - dsmall)
+
+
 def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False):
     """Particle scattering b_p(lambda) in m^-1, eq 12 with the Table 1 constants (lambda_0 = 470 nm).
 
@@ -165,21 +191,15 @@ def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False):
           + b_k (l/l0)^-gk.
     The Table 1 constants come from Brewin et al. (2012), who fit particle *back*scattering;
     the paper (and this function) use them as b_p (DECISIONS.md). ``derivative=True`` also
-    returns d b_p / dC.
+    returns d b_p / dC. Terms and weights: :func:`particle_scattering_terms`,
+    :func:`particle_scattering_weights`.
     """
-    wl = wavelength_grid(wavelengths)
-    t = table1()
-    c = _conc("chl", chl)
-    r = wl / t["lambda_0"]
-    f12, f3, fk = r ** -t["gamma_12"], r ** -t["gamma_3"], r ** -t["gamma_k"]
-    small = t["C_12"] * (1.0 - np.exp(-t["S_12"] * c))  # pico + nano chlorophyll, mg m^-3
-    val = (_outer(t["b_p12_star"] * small, f12) + _outer(t["b_p3_star"] * (c - small), f3)
-           + t["b_k"] * fk)
+    f12, f3, fk = particle_scattering_terms(wavelengths)
     if not derivative:
-        return val
-    dsmall = t["C_12"] * t["S_12"] * np.exp(-t["S_12"] * c)
-    d = _outer(t["b_p12_star"] * dsmall, f12) + _outer(t["b_p3_star"] * (1.0 - dsmall), f3)
-    return val, d
+        w12, w3 = particle_scattering_weights(chl)
+        return _outer(w12, f12) + _outer(w3, f3) + fk
+    (w12, w3), (d12, d3) = particle_scattering_weights(chl, derivative=True)
+    return _outer(w12, f12) + _outer(w3, f3) + fk, _outer(d12, f12) + _outer(d3, f3)
 
 
 def scattering(wavelengths=None, chl=1.0) -> np.ndarray:

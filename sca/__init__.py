@@ -3,9 +3,10 @@
 Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 """
 
+from .batch import BatchEstimate, estimate_batch
 from .estimate import MODES, Estimate, Estimator, estimate, rrmse
 from .model import CHL_DERIVATIVE_FLOOR, WaterModel
 from .subproblem import build_subproblem
 
-__all__ = ["MODES", "Estimate", "Estimator", "estimate", "rrmse", "WaterModel",
+__all__ = ["BatchEstimate", "estimate_batch", "MODES", "Estimate", "Estimator", "estimate", "rrmse", "WaterModel",
            "CHL_DERIVATIVE_FLOOR", "build_subproblem"]

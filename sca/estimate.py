@@ -390,7 +390,7 @@ def _solve(problem) -> str:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # 'Solution may be inaccurate': judged below
-                problem.solve(solver=cp.CLARABEL, **settings)
+                problem.solve(solver=cp.CLARABEL, warm_start=False, **settings)
         except (cp.SolverError, ValueError, ArithmeticError) as exc:
             reasons.append(f"{type(exc).__name__}: {exc}")
             continue

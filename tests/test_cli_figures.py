@@ -84,3 +84,22 @@ def test_cli_estimate_round_trip(tmp_path):
     assert code == 2 and "measurements" in err
     code, _, err = run(["estimate", str(f), "--depth", "-1", "--distance", "5"])
     assert code == 2 and "depth" in err
+
+
+def test_cli_estimate_batch(tmp_path):
+    f = tmp_path / "batch.csv"
+    lines = ["chart,patch,red,green,blue,depth_m"]
+    truth = [(1.0, 0.1, 5.0), (3.0, 0.5, 10.0)]
+    for j, (c, a, d) in enumerate(truth):
+        rgb = forward.simulate_chart(c, a, d, 2.0, noise=False).rgb
+        lines += [f"{j},{p + 1},{rgb[0, p]!r},{rgb[1, p]!r},{rgb[2, p]!r},{d}" for p in range(24)]
+    f.write_text("\n".join(lines) + "\n")
+    code, out, err = run(["estimate", "--batch", str(f), "--distance", "2"])
+    assert code == 0, err
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert len(rows) == 2
+    for row, (c, a, _) in zip(rows, truth):
+        assert abs(float(row["chl"]) / c - 1) < 1e-6 and abs(float(row["cdom"]) / a - 1) < 1e-6
+        assert row["converged"] == "True"
+    code, _, err = run(["estimate", "--batch", str(f)])
+    assert code == 2 and "--distance" in err

@@ -1,0 +1,85 @@
+"""The batched solver reaches the same optimum as the sca loop (correctness, not speed)."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+import forward
+import sca
+
+CASES = list(itertools.product([1e-3, 0.05, 1.0, 20.0, 100.0], [0.0, 0.02, 0.5, 2.0],
+                               [1.0, 10.0, 30.0], [0.5, 5.0]))
+
+
+@pytest.fixture(scope="module")
+def charts():
+    out = {}
+    for noise in (False, True):
+        sims = [forward.simulate_chart(c, a, d, r, noise=noise, seed=i)
+                for i, (c, a, d, r) in enumerate(CASES)]
+        out[noise] = np.array([s.rgb for s in sims])
+    depth = np.array([c[2] for c in CASES])
+    distance = np.array([c[3] for c in CASES])
+    return out, depth, distance
+
+
+def _reference(M, depth, distance):
+    return [sca.estimate(M[i], depth=depth[i], distance=distance[i]) for i in range(len(M))]
+
+
+def test_noise_free_same_optimum_as_sca(charts):
+    stacks, depth, distance = charts
+    M = stacks[False]
+    b = sca.estimate_batch(M, depth=depth, distance=distance)
+    ref = _reference(M, depth, distance)
+    assert b.converged.all(), set(b.status[~b.converged])
+    for i, e in enumerate(ref):
+        assert e.converged
+        assert abs(b.chl[i] - e.chl) <= 1e-6 * e.chl + 1e-9, CASES[i]  # 1e-9: for a truth of 0
+        assert abs(b.cdom[i] - e.cdom) <= 1e-6 * e.cdom + 1e-9, CASES[i]
+        np.testing.assert_allclose(b.attenuation[i], e.attenuation, rtol=1e-6, atol=1e-15)
+
+
+def test_noisy_objective_equal_or_lower_than_sca(charts):
+    stacks, depth, distance = charts
+    M = stacks[True]
+    b = sca.estimate_batch(M, depth=depth, distance=distance)
+    ref = _reference(M, depth, distance)
+    obj = np.array([e.objective for e in ref])
+    assert np.all(b.objective <= obj * (1 + 1e-9)), np.max(b.objective / obj - 1)
+    # same results as fitting each chart alone in the batch (chunking and threads change nothing)
+    one = sca.estimate_batch(M[:3], depth=depth[:3], distance=distance[:3], workers=1)
+    np.testing.assert_allclose(one.objective, b.objective[:3], rtol=1e-12)
+
+
+def test_fields_shapes_and_fixed_backscatter():
+    sim = forward.simulate_chart(2.0, 0.3, 5.0, 0.05, noise=False, backscatter=False)
+    M = np.stack([sim.rgb, sim.rgb])
+    b = sca.estimate_batch(M, depth=5.0, distance=0.05, fix={"backscatter": 0})
+    assert b.chl.shape == (2,) and b.backscatter.shape == (2, 3) and b.attenuation.shape == (2, 31)
+    assert b.w.shape == (2, 1) and len(b) == 2
+    np.testing.assert_array_equal(b.backscatter, 0.0)
+    assert np.all(np.abs(b.chl / 2 - 1) < 1e-6) and np.all(np.abs(b.cdom / 0.3 - 1) < 1e-6)
+
+
+def test_non_convergence_is_flagged():
+    sim = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False)
+    b = sca.estimate_batch(sim.rgb[None], depth=10.0, distance=5.0, max_iter=1)
+    assert not b.converged[0] and "maximum" in b.status[0]
+
+
+def test_bad_input():
+    M = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False).rgb[None]
+    with pytest.raises(ValueError, match="^rgb_stack:"):
+        sca.estimate_batch(M[0], depth=1, distance=1)
+    with pytest.raises(ValueError, match="^rgb_stack:"):
+        sca.estimate_batch(np.full_like(M, np.nan), depth=1, distance=1)
+    with pytest.raises(ValueError, match="^rgb_stack:"):
+        sca.estimate_batch(np.zeros_like(M), depth=1, distance=1)
+    with pytest.raises(ValueError, match="^depth:"):
+        sca.estimate_batch(M, depth=-1, distance=1)
+    with pytest.raises(ValueError, match="^basis:"):
+        sca.estimate_batch(M, depth=1, distance=1, basis=np.ones((31, 2)))
+    with pytest.raises(ValueError, match="^fix:"):
+        sca.estimate_batch(M, depth=1, distance=1, fix={"cdom": 0.1})
