@@ -19,5 +19,8 @@ test: $(STAMP)
 reproduce-figures: $(STAMP)
 	$(PY) -m experiments --out figures
 
+bench: $(STAMP)
+	$(PY) -m experiments.benchmark
+
 clean:
 	rm -rf figures cache .pytest_cache

@@ -25,9 +25,7 @@ says why); nothing is silently wrong.
 
 from __future__ import annotations
 
-import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,15 +34,21 @@ from forward import _validate, water
 from forward.imaging import ChartSetup, chart_setup, length
 from forward.spectra import DEFAULT_CAMERA
 
+from ._batch_kernel import HAVE_NUMBA, evaluate_numba, evaluate_numpy
 from .estimate import EXACT_FIT
 from .model import WaterModel
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).
-INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 13)])
-INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 9)])
+INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 8)])
+INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 6)])
 
-#: Charts per chunk: keeps the (chunk, q) and (chunk, m n) work arrays in cache.
-CHUNK = 4096
+#: Charts per chunk (bounds the memory of the start-grid search: chunk x grid points).
+CHUNK = 65536
+
+#: Levenberg-Marquardt damping: start, divisor after a success, factor after a failure.
+LM_MU0, LM_DOWN, LM_UP = 1e-3, 3.0, 4.0
+
+DEFAULT_ENGINE = "numba" if HAVE_NUMBA else "numpy"
 
 #: Exponent of eq 10: the batch iterates in u = C^CHL_EXPONENT.
 CHL_EXPONENT = 0.627
@@ -129,16 +133,6 @@ class BatchModel:
         """c (N, q) in m^-1 (a for the 'absorption' path model)."""
         return self.weights(chl, cdom) @ self.S + self.base
 
-    def reduced(self, M, G, fixed_s=None):
-        """Variable projection: s (N, m) and residual r (N, m, n) for signals G (N, m n)."""
-        Gm = G.reshape(-1, self.m, self.n)
-        R0 = M - Gm
-        if fixed_s is not None:
-            s = np.broadcast_to(fixed_s, R0.shape[:2])
-        else:
-            s = np.maximum(R0.mean(axis=-1), 0.0)
-        return s, R0 - s[..., None]
-
 
 def _initial(bm: BatchModel, M, L, fixed_s):
     """Best point of the coarse (C, a_CDOM) grid for every chart (one matmul per unique L)."""
@@ -169,13 +163,13 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
                    reflectances=None, wavelengths=None, basis=None, path_model: str = "beam",
                    cdom_slope: float = water.CDOM_SLOPE, fix=None, max_iter: int = 100,
                    tol: float = 1e-12, setup: ChartSetup | None = None,
-                   workers: int | None = None) -> BatchEstimate:
+                   engine: str = DEFAULT_ENGINE) -> BatchEstimate:
     """Estimate C, a_CDOM(440), w and s for a stack of charts ``rgb_stack`` (N, m, n).
 
     ``depth`` and ``distance`` (m) are scalars or arrays of length N. Other arguments as in
     :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
-    Charts are solved in chunks of ``CHUNK`` (cache-sized arrays) on ``workers`` threads
-    (default: both cores). Returns a :class:`BatchEstimate` of arrays.
+    ``engine``: 'numba' (default: a fused loop over charts on all cores) or 'numpy' (array
+    code, the reference); both compute the same numbers. Returns a :class:`BatchEstimate`.
     """
     t0 = time.perf_counter()
     if setup is None:
@@ -201,20 +195,12 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
         fixed_s = _validate.array("fix['backscatter']", np.broadcast_to(fix["backscatter"], (bm.m,)),
                                   nonnegative=True)
 
-    workers = workers or min(2, os.cpu_count() or 1)
+    if engine not in _ENGINES:
+        raise ValueError(f"engine: must be one of {sorted(_ENGINES)}, got {engine!r}")
     starts = range(0, N, CHUNK)
-    args = [(bm, M[i:i + CHUNK], L[i:i + CHUNK], scale[i:i + CHUNK], fixed_s, max_iter, tol)
+    args = [(bm, M[i:i + CHUNK], L[i:i + CHUNK], scale[i:i + CHUNK], fixed_s, max_iter, tol, engine)
             for i in starts]
-    if workers > 1 and len(args) > 1:
-        # chunks on threads (numpy releases the GIL); BLAS itself single-threaded meanwhile,
-        # or its threads and ours oversubscribe the cores
-        from threadpoolctl import threadpool_limits
-
-        with threadpool_limits(limits=1, user_api="blas"), \
-                ThreadPoolExecutor(max_workers=workers) as pool:
-            parts = list(pool.map(lambda a: _solve_chunk(*a), args))
-    else:
-        parts = [_solve_chunk(*a) for a in args]
+    parts = [_solve_chunk(*a) for a in args]
     chl, cdom, s_final, k_final, f_final, iters, code = (np.concatenate(x) for x in zip(*parts))
     converged = code <= 2
     w = (water.phytoplankton_absorption_440(chl) / float(bm.mdl.t440[0]))[:, None]
@@ -226,66 +212,39 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     )
 
 
-def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol):
+def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
     """Levenberg-Marquardt on one chunk of charts; returns (C, a_CDOM, s, k, f, iterations,
     status codes) with s and f in the chunk's scaled units."""
     N = M.shape[0]
-    Ms = M / scale[:, None, None]  # every chart scaled to max 1
-    fs = None if fixed_s is None else fixed_s[None, :] / scale[:, None]
+    Ms = (M / scale[:, None, None]).reshape(N, -1)  # every chart scaled to max 1
+    has_fs = fixed_s is not None
+    fs = fixed_s[None, :] / scale[:, None] if has_fs else np.zeros((N, bm.m))
     chl, cdom = _initial(bm, M, L, fixed_s)
-    e_cdom = bm.mdl.cdom_shape
-    f_exact = EXACT_FIT * np.einsum("ijk,ijk->i", Ms, Ms)
+    f_exact = EXACT_FIT * np.einsum("ij,ij->i", Ms, Ms)
+    ev = _ENGINES[engine]
 
-    def evaluate(idx, C, A, derivative):
-        Li = L[idx][:, None]
-        sc = scale[idx][:, None]
-        if not derivative:
-            k = np.exp(-Li * (bm.weights(C, A) @ bm.S + bm.base))
-            G = (k @ bm.Bt) / sc
-            s, r = bm.reduced(Ms[idx], G, None if fs is None else fs[idx])
-            return np.einsum("ijk,ijk->i", r, r), s, k
+    def evaluate(idx, C, A, grad):
         phi, dphi = bm.weights(C, A, derivative=True)
-        k = np.exp(-Li * (phi @ bm.S + bm.base))
-        lk = -Li * k
-        n_ = k.shape[0]
-        # one matrix product for G, dG/du and dG/da_CDOM
-        out = np.concatenate([k, lk * (dphi @ bm.S), lk * e_cdom]) @ bm.Bt
-        out /= np.concatenate([sc, sc, sc])
-        G, JC, JA = out[:n_], out[n_:2 * n_], out[2 * n_:]
-        s, r = bm.reduced(Ms[idx], G, None if fs is None else fs[idx])
-        f = np.einsum("ijk,ijk->i", r, r)
-        JC = JC.reshape(-1, bm.m, bm.n)
-        JA = JA.reshape(-1, bm.m, bm.n)
-        if fs is None:  # project out the channel mean where s is free (s > 0)
-            act = (s > 0)[..., None]
-            JC = JC - act * JC.mean(axis=-1, keepdims=True)
-            JA = JA - act * JA.mean(axis=-1, keepdims=True)
-        # r = M - G - s: dr/dtheta = -(projected dG/dtheta)
-        return f, s, k, -JC, -JA, r
+        return ev(phi, dphi, L[idx], bm.S, bm.base, bm.mdl.cdom_shape, bm.Bt, Ms[idx],
+                  scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
 
-    idx = np.arange(N)
-    f = np.empty(N)
     iters = np.zeros(N, dtype=int)
     code = np.full(N, 3)
-    # state of the active charts: objective, residual and Jacobian at the current point
-    fa, _, _, JC, JA, r = evaluate(idx, chl, cdom, True)
-    f[:] = fa
-    mu = np.full(N, 1e-3)
+    mu = np.full(N, LM_MU0)
+    # state of the active charts: objective, gradient and Gauss-Newton matrix at their point
+    fa, _, g, H = evaluate(np.arange(N), chl, cdom, True)
+    f = fa.copy()
     done = fa <= f_exact
     code[done] = 1
-    keep = ~done
-    active, fa, JC, JA, r = idx[keep], fa[keep], JC[keep], JA[keep], r[keep]
+    active = np.flatnonzero(~done)
+    fa, g, H = fa[active], g[active], H[active]
     for it in range(1, int(max_iter) + 1):
         if active.size == 0:
             break
         C, A = chl[active], cdom[active]
         U = C ** CHL_EXPONENT
-        # gradient and Gauss-Newton matrix of 1/2 ||r||^2
-        g1 = np.einsum("ijk,ijk->i", JC, r)
-        g2 = np.einsum("ijk,ijk->i", JA, r)
-        h11 = np.einsum("ijk,ijk->i", JC, JC)
-        h22 = np.einsum("ijk,ijk->i", JA, JA)
-        h12 = np.einsum("ijk,ijk->i", JC, JA)
+        g1, g2 = g[:, 0], g[:, 1]
+        h11, h12, h22 = H[:, 0], H[:, 1], H[:, 2]
         # projected bounds: hold a variable at 0 whose descent direction points below 0;
         # a variable that does not move the residual (zero Jacobian column) is held too
         free1 = ~((U <= 0) & (g1 > 0)) & (h11 > 0)
@@ -305,35 +264,43 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol):
         d2 = np.where(good, (a11 * b2 - a12 * b1) / det, b2 / a22)
         # predicted decrease of the Gauss-Newton model for the step
         pred = -2 * (g1 * d1 + g2 * d2) - (h11 * d1 * d1 + 2 * h12 * d1 * d2 + h22 * d2 * d2)
+        iters[active] = it
+        # stationary: the model predicts (relatively) nothing more; stop without a trial
+        stat = pred <= tol * fa
         Cn = np.maximum(U + d1, 0.0) ** (1.0 / CHL_EXPONENT)
         An = np.maximum(A + d2, 0.0)
-        # evaluate the trial point with its Jacobian: most LM steps are accepted, and an
-        # accepted point's Jacobian is then already there for the next step
-        fn, _, _, JCn, JAn, rn = evaluate(active, Cn, An, True)
-        ok = fn < fa
-        iters[active] = it
+        # evaluate the trial point with its gradient: most LM steps are accepted, and an
+        # accepted point's gradient is then already there for the next step
+        trial = ~stat
+        ti = active[trial]
+        fn = np.full(active.size, np.inf)
+        gn = np.zeros((active.size, 2))
+        Hn = np.zeros((active.size, 3))
+        if ti.size:
+            fn[trial], _, gn[trial], Hn[trial] = evaluate(ti, Cn[trial], An[trial], True)
+        ok = trial & (fn < fa)
         acc = active[ok]
         chl[acc], cdom[acc], f[acc] = Cn[ok], An[ok], fn[ok]
-        mu[acc] = np.maximum(mu[acc] / 3.0, 1e-12)
-        mu[active[~ok]] *= 4.0
+        mu[acc] = np.maximum(mu[acc] / LM_DOWN, 1e-12)
+        mu[active[trial & ~ok]] *= LM_UP
         decrease = np.where(ok, fa - fn, 0.0)
-        stat = pred <= tol * fa
-        conv_dec = ok & (decrease <= tol * fa) & (pred <= 10 * tol * fa)
+        conv_dec = ok & (decrease <= tol * fa)
         exact = np.where(ok, fn, fa) <= f_exact[active]
         fin = np.zeros(active.size, dtype=int) - 1
         fin[conv_dec] = 0
-        fin[~ok & stat] = 2
+        fin[stat] = 2
         fin[exact] = 1
-        fin[~ok & ~stat & (mu[active] > 1e12)] = 4
+        fin[trial & ~ok & (mu[active] > 1e12)] = 4
         stop = fin >= 0
         code[active[stop]] = fin[stop]
-        # new state: accepted charts take the trial's residual and Jacobian
-        fa[ok] = fn[ok]
-        r[ok] = rn[ok]
-        JC[ok] = JCn[ok]
-        JA[ok] = JAn[ok]
+        fa[ok], g[ok], H[ok] = fn[ok], gn[ok], Hn[ok]
         if stop.any():
             go = ~stop
-            active, fa, r, JC, JA = active[go], fa[go], r[go], JC[go], JA[go]
-    f_final, s_final, k_final = evaluate(np.arange(N), chl, cdom, False)
+            active, fa, g, H = active[go], fa[go], g[go], H[go]
+    # final values: s (and f once more, consistently) at the returned point, and k on the grid
+    f_final, s_final, _, _ = evaluate(np.arange(N), chl, cdom, False)
+    k_final = np.exp(-L[:, None] * (bm.weights(chl, cdom) @ bm.S + bm.base))
     return chl, cdom, s_final, k_final, f_final, iters, code
+
+
+_ENGINES = {"numpy": evaluate_numpy, "numba": evaluate_numba}

@@ -34,7 +34,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import CDOM_SLOPE
 
 from .model import WaterModel
-from .subproblem import build_subproblem, polish
+from .subproblem import build_subproblem, constant_problem, polish
 
 MODES = ("paper", "safeguarded")
 FIXABLE = ("chl", "cdom", "backscatter")
@@ -89,7 +89,8 @@ class Estimate:
     initial: dict
     fixed: dict
     eq17_residual: float
-    solve_time_s: float = 0.0
+    solve_time_s: float = 0.0  # wall time inside cvxpy's solve calls
+    clarabel_time_s: float = 0.0  # of which Clarabel itself (its own timer)
     n_solves: int = 0
     step_history: list = field(default_factory=list, repr=False)
 
@@ -112,7 +113,11 @@ class Estimator:
 
     def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
                  reflectances=None, wavelengths=None, basis=None, path_model: str = "beam",
-                 cdom_slope: float = CDOM_SLOPE, fix=None, setup: ChartSetup | None = None):
+                 cdom_slope: float = CDOM_SLOPE, fix=None, setup: ChartSetup | None = None,
+                 rebuild: bool = False):
+        #: rebuild=True: build and canonicalise a new cvxpy problem with constants every
+        #: iteration instead of updating the parameters of the compiled one (benchmark baseline)
+        self.rebuild = bool(rebuild)
         depth = _validate.scalar("depth", depth)
         distance = _validate.scalar("distance", distance)
         if setup is None:
@@ -238,7 +243,7 @@ class Estimator:
         history, steps = [f * scale**2], []
         radius = 1.0
         status, converged = "maximum number of iterations reached", False
-        n_solves, t_solve = 0, 0.0
+        n_solves, t_solve, t_clarabel = 0, 0.0, 0.0
         it = 0
         for it in range(1, max_iter + 1):
             if f <= f_exact:
@@ -306,13 +311,20 @@ class Estimator:
                 sub.a_eq.value = a_eq
                 sub.b_eq.value = rhs / unit
             t0 = time.perf_counter()
-            failure = _solve(sub.problem)
+            if self.rebuild:  # the CVX-style baseline: a new problem every iteration
+                problem, v_var = constant_problem(sub, AE, r0 / unit)
+            else:
+                problem, v_var = sub.problem, sub.v
+            failure = _solve(problem)
             t_solve += time.perf_counter() - t0
             n_solves += 1
+            stats = getattr(problem, "solver_stats", None)
+            if stats is not None and stats.solve_time:
+                t_clarabel += float(stats.solve_time)
             if failure:
                 status = f"solver failed at iteration {it}: {failure}"
                 break
-            v, _ = polish(sub, np.asarray(sub.v.value, float))
+            v, _ = polish(sub, np.asarray(v_var.value, float))
             qp_value = float(np.sum((Rm @ v - b / unit) ** 2))
             v = v * unit
             delta = v[:self.n_free]
@@ -376,7 +388,8 @@ class Estimator:
             converged=bool(converged), status=status, history=history, mode=mode,
             initial=initial, fixed=dict(self.fixed),
             eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
-            solve_time_s=t_solve, n_solves=n_solves, step_history=steps,
+            solve_time_s=t_solve, clarabel_time_s=t_clarabel, n_solves=n_solves,
+            step_history=steps,
         )
 
 

@@ -193,3 +193,24 @@ def test_solver_failure_is_reported(monkeypatch):
     est = sca.estimate(rgb, depth=5, distance=1)
     assert not est.converged and "solver failed" in est.status and "injected" in est.status
     assert np.isfinite(est.chl)  # the best point so far (the initial point) is returned
+
+
+def test_rebuild_baseline_reaches_the_same_iterates():
+    # the CVX-style baseline (new problem with constants each iteration) and the compiled DPP
+    # problem solve the same QPs: same path, same optimum
+    sim = forward.simulate_chart(2.0, 0.2, 10.0, 5.0, seed=1)
+    fast = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
+    slow = sca.Estimator(depth=10.0, distance=5.0, rebuild=True).fit(sim.rgb)
+    assert fast.converged and slow.converged and fast.iterations == slow.iterations
+    assert abs(fast.chl / slow.chl - 1) < 1e-7 and abs(fast.cdom / slow.cdom - 1) < 1e-7
+    assert abs(fast.objective / slow.objective - 1) < 1e-9
+
+
+def test_scipy_reference_reaches_the_same_optimum():
+    from sca.lsq import estimate_least_squares
+
+    sim = forward.simulate_chart(2.0, 0.2, 10.0, 5.0, seed=1)
+    ref = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
+    lsq = estimate_least_squares(sim.rgb, depth=10.0, distance=5.0)
+    assert lsq.converged
+    assert lsq.objective <= ref.objective * (1 + 1e-9)
