@@ -19,8 +19,10 @@ test: $(STAMP)
 reproduce-figures: $(STAMP)
 	$(PY) -m experiments --out figures
 
+# one BLAS thread: every fit is tiny, and idle BLAS threads spinning after numpy's small
+# matrix calls steal the second core from the batched solver's numba threads
 bench: $(STAMP)
-	$(PY) -m experiments.benchmark
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.benchmark
 
 clean:
 	rm -rf figures cache .pytest_cache

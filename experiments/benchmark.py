@@ -182,6 +182,7 @@ def machine():
     except OSError:
         pass
     return dict(cpu=cpu, cores=os.cpu_count(), python=platform.python_version(),
+                openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS", "unset"),
                 numpy=np.__version__, cvxpy=cvxpy.__version__,
                 clarabel=getattr(clarabel, "__version__", "?"), platform=platform.platform())
 
@@ -267,7 +268,8 @@ def report(out) -> str:
         "rerun the command.",
         "",
         f"Machine: {m['cpu']}, {m['cores']} cores; Python {m['python']}, numpy {m['numpy']}, "
-        f"cvxpy {m['cvxpy']}, Clarabel {m['clarabel']}; {m['platform']}."
+        f"cvxpy {m['cvxpy']}, Clarabel {m['clarabel']}; {m['platform']}; "
+        f"OPENBLAS_NUM_THREADS={m.get('openblas_num_threads', 'unset')}."
         + (" **Quick run (reduced sizes).**" if out["quick"] else ""),
         "",
         f"Charts: {out['charts']['n']} (every 4th case of C {out['charts']['chl']} x a_CDOM "

@@ -55,19 +55,62 @@ def pure_water_absorption(wavelengths=None) -> np.ndarray:
     return _a_w(tuple(wl)).copy()
 
 
+#: Eq 10: a_phi(440) = EQ10_SCALE * C ** EQ10_EXPONENT (Bricaud et al. 1998, ref. [18]).
+EQ10_SCALE, EQ10_EXPONENT = 0.0378, 0.627
+#: Eq 8: a_NAP(440) = EQ8_SCALE * C ** EQ8_EXPONENT (Bricaud et al. 1998, ref. [18]).
+EQ8_SCALE, EQ8_EXPONENT = 0.0124, 0.724
+
+
+# Formula kernels: plain arithmetic on floats or arrays, no validation, so that the batched
+# solver can compile these same functions with numba (physics stays in this module).
+def eq10(c):
+    """0.0378 C^0.627 (eq 10)."""
+    return EQ10_SCALE * c ** EQ10_EXPONENT
+
+
+def eq10_derivative(c):
+    """d/dC of eq 10, for C > 0 (written with the same power as eq10, so a compiler evaluates
+    one power for both)."""
+    return EQ10_EXPONENT * EQ10_SCALE * c ** EQ10_EXPONENT / c
+
+
+def eq8(c):
+    """0.0124 C^0.724 (eq 8)."""
+    return EQ8_SCALE * c ** EQ8_EXPONENT
+
+
+def eq8_derivative(c):
+    """d/dC of eq 8, for C > 0 (the same power as eq8)."""
+    return EQ8_EXPONENT * EQ8_SCALE * c ** EQ8_EXPONENT / c
+
+
+def eq12_small(c, c12, s12):
+    """Pico + nano chlorophyll of eq 12: C12 (1 - exp(-S12 C)), mg m^-3."""
+    return c12 * (1.0 - np.exp(-s12 * c))
+
+
+def eq12_small_derivative(c, c12, s12):
+    """d/dC of :func:`eq12_small` (the same exponential)."""
+    return c12 * s12 * np.exp(-s12 * c)
+
+
+def _power_law(chl, value, derivative_fn, derivative):
+    c = _conc("chl", chl)
+    val = value(c)
+    if not derivative:
+        return val
+    with np.errstate(divide="ignore"):
+        d = np.where(c > 0, derivative_fn(np.where(c > 0, c, 1.0)), np.inf)
+    return val, d
+
+
 def phytoplankton_absorption_440(chl, *, derivative: bool = False):
     """a_phi(440 nm) = 0.0378 C^0.627 in m^-1 (eq 10; the right side of eq 17).
 
     With ``derivative=True`` returns (value, d value / dC). The derivative is infinite at
     C = 0 (the estimator evaluates it at a small floor, see DECISIONS.md).
     """
-    c = _conc("chl", chl)
-    val = 0.0378 * c**0.627
-    if not derivative:
-        return val
-    with np.errstate(divide="ignore"):
-        d = np.where(c > 0, 0.627 * 0.0378 * np.power(np.where(c > 0, c, 1.0), -0.373), np.inf)
-    return val, d
+    return _power_law(chl, eq10, eq10_derivative, derivative)
 
 
 def phytoplankton_absorption(wavelengths=None, chl=1.0, *, basis=None, weights=None) -> np.ndarray:
@@ -103,13 +146,7 @@ def cdom_absorption(wavelengths=None, cdom=0.1, *, slope: float = CDOM_SLOPE) ->
 
 def nap_absorption_440(chl, *, derivative: bool = False):
     """a_NAP(440 nm) = 0.0124 C^0.724 in m^-1 (eq 8). ``derivative=True``: also d/dC."""
-    c = _conc("chl", chl)
-    val = 0.0124 * c**0.724
-    if not derivative:
-        return val
-    with np.errstate(divide="ignore"):
-        d = np.where(c > 0, 0.724 * 0.0124 * np.power(np.where(c > 0, c, 1.0), -0.276), np.inf)
-    return val, d
+    return _power_law(chl, eq8, eq8_derivative, derivative)
 
 
 def nap_absorption(wavelengths=None, chl=1.0, *, slope: float = NAP_SLOPE, derivative: bool = False):
@@ -177,10 +214,10 @@ def particle_scattering_weights(chl, *, derivative: bool = False):
     C - C12 (1 - e^(-S12 C))) in mg m^-3; ``derivative=True`` also returns their d/dC."""
     t = table1()
     c = _conc("chl", chl)
-    small = t["C_12"] * (1.0 - np.exp(-t["S_12"] * c))
+    small = eq12_small(c, t["C_12"], t["S_12"])
     if not derivative:
         return small, c - small
-    dsmall = t["C_12"] * t["S_12"] * np.exp(-t["S_12"] * c)
+    dsmall = eq12_small_derivative(c, t["C_12"], t["S_12"])
     return (small, c - small), (dsmall, 1.0 - dsmall)
 
 

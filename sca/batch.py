@@ -34,7 +34,9 @@ from forward import _validate, water
 from forward.imaging import ChartSetup, chart_setup, length
 from forward.spectra import DEFAULT_CAMERA
 
-from ._batch_kernel import HAVE_NUMBA, evaluate_numba, evaluate_numpy
+from ._batch_kernel import HAVE_NUMBA, evaluate_numpy
+if HAVE_NUMBA:
+    from ._batch_kernel import lm_numba
 from .estimate import EXACT_FIT
 from .model import WaterModel
 
@@ -46,7 +48,7 @@ INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 6)])
 CHUNK = 65536
 
 #: Levenberg-Marquardt damping: start, divisor after a success, factor after a failure.
-LM_MU0, LM_DOWN, LM_UP = 1e-3, 3.0, 4.0
+LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
 
 DEFAULT_ENGINE = "numba" if HAVE_NUMBA else "numpy"
 
@@ -96,14 +98,10 @@ class BatchModel:
         self.m, self.n = self.mdl.m, self.mdl.n
         self.wl = self.mdl.wavelengths
         self.beam = path_model == "beam"
-        # c = base + Phi(C, a_CDOM) @ S: the spectral terms of eqs 5-12, each from forward.water
-        wl = self.wl
-        f12, f3, fk = water.particle_scattering_terms(wl)
-        self.S = np.stack([self.t, self.mdl.cdom_shape,
-                           water.nap_absorption(wl, 1.0) / water.nap_absorption_440(1.0), f12, f3])
-        self.base = water.pure_water_absorption(wl)
-        if self.beam:
-            self.base = self.base + water.pure_water_scattering(wl) + fk
+        # c = base + Phi(C, a_CDOM) @ S: the spectral terms of eqs 5-12 (from forward.water,
+        # assembled by WaterModel); Phi holds their scalar weights
+        self.S = np.vstack([self.t, self.mdl.cdom_shape, self.mdl.nap_shape, self.mdl.bp_terms])
+        self.base = self.mdl.base
 
     def weights(self, chl, cdom, derivative=False):
         """Phi (N, 5): the scalar weights of the spectral terms S of c (see ``terms``) and, with
@@ -168,8 +166,8 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
 
     ``depth`` and ``distance`` (m) are scalars or arrays of length N. Other arguments as in
     :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
-    ``engine``: 'numba' (default: a fused loop over charts on all cores) or 'numpy' (array
-    code, the reference); both compute the same numbers. Returns a :class:`BatchEstimate`.
+    ``engine``: 'numba' (default: the iteration compiled per chart, on all cores) or 'numpy'
+    (array code, the reference); both run the same iteration. Returns a :class:`BatchEstimate`.
     """
     t0 = time.perf_counter()
     if setup is None:
@@ -195,8 +193,8 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
         fixed_s = _validate.array("fix['backscatter']", np.broadcast_to(fix["backscatter"], (bm.m,)),
                                   nonnegative=True)
 
-    if engine not in _ENGINES:
-        raise ValueError(f"engine: must be one of {sorted(_ENGINES)}, got {engine!r}")
+    if engine not in ENGINES:
+        raise ValueError(f"engine: must be one of {ENGINES}, got {engine!r}")
     starts = range(0, N, CHUNK)
     args = [(bm, M[i:i + CHUNK], L[i:i + CHUNK], scale[i:i + CHUNK], fixed_s, max_iter, tol, engine)
             for i in starts]
@@ -221,12 +219,17 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
     fs = fixed_s[None, :] / scale[:, None] if has_fs else np.zeros((N, bm.m))
     chl, cdom = _initial(bm, M, L, fixed_s)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", Ms, Ms)
-    ev = _ENGINES[engine]
+    if engine == "numba":
+        t = water.table1()
+        return lm_numba(chl, cdom, np.ascontiguousarray(L), np.ascontiguousarray(scale),
+                        np.ascontiguousarray(Ms), np.ascontiguousarray(fs), has_fs, bm.S, bm.base,
+                        bm.mdl.cdom_shape, bm.Bt, bm.m, bm.n, t["C_12"], t["S_12"], bm.beam,
+                        int(max_iter), float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
 
     def evaluate(idx, C, A, grad):
         phi, dphi = bm.weights(C, A, derivative=True)
-        return ev(phi, dphi, L[idx], bm.S, bm.base, bm.mdl.cdom_shape, bm.Bt, Ms[idx],
-                  scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
+        return evaluate_numpy(phi, dphi, L[idx], bm.S, bm.base, bm.mdl.cdom_shape, bm.Bt, Ms[idx],
+                              scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
 
     iters = np.zeros(N, dtype=int)
     code = np.full(N, 3)
@@ -303,4 +306,4 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
     return chl, cdom, s_final, k_final, f_final, iters, code
 
 
-_ENGINES = {"numpy": evaluate_numpy, "numba": evaluate_numba}
+ENGINES = ("numba", "numpy") if HAVE_NUMBA else ("numpy",)

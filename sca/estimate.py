@@ -34,7 +34,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import CDOM_SLOPE
 
 from .model import WaterModel
-from .subproblem import build_subproblem, constant_problem, polish
+from .subproblem import build_subproblem, constant_problem, equality_step, polish
 
 MODES = ("paper", "safeguarded")
 FIXABLE = ("chl", "cdom", "backscatter")
@@ -52,9 +52,11 @@ CLARABEL_FALLBACKS = (
 )
 
 #: Inequality bounds of the (normalised) subproblem are capped at this multiple of the
-#: unconstrained least-squares step (see the loop); a capped bound only excludes steps that
-#: long, which the safeguarded mode's trust region excludes anyway.
-BOUND_CAP = 1e4
+#: least-squares step that satisfies the linearised eq 17 (see the loop): bounds millions of
+#: step lengths away make Clarabel's interior-point start fail. Should a capped bound bind,
+#: the step is still only a candidate judged by the true objective (safeguarded mode); in
+#: paper mode the cap acts as a trust region of 100 such steps.
+BOUND_CAP = 1e2
 
 #: Scales (C in mg m^-3, a_CDOM in m^-1) below which parameters are not scaled further.
 CHL_SCALE_MIN = 1e-3
@@ -92,6 +94,7 @@ class Estimate:
     solve_time_s: float = 0.0  # wall time inside cvxpy's solve calls
     clarabel_time_s: float = 0.0  # of which Clarabel itself (its own timer)
     n_solves: int = 0
+    polish_rescues: int = 0  # subproblems Clarabel stopped early that the polish completed
     step_history: list = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
@@ -135,12 +138,16 @@ class Estimator:
         # with C fixed and one basis function, eq 17 fixes w too
         self.free_w = self.free_chl or mdl.z > 1
         self.free_s = "backscatter" not in self.fixed
-        n_pos = int(self.free_chl) + int(self.free_cdom)
+        # eq 16's T w >= 0: with one nonnegative basis function it is simply w >= 0, a bound
+        # like those on C and a_CDOM (one row instead of q in the subproblem)
+        self.w_bound = self.free_w and mdl.z == 1 and bool(np.all(mdl.T >= 0) and np.any(mdl.T > 0))
+        n_pos = int(self.free_chl) + int(self.free_cdom) + int(self.w_bound)
         self.n_pos = n_pos
-        self.n_free = n_pos + (mdl.z if self.free_w else 0)
+        self.n_free = int(self.free_chl) + int(self.free_cdom) + (mdl.z if self.free_w else 0)
         if self.n_free == 0 and not self.free_s:
             raise ValueError("fix: nothing is left to estimate")
-        self.w_slice = (n_pos, n_pos + mdl.z) if self.free_w else None
+        n_cc = int(self.free_chl) + int(self.free_cdom)
+        self.w_slice = (n_cc, n_cc + mdl.z) if self.free_w else None
 
     def _parse_fix(self, fix):
         if fix is None:
@@ -230,8 +237,8 @@ class Estimator:
         self._scale = scale
         safeguarded = mode == "safeguarded"
         n_s = mdl.m if self.free_s else 0
-        sub = build_subproblem(self.n_free, self.n_pos, self.w_slice, mdl.wavelengths.size, n_s,
-                               safeguarded, self.free_w)
+        sub = build_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
+                               mdl.wavelengths.size, n_s, safeguarded, self.free_w)
         E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))  # s -> every patch of its channel
         f_exact = EXACT_FIT * float(Mv @ Mv)
 
@@ -243,7 +250,7 @@ class Estimator:
         history, steps = [f * scale**2], []
         radius = 1.0
         status, converged = "maximum number of iterations reached", False
-        n_solves, t_solve, t_clarabel = 0, 0.0, 0.0
+        n_solves, t_solve, t_clarabel, rescues = 0, 0.0, 0.0, 0
         it = 0
         for it in range(1, max_iter + 1):
             if f <= f_exact:
@@ -281,9 +288,21 @@ class Estimator:
                 break
             sub.R.value = Rm
             sub.b.value = b / unit
+            eq_row, eq_rhs = None, 0.0
+            if self.free_w:  # eq 17 linearised: t440.(w + D_w dw) = alpha(C) + alpha'(C) D_C dC
+                alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
+                eq_row = np.zeros(Rm.shape[1])
+                eq_row[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * D_w
+                if self.free_chl:
+                    eq_row[0] = -float(dalpha) * D_chl
+                    eq_rhs = float(alpha) - float(mdl.t440 @ w)
+                else:
+                    eq_rhs = float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
             # Bounds far beyond any step the model can want only hurt the interior-point
-            # start; they are capped at BOUND_CAP times the unconstrained least-squares step.
-            v_ls = np.linalg.lstsq(Rm, b / unit, rcond=None)[0]
+            # start; they are capped at BOUND_CAP times the least-squares step that respects
+            # the linearised eq 17 (without it, C and w are nearly collinear and the
+            # unconstrained step is meaningless).
+            v_ls = equality_step(Rm, b / unit, eq_row, eq_rhs / unit)
             cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
             if self.free_s:
                 sub.s_lo.value = np.maximum(-s / unit, -cap)
@@ -293,38 +312,48 @@ class Estimator:
                     lo.append(-chl / D_chl)
                 if self.free_cdom:
                     lo.append(-cdom / D_cdom)
+                if self.w_bound:
+                    lo.append(-float(w[0]) / float(D_w[0]))
                 sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
             if safeguarded and self.n_free:
                 sub.hi.value = np.full(self.n_free, min(radius / unit, cap))
             if self.free_w:
-                TDw = mdl.T * D_w
-                sub.TDw.value = TDw
-                sub.Tw_rhs.value = np.maximum(-(mdl.T @ w) / unit, -cap * np.abs(TDw).sum(axis=1))
-                alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
-                a_eq = np.zeros(self.n_free)
-                a_eq[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * D_w
-                if self.free_chl:
-                    a_eq[0] = -float(dalpha) * D_chl
-                    rhs = float(alpha) - float(mdl.t440 @ w)
-                else:
-                    rhs = float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
-                sub.a_eq.value = a_eq
-                sub.b_eq.value = rhs / unit
+                if not self.w_bound:
+                    TDw = mdl.T * D_w
+                    sub.TDw.value = TDw
+                    sub.Tw_rhs.value = np.maximum(-(mdl.T @ w) / unit,
+                                                  -cap * np.abs(TDw).sum(axis=1))
+                sub.a_eq.value = eq_row[:self.n_free]
+                sub.b_eq.value = eq_rhs / unit
             t0 = time.perf_counter()
             if self.rebuild:  # the CVX-style baseline: a new problem every iteration
                 problem, v_var = constant_problem(sub, AE, r0 / unit)
             else:
                 problem, v_var = sub.problem, sub.v
+            v_var.value = None  # a shared, cached problem: never read a previous solve's values
             failure = _solve(problem)
             t_solve += time.perf_counter() - t0
             n_solves += 1
             stats = getattr(problem, "solver_stats", None)
             if stats is not None and stats.solve_time:
                 t_clarabel += float(stats.solve_time)
+            if not failure:
+                v, _ = polish(sub, np.asarray(v_var.value, float))
+            else:
+                # Clarabel stopped early (e.g. its iteration limit on a degenerate, weakly
+                # active bound) but returned an iterate: the active-set polish may turn it into
+                # a feasible point that the model says is no worse than not moving (v = 0,
+                # feasible in safeguarded mode). Counted in ``polish_rescues``; a solve that
+                # returned nothing usable stays a reported failure.
+                if v_var.value is not None and np.all(np.isfinite(v_var.value)):
+                    v, rescued = polish(sub, np.asarray(v_var.value, float),
+                                        f_ref=1.0 if safeguarded else None)
+                    if rescued:
+                        failure = ""
+                        rescues += 1
             if failure:
                 status = f"solver failed at iteration {it}: {failure}"
                 break
-            v, _ = polish(sub, np.asarray(v_var.value, float))
             qp_value = float(np.sum((Rm @ v - b / unit) ** 2))
             v = v * unit
             delta = v[:self.n_free]
@@ -389,6 +418,7 @@ class Estimator:
             initial=initial, fixed=dict(self.fixed),
             eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
             solve_time_s=t_solve, clarabel_time_s=t_clarabel, n_solves=n_solves,
+            polish_rescues=rescues,
             step_history=steps,
         )
 

@@ -39,10 +39,18 @@ class WaterModel:
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
-        self.base = water.pure_water_absorption(wl)
-        if path_model == "beam":
-            self.base = self.base + water.pure_water_scattering(wl)
+        # c is linear in a few scalar weights of C and a_CDOM (eqs 5-12), so the spectral terms
+        # are built once from forward.water and combined per evaluation:
+        #   c = base + T w + a_CDOM e_cdom + a_NAP,440(C) e_nap [+ w12(C) f12 + w3(C) f3]
+        beam = path_model == "beam"
+        self.beam = beam
         self.cdom_shape = water.cdom_absorption(wl, 1.0, slope=cdom_slope)
+        self.nap_shape = water.nap_absorption(wl, 1.0) / water.nap_absorption_440(1.0)
+        f12, f3, fk = water.particle_scattering_terms(wl)
+        self.bp_terms = np.stack([f12, f3]) if beam else np.zeros((2, wl.size))
+        self.base = water.pure_water_absorption(wl)
+        if beam:
+            self.base = self.base + water.pure_water_scattering(wl) + fk
 
     # --- eq 17 -----------------------------------------------------------------------------
     def phyto_scale(self, chl, derivative=False):
@@ -63,15 +71,25 @@ class WaterModel:
         return shape * (float(self.phyto_scale(chl)) / t)
 
     # --- attenuation -----------------------------------------------------------------------
+    def chl_weights(self, chl, derivative=False):
+        """(N, 3) weights of (e_nap, f12, f3) for C: eq 8 and eq 12's particle weights; with
+        ``derivative``, also d/dC evaluated at max(C, CHL_DERIVATIVE_FLOOR)."""
+        chl = np.asarray(chl, float)
+        w12, w3 = water.particle_scattering_weights(chl)
+        wts = np.stack([water.nap_absorption_440(chl), w12, w3], axis=-1)
+        if not derivative:
+            return wts
+        cf = np.maximum(chl, CHL_DERIVATIVE_FLOOR)
+        _, dnap = water.nap_absorption_440(cf, derivative=True)
+        _, (d12, d3) = water.particle_scattering_weights(cf, derivative=True)
+        return wts, np.stack([dnap, d12, d3], axis=-1)
+
     def coefficient(self, chl, cdom, w):
         """c(x) (or a(x) for the 'absorption' path model), m^-1, shape (..., q)."""
-        chl = np.asarray(chl, float)
         cdom = np.asarray(cdom, float)
-        c = self.base + np.asarray(w, float) @ self.T.T + np.multiply.outer(cdom, self.cdom_shape)
-        c = c + water.nap_absorption(self.wavelengths, chl)
-        if self.path_model == "beam":
-            c = c + water.particle_scattering(self.wavelengths, chl)
-        return c
+        terms = np.vstack([self.nap_shape, self.bp_terms])
+        return (self.base + np.asarray(w, float) @ self.T.T
+                + np.multiply.outer(cdom, self.cdom_shape) + self.chl_weights(chl) @ terms)
 
     def attenuation(self, chl, cdom, w):
         """k(x) = exp(-L c(x)), shape (..., q)."""
@@ -82,13 +100,9 @@ class WaterModel:
 
         The C column is evaluated at max(C, CHL_DERIVATIVE_FLOOR), so it is finite at C = 0.
         """
+        _, dw = self.chl_weights(chl, derivative=True)
         k = self.attenuation(chl, cdom, w)
-        cf = max(float(chl), CHL_DERIVATIVE_FLOOR)
-        _, dnap = water.nap_absorption(self.wavelengths, cf, derivative=True)
-        dc_dchl = dnap
-        if self.path_model == "beam":
-            _, dbp = water.particle_scattering(self.wavelengths, cf, derivative=True)
-            dc_dchl = dc_dchl + dbp
+        dc_dchl = dw @ np.vstack([self.nap_shape, self.bp_terms])
         dc = np.column_stack([dc_dchl, self.cdom_shape, self.T])
         return k, (-self.L * k)[:, None] * dc
 

@@ -93,78 +93,86 @@ def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s
     return Subproblem(problem, v, R, b, lo, s_lo, hi, TDw, Tw_rhs, a_eq, b_eq, n_free, n_s)
 
 
-def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol: float = 1e-9):
-    """Active-set polish of an interior-point solution ``v`` of ``sub`` (in its units).
-
-    Interior-point methods stop a little inside the bounds that are active at the solution,
-    and where a bound is weakly active (zero multiplier: e.g. s = 0 for a chart with no
-    backscatter, or a_CDOM = 0) they can be far less accurate than their tolerance. Here the
-    constraints within ``active_tol`` of their bound are taken as active, the equality-
-    constrained least-squares problem is solved exactly (KKT system), and the result is
-    returned if it satisfies every constraint to ``feas_tol`` and its objective is not worse
-    than that of ``v``; otherwise ``v`` itself is returned. Returns (v, polished: bool).
-    """
-    R, b = sub.R.value, sub.b.value
-    n_free, nv = sub.n_free, R.shape[1]
-    scale = 1.0 + float(np.max(np.abs(v)))
-    rows, rhs = [], []  # active constraints as equalities
-    ineq_A, ineq_b = [], []  # every inequality as A v >= b, for the feasibility check
-
-    def bound(idx, lower_values, sign=1.0):
-        for i, l_val in zip(idx, lower_values):
-            e = np.zeros(nv)
-            e[i] = sign
-            ineq_A.append(e)
-            ineq_b.append(l_val)
-            if sign * v[i] - l_val <= active_tol * scale:
-                rows.append(e)
-                rhs.append(l_val)
-
+def _inequalities(sub: Subproblem):
+    """Every inequality of ``sub`` as rows of (A, lb) with A v >= lb."""
+    n_free, nv = sub.n_free, sub.n_free + sub.n_s
+    rows, lbs = [], []
+    eye = np.eye(nv)
     if sub.lo is not None:
-        bound(range(len(sub.lo.value)), sub.lo.value)
+        for i, l_val in enumerate(sub.lo.value):
+            rows.append(eye[i])
+            lbs.append(l_val)
     if sub.s_lo is not None:
-        bound(range(n_free, nv), sub.s_lo.value)
+        for i, l_val in zip(range(n_free, nv), sub.s_lo.value):
+            rows.append(eye[i])
+            lbs.append(l_val)
     if sub.hi is not None:
-        bound(range(n_free), -sub.hi.value, sign=-1.0)
-        bound(range(n_free), -sub.hi.value, sign=1.0)
-    w0 = None
+        for i in range(n_free):
+            rows += [-eye[i], eye[i]]
+            lbs += [-sub.hi.value[i], -sub.hi.value[i]]
     if sub.TDw is not None:
-        # the w block is the trailing z entries of delta
-        w0 = n_free - sub.TDw.value.shape[1]
-        lhs = sub.TDw.value @ v[w0:n_free]
-        slack = lhs - sub.Tw_rhs.value
+        w0 = n_free - sub.TDw.value.shape[1]  # the w block: trailing z entries of delta
         for j in range(sub.TDw.value.shape[0]):
             e = np.zeros(nv)
             e[w0:n_free] = sub.TDw.value[j]
-            ineq_A.append(e)
-            ineq_b.append(sub.Tw_rhs.value[j])
-            if slack[j] <= active_tol * scale * (1 + np.abs(sub.TDw.value[j]).sum()):
-                rows.append(e)
-                rhs.append(sub.Tw_rhs.value[j])
+            rows.append(e)
+            lbs.append(sub.Tw_rhs.value[j])
+    if not rows:
+        return np.zeros((0, nv)), np.zeros(0)
+    return np.array(rows), np.array(lbs)
+
+
+def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol: float = 1e-9,
+           f_ref: float | None = None, max_rounds: int = 10):
+    """Active-set polish of an approximate solution ``v`` of ``sub`` (in its units).
+
+    Interior-point methods stop a little inside the bounds that are active at the solution,
+    and where a bound is *weakly* active (zero multiplier: e.g. s = 0 for a chart with no
+    backscatter, or a_CDOM = 0) they can be far less accurate than their tolerance, or stop
+    at their iteration limit. Here the constraints within ``active_tol`` of their bound are
+    taken as active, the equality-constrained least-squares problem (with eq 17) is solved
+    exactly (KKT system), and constraints the result violates are added to the active set
+    (up to ``max_rounds`` times). The result is returned if it satisfies every constraint to
+    ``feas_tol`` and its objective is not above ``f_ref`` (default: that of ``v``); otherwise
+    ``v`` itself. Returns (v, polished: bool).
+    """
+    R, b = sub.R.value, sub.b.value
+    nv = R.shape[1]
+    scale = 1.0 + float(np.max(np.abs(v)))
+    A_in, lb = _inequalities(sub)
+    eq_rows, eq_rhs = [], []
     if sub.a_eq is not None:
         e = np.zeros(nv)
-        e[:n_free] = sub.a_eq.value
-        rows.append(e)
-        rhs.append(float(sub.b_eq.value))
-    H = R.T @ R
-    g = R.T @ b
-    if rows:
-        Ceq = np.array(rows)
-        k = Ceq.shape[0]
-        K = np.block([[H, Ceq.T], [Ceq, np.zeros((k, k))]])
-        sol = np.linalg.lstsq(K, np.concatenate([g, rhs]), rcond=None)[0]
-        vp = sol[:nv]
-    else:
-        vp = np.linalg.lstsq(R, b, rcond=None)[0]
-    if not np.all(np.isfinite(vp)):
-        return v, False
-    if ineq_A:
-        viol = np.array(ineq_b) - np.array(ineq_A) @ vp
-        if np.max(viol) > feas_tol * scale:
+        e[:sub.n_free] = sub.a_eq.value
+        eq_rows.append(e)
+        eq_rhs.append(float(sub.b_eq.value))
+    norms = 1.0 + np.abs(A_in).sum(axis=1)
+    active = (A_in @ v - lb) <= active_tol * scale * norms
+    H, g = R.T @ R, R.T @ b
+    vp = None
+    for _ in range(max_rounds):
+        C = np.vstack([np.array(eq_rows).reshape(-1, nv), A_in[active]])
+        d = np.concatenate([eq_rhs, lb[active]])
+        if C.shape[0]:
+            k = C.shape[0]
+            K = np.block([[H, C.T], [C, np.zeros((k, k))]])
+            vp = np.linalg.lstsq(K, np.concatenate([g, d]), rcond=None)[0][:nv]
+        else:
+            vp = np.linalg.lstsq(R, b, rcond=None)[0]
+        if not np.all(np.isfinite(vp)):
             return v, False
-    if sub.a_eq is not None and abs(sub.a_eq.value @ vp[:n_free] - sub.b_eq.value) > feas_tol * scale:
+        viol = lb - A_in @ vp
+        bad = viol > feas_tol * scale * norms
+        if not bad.any():
+            break
+        active |= bad
+    else:
         return v, False
-    f_v = float(np.sum((R @ v - b) ** 2))
+    if eq_rows and abs(eq_rows[0] @ vp - eq_rhs[0]) > feas_tol * scale:
+        return v, False
+    if np.any(lb - A_in @ vp > feas_tol * scale * norms):
+        return v, False
+    f_v = float(np.sum((R @ v - b) ** 2)) if f_ref is None else f_ref
     f_p = float(np.sum((R @ vp - b) ** 2))
     if f_p <= f_v + 1e-14 * max(1.0, f_v):
         return vp, True
@@ -192,3 +200,16 @@ def constant_problem(sub: Subproblem, AE, r0):
         cons.append(v[sub.n_free:] >= sub.s_lo.value)
     problem = cp.Problem(cp.Minimize(cp.sum_squares(r0 - AE @ v)), cons)
     return problem, v
+
+
+def equality_step(R, b, eq_row=None, eq_rhs=0.0):
+    """Minimiser of ||R v - b||^2 subject to eq_row . v = eq_rhs (no inequalities): the KKT
+    system, solved in the least-squares sense (minimum norm where singular)."""
+    if eq_row is None:
+        return np.linalg.lstsq(R, b, rcond=None)[0]
+    nv = R.shape[1]
+    K = np.zeros((nv + 1, nv + 1))
+    K[:nv, :nv] = R.T @ R
+    K[:nv, nv] = K[nv, :nv] = eq_row
+    rhs = np.concatenate([R.T @ b, [eq_rhs]])
+    return np.linalg.lstsq(K, rhs, rcond=None)[0][:nv]
