@@ -47,6 +47,8 @@ class WaterModel:
         self.cdom_shape = water.cdom_absorption(wl, 1.0, slope=cdom_slope)
         self.nap_shape = water.nap_absorption(wl, 1.0) / water.nap_absorption_440(1.0)
         f12, f3, fk = water.particle_scattering_terms(wl)
+        t1 = water.table1()
+        self._c12, self._s12 = t1["C_12"], t1["S_12"]
         self.bp_terms = np.stack([f12, f3]) if beam else np.zeros((2, wl.size))
         self.base = water.pure_water_absorption(wl)
         if beam:
@@ -55,11 +57,11 @@ class WaterModel:
     # --- eq 17 -----------------------------------------------------------------------------
     def phyto_scale(self, chl, derivative=False):
         """(T w)(440) required by eq 17: 0.0378 C^0.627 (and its derivative at the floor)."""
+        # the formula kernels of forward.water: the loop's own state needs no re-validation
+        c = np.asarray(chl, float)
         if not derivative:
-            return water.phytoplankton_absorption_440(chl)
-        val = water.phytoplankton_absorption_440(chl)
-        _, d = water.phytoplankton_absorption_440(np.maximum(chl, CHL_DERIVATIVE_FLOOR), derivative=True)
-        return val, d
+            return water.eq10(c)
+        return water.eq10(c), water.eq10_derivative(np.maximum(c, CHL_DERIVATIVE_FLOOR))
 
     def feasible_w(self, chl, w_shape=None) -> np.ndarray:
         """w on the eq 17 manifold: ``w_shape`` rescaled so that t440 . w = 0.0378 C^0.627."""
@@ -74,15 +76,16 @@ class WaterModel:
     def chl_weights(self, chl, derivative=False):
         """(N, 3) weights of (e_nap, f12, f3) for C: eq 8 and eq 12's particle weights; with
         ``derivative``, also d/dC evaluated at max(C, CHL_DERIVATIVE_FLOOR)."""
+        # the formula kernels of forward.water (eqs 8, 12) without re-validating the loop's state
         chl = np.asarray(chl, float)
-        w12, w3 = water.particle_scattering_weights(chl)
-        wts = np.stack([water.nap_absorption_440(chl), w12, w3], axis=-1)
+        c12, s12 = self._c12, self._s12
+        w12 = water.eq12_small(chl, c12, s12)
+        wts = np.stack([water.eq8(chl), w12, chl - w12], axis=-1)
         if not derivative:
             return wts
         cf = np.maximum(chl, CHL_DERIVATIVE_FLOOR)
-        _, dnap = water.nap_absorption_440(cf, derivative=True)
-        _, (d12, d3) = water.particle_scattering_weights(cf, derivative=True)
-        return wts, np.stack([dnap, d12, d3], axis=-1)
+        d12 = water.eq12_small_derivative(cf, c12, s12)
+        return wts, np.stack([water.eq8_derivative(cf), d12, 1.0 - d12], axis=-1)
 
     def coefficient(self, chl, cdom, w):
         """c(x) (or a(x) for the 'absorption' path model), m^-1, shape (..., q)."""
