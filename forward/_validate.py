@@ -50,3 +50,13 @@ def array(name: str, value, *, shape=None, ndim=None, nonnegative: bool = False)
     if nonnegative and arr.size and np.any(arr < 0):
         raise ValueError(f"{name}: contains negative values (min {arr.min():g})")
     return arr
+
+
+def nonnegative(name: str, value, unit: str = "") -> np.ndarray:
+    """``value`` (scalar or any-shape array) as floats, finite and >= 0, else ``ValueError``."""
+    x = np.asarray(value, dtype=float)
+    if x.size and not np.all(np.isfinite(x)):
+        raise ValueError(f"{name}: must be finite, got {value!r}")
+    if x.size and np.any(x < 0):
+        raise ValueError(f"{name}: must be >= 0{(' ' + unit) if unit else ''}, got {value!r}")
+    return x

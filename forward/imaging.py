@@ -29,12 +29,7 @@ PATH_MODELS = ("beam", "absorption")
 
 def length(name: str, value) -> np.ndarray:
     """A path length in m (scalar or array): finite and >= 0, else ``ValueError`` naming it."""
-    v = np.asarray(value, dtype=float)
-    if v.size and not np.all(np.isfinite(v)):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    if v.size and np.any(v < 0):
-        raise ValueError(f"{name}: must be >= 0 m, got {value!r}")
-    return v
+    return _validate.nonnegative(name, value, unit="m")
 
 
 def path_length(depth, distance) -> np.ndarray:
@@ -138,6 +133,19 @@ def _build_setup(camera, illuminant, reflectances, wl) -> ChartSetup:
     for arr in (wl, P, i, R, sens):
         arr.setflags(write=False)
     return ChartSetup(wl, P, i, R, name, sens)
+
+
+def resolve_setup(setup, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,
+                  wavelengths=None) -> ChartSetup:
+    """``setup`` if given (checking that ``wavelengths``, if also given, is its grid), else
+    :func:`chart_setup` of the other arguments."""
+    if setup is None:
+        return chart_setup(camera, illuminant, reflectances, wavelengths)
+    if not isinstance(setup, ChartSetup):
+        raise ValueError("setup: expected a forward.ChartSetup (from forward.chart_setup)")
+    if wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
+        raise ValueError("wavelengths: differ from the grid of the given setup")
+    return setup
 
 
 def camera_response(sensitivities, illuminant, attenuation, reflectances, backscatter=None) -> np.ndarray:

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _validate
-from .imaging import ChartSetup, attenuation, camera_response, chart_setup, veiling_light
+from .imaging import ChartSetup, attenuation, camera_response, resolve_setup, veiling_light
 from .sensor import SensorSettings, capture
 from .spectra import DEFAULT_CAMERA, phytoplankton_basis
 from .water import CDOM_SLOPE, attenuation_coefficient
@@ -88,10 +88,7 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     cdom = _validate.scalar("cdom", cdom)
     depth = _validate.scalar("depth", depth)
     distance = _validate.scalar("distance", distance)
-    if setup is None:
-        setup = chart_setup(camera, illuminant, reflectances, wavelengths)
-    elif wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
-        raise ValueError("wavelengths: differ from the grid of the given setup")
+    setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     sensor = SensorSettings() if sensor is None else sensor
     if not isinstance(sensor, SensorSettings):
         raise ValueError("sensor: expected a forward.SensorSettings")

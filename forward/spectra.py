@@ -180,13 +180,19 @@ def _on_grid(value, wl, name, ncols):
 
 
 @functools.lru_cache(maxsize=64)
-def _camera_named(name: str, wl_key: tuple) -> np.ndarray:
+def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
+    """A colour-science spectrum (``colour.<database>[name]``) resampled onto the grid, cached;
+    for a chart database the (q, n) stack of its patches. ``arg`` names the argument."""
     import colour
 
-    db = colour.MSDS_CAMERA_SENSITIVITIES
+    db = getattr(colour, database)
     if name not in db:
-        raise ValueError(f"camera: unknown camera {name!r}; known: {sorted(db.keys())}")
-    return _from_colour(db[name], np.array(wl_key), "camera")
+        raise ValueError(f"{arg}: unknown name {name!r}; known: {sorted(db.keys())}")
+    wl = np.array(wl_key)
+    entry = db[name]
+    if not hasattr(entry, "wavelengths"):  # a ColorChecker (a mapping): its patches in order
+        return np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
+    return _from_colour(entry, wl, arg)
 
 
 def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
@@ -200,7 +206,7 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
 
     wl = wavelength_grid(wavelengths)
     if isinstance(camera, str) and not _is_path(camera):
-        sens = _camera_named(camera, tuple(wl)).copy()
+        sens = _named("MSDS_CAMERA_SENSITIVITIES", "camera", camera, tuple(wl)).copy()
     elif _is_path(camera):
         sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera")
     elif isinstance(camera, colour.MultiSpectralDistributions):
@@ -215,14 +221,6 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     return sens / np.where(peak > 0, peak, 1.0)
 
 
-@functools.lru_cache(maxsize=64)
-def _illuminant_named(name: str, wl_key: tuple) -> np.ndarray:
-    import colour
-
-    db = colour.SDS_ILLUMINANTS
-    if name not in db:
-        raise ValueError(f"illuminant: unknown illuminant {name!r}; e.g. 'D65', 'D50', 'A', 'E'")
-    return _from_colour(db[name], np.array(wl_key), "illuminant")
 
 
 def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
@@ -238,7 +236,7 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     if illuminant is None:
         illuminant = DEFAULT_ILLUMINANT
     if isinstance(illuminant, str) and not _is_path(illuminant):
-        spd = _illuminant_named(illuminant, tuple(wl)).copy()
+        spd = _named("SDS_ILLUMINANTS", "illuminant", illuminant, tuple(wl)).copy()
     elif _is_path(illuminant):
         spd = resample(*read_spectral_csv(illuminant, name="illuminant"), wl, name="illuminant")[:, 0]
     elif isinstance(illuminant, colour.SpectralDistribution):
@@ -248,18 +246,6 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     if spd.max() <= 0:
         raise ValueError("illuminant: is zero everywhere on the wavelength grid")
     return np.clip(spd, 0, None) / spd.max()
-
-
-@functools.lru_cache(maxsize=64)
-def _chart_named(name: str, wl_key: tuple) -> np.ndarray:
-    import colour
-
-    db = colour.SDS_COLOURCHECKERS
-    if name not in db:
-        raise ValueError(f"reflectances: unknown chart {name!r}; known: {sorted(db.keys())}")
-    sds = list(db[name].values())
-    wl = np.array(wl_key)
-    return np.stack([_from_colour(sd, wl, "reflectances") for sd in sds], axis=1)
 
 
 def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
@@ -276,7 +262,7 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
     if reflectances is None:
         reflectances = DEFAULT_CHART
     if isinstance(reflectances, str) and not _is_path(reflectances):
-        refl = _chart_named(reflectances, tuple(wl)).copy()
+        refl = _named("SDS_COLOURCHECKERS", "reflectances", reflectances, tuple(wl)).copy()
     elif _is_path(reflectances):
         refl = resample(*read_spectral_csv(reflectances, name="reflectances"), wl, name="reflectances")
     elif isinstance(reflectances, colour.MultiSpectralDistributions):

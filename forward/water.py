@@ -24,13 +24,7 @@ CDOM_SLOPE = 0.014
 NAP_SLOPE = 0.011
 
 
-def _conc(name, value):
-    x = np.asarray(value, dtype=float)
-    if x.size and not np.all(np.isfinite(x)):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
-    if x.size and np.any(x < 0):
-        raise ValueError(f"{name}: must be >= 0, got {value!r}")
-    return x
+_conc = _validate.nonnegative
 
 
 def _outer(amount, shape):

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from forward import _validate, water
-from forward.imaging import ChartSetup, chart_setup, length
+from forward.imaging import ChartSetup, length, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 
 from ._batch_kernel import HAVE_NUMBA, evaluate_numpy
@@ -170,8 +170,7 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     (array code, the reference); both run the same iteration. Returns a :class:`BatchEstimate`.
     """
     t0 = time.perf_counter()
-    if setup is None:
-        setup = chart_setup(camera, illuminant, reflectances, wavelengths)
+    setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     bm = BatchModel(setup, basis=basis, path_model=path_model, cdom_slope=cdom_slope)
     M = _validate.array("rgb_stack", rgb_stack, ndim=3)
     if M.shape[1:] != (bm.m, bm.n):

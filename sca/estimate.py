@@ -29,7 +29,7 @@ import cvxpy as cp
 import numpy as np
 
 from forward import _validate
-from forward.imaging import ChartSetup, chart_setup
+from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import CDOM_SLOPE
 
@@ -123,11 +123,7 @@ class Estimator:
         self.rebuild = bool(rebuild)
         depth = _validate.scalar("depth", depth)
         distance = _validate.scalar("distance", distance)
-        if setup is None:
-            setup = chart_setup(camera, illuminant, reflectances, wavelengths)
-        elif wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
-            raise ValueError("wavelengths: differ from the grid of the given setup")
-        self.setup = setup
+        self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
         self.model = WaterModel(setup, depth, distance, basis=basis, path_model=path_model,
                                 cdom_slope=cdom_slope)
         self.depth, self.distance = depth, distance
