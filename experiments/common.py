@@ -6,6 +6,10 @@ import csv
 import os
 from pathlib import Path
 
+import matplotlib
+
+matplotlib.use("Agg")  # the figure scripts draw to files only
+
 #: Default output folder: ``figures/`` in the current directory (override with UW3P_FIGURES).
 def figures_dir(outdir=None) -> Path:
     path = Path(outdir or os.environ.get("UW3P_FIGURES", "figures"))

@@ -4,14 +4,10 @@ from __future__ import annotations
 
 import itertools
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402,F401
-import numpy as np  # noqa: E402
-
-from . import sweep  # noqa: E402
-from .grids import grid as get_grid  # noqa: E402
+from . import sweep
+from .grids import grid as get_grid
 
 
 def fig10_conditions(g, illuminance_lux=20000.0):

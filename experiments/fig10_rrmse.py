@@ -4,7 +4,6 @@ with its standard error."""
 from __future__ import annotations
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from . import sweep
 from .common import figures_dir, save_figure, write_csv

@@ -1,4 +1,4 @@
-"""The ``uw3p`` command line: ``uw3p simulate ...`` (and ``uw3p estimate ...``, ``uw3p figures``).
+"""The ``uw3p`` command line: ``uw3p simulate ...`` and ``uw3p estimate ...``.
 
 Bad input prints the message on stderr and exits with status 2.
 """
