@@ -125,8 +125,8 @@ def _estimate(args, out, err):
     if args.json:
         out.write(json.dumps(res.to_dict(), indent=1) + "\n")
     else:
-        out.write(f"chl (C)          {res.chl:.6g} mg m^-3\n")
-        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1\n")
+        out.write(f"chl (C)          {res.chl:.6g} mg m^-3 (standard error {res.chl_se:.2g})\n")
+        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1 (standard error {res.cdom_se:.2g})\n")
         out.write("backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter) + "\n")
         out.write(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
                   f"mode {res.mode})\n")

@@ -77,6 +77,11 @@ class Estimate:
 
     chl: float
     cdom: float
+    #: standard errors of chl and cdom from the Gauss-Newton covariance at the estimate (with
+    #: the residual as noise estimate): large values say the data cannot decide (e.g. a chart
+    #: too dark to measure); 0 for a fixed parameter or an exact (noise-free) fit
+    chl_se: float
+    cdom_se: float
     w: np.ndarray
     backscatter: np.ndarray
     attenuation: np.ndarray
@@ -406,8 +411,11 @@ class Estimator:
         if f <= f_exact and not converged:
             status, converged = "exact fit (objective at rounding level)", True
         k = mdl.attenuation(chl, cdom, w)
+        se_chl, se_cdom = mdl.standard_errors(Mv, chl, cdom, w, s, (self.free_chl, self.free_cdom),
+                                              self._s_fixed)
         return Estimate(
-            chl=float(chl), cdom=float(cdom), w=np.array(w, float), backscatter=s * scale,
+            chl=float(chl), cdom=float(cdom), chl_se=se_chl, cdom_se=se_cdom,
+            w=np.array(w, float), backscatter=s * scale,
             attenuation=k, attenuation_coefficient=mdl.coefficient(chl, cdom, w),
             wavelengths=mdl.wavelengths, objective=f * scale**2, iterations=it,
             converged=bool(converged), status=status, history=history, mode=mode,

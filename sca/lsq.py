@@ -59,7 +59,7 @@ def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev
     k = mdl.attenuation(C, A, w)
     f = float(res.fun @ res.fun)
     return Estimate(
-        chl=float(C), cdom=float(A), w=w, backscatter=s * scale, attenuation=k,
+        chl=float(C), cdom=float(A), chl_se=float("nan"), cdom_se=float("nan"), w=w, backscatter=s * scale, attenuation=k,
         attenuation_coefficient=mdl.coefficient(C, A, w), wavelengths=mdl.wavelengths,
         objective=f * scale**2, iterations=int(res.nfev), converged=bool(res.status > 0),
         status=f"scipy least_squares: {res.message}", history=[], mode="scipy_least_squares",

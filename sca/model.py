@@ -122,6 +122,40 @@ class WaterModel:
         resid = (M_vec - G_vec).reshape(G_vec.shape[:-1] + (self.m, self.n))
         return np.maximum(resid.mean(axis=-1), 0.0)
 
+    def standard_errors(self, M_vec, chl, cdom, w, s, free=(True, True), fixed_s=None):
+        """Standard errors (m^-1-scaled units of C and a_CDOM) from the Gauss-Newton covariance.
+
+        The backscatter is profiled out (its closed form: where s > 0 the channel mean is
+        projected out of the Jacobian), w follows C along eq 17 (its shape held), and
+        sigma^2 = ||r||^2 / (m n - p - number of free s > 0). Returns (se_chl, se_cdom); a
+        fixed parameter gets 0, an undetermined one inf.
+        """
+        _, dk = self.attenuation_jacobian(chl, cdom, w)
+        alpha, dalpha = self.phyto_scale(chl, derivative=True)
+        dw_dchl = np.asarray(w, float) * (float(dalpha) / float(alpha)) if alpha > 0 else \
+            np.full(self.z, float(dalpha) / float(np.sum(self.t440)))
+        cols = [dk[:, 0] + dk[:, 2:] @ dw_dchl, dk[:, 1]]
+        J = np.column_stack([self.signal(c) for c in cols]).reshape(self.m, self.n, 2)
+        n_s = 0
+        if fixed_s is None:
+            active = np.asarray(s) > 0
+            J = J - active[:, None, None] * J.mean(axis=1, keepdims=True)
+            n_s = int(active.sum())
+        J = J.reshape(self.m * self.n, 2)[:, list(np.flatnonzero(free))]
+        r = self.residual(M_vec, self.attenuation(chl, cdom, w), s)
+        dof = self.m * self.n - J.shape[1] - n_s
+        out = np.zeros(2)
+        if J.shape[1] == 0 or dof <= 0:
+            return tuple(np.where(np.asarray(free), np.inf, 0.0))
+        sigma2 = float(r @ r) / dof
+        try:
+            cov = sigma2 * np.linalg.inv(J.T @ J)
+            se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        except np.linalg.LinAlgError:
+            se = np.full(J.shape[1], np.inf)
+        out[list(np.flatnonzero(free))] = se
+        return float(out[0]), float(out[1])
+
     def residual(self, M_vec, k, s):
         """vec(M - G(k) - s 1^T)."""
         return M_vec - self.signal(k) - np.repeat(np.asarray(s), self.n, axis=-1)

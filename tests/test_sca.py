@@ -22,16 +22,19 @@ def rel(a, b):
 
 @pytest.mark.parametrize("trust_region", [True, False])
 def test_subproblem_is_dpp_and_compiled_once(trust_region):
-    sub = build_subproblem(3, 2, (2, 3), 31, 3, trust_region, True)
-    assert sub.problem.is_dpp()
-    assert sub.problem.is_dcp(dpp=True)
-    before = build_subproblem.cache_info()
+    # the structures the estimator uses: z = 1 (T w >= 0 as the bound w >= 0) and z = 2
+    for args in ((3, 3, None, 31, 3, trust_region, True), (4, 2, (2, 4), 31, 3, trust_region, True)):
+        sub = build_subproblem(*args)
+        assert sub.problem.is_dpp() and sub.problem.is_dcp(dpp=True)
     sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.0, noise=False)
     mode = "safeguarded" if trust_region else "paper"
-    sca.estimate(sim.rgb, depth=5.0, distance=1.0, mode=mode)
+    sca.estimate(sim.rgb, depth=5.0, distance=1.0, mode=mode)  # builds (or reuses) its problem
+    before = build_subproblem.cache_info()
     sca.estimate(sim.rgb, depth=9.0, distance=2.0, mode=mode)
+    sca.estimate(sim.rgb * 0.5, depth=20.0, distance=0.5, mode=mode)
     after = build_subproblem.cache_info()
-    assert after.misses == before.misses  # the same compiled problem served both fits
+    assert after.misses == before.misses  # the same compiled problem served every fit
+    assert after.hits >= before.hits + 2
 
 
 @pytest.mark.parametrize("depth,distance", list(itertools.product(DEPTHS, DISTANCES)))
@@ -214,3 +217,19 @@ def test_scipy_reference_reaches_the_same_optimum():
     lsq = estimate_least_squares(sim.rgb, depth=10.0, distance=5.0)
     assert lsq.converged
     assert lsq.objective <= ref.objective * (1 + 1e-9)
+
+
+def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
+    fits = [sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, seed=s).rgb, depth=5.0,
+                         distance=2.0) for s in range(30)]
+    sd = np.std([e.chl for e in fits], ddof=1)
+    se = np.median([e.chl_se for e in fits])
+    assert 0.5 < sd / se < 3.0  # Gauss-Newton errors, homoscedastic: indicative, not exact
+    # a chart too dark to measure (depth 30 m, C 100): the error is as large as the value
+    dark = forward.simulate_chart(100.0, 0.5, 30.0, 0.5, seed=1)
+    est = sca.estimate(dark.rgb, depth=30.0, distance=0.5)
+    assert est.chl_se > 0.5 * est.chl
+    # noise-free: (almost) no error; fixed parameters: zero
+    exact = sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb, depth=5.0,
+                         distance=2.0, fix={"cdom": 0.1})
+    assert exact.chl_se < 1e-9 and exact.cdom_se == 0.0
