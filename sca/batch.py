@@ -13,8 +13,9 @@ for N charts that share camera, illuminant, chart and grid (path lengths may dif
   derivative in C itself is infinite; u >= 0 <=> C >= 0, so the optimum is the same;
 * a Levenberg-Marquardt step with Marquardt scaling (diag of J^T J) and projected bounds
   (u, a_CDOM >= 0: a variable at its bound whose gradient points outwards is held);
-* all charts advance together in array code (a few (N, q) x (q, m n) matrix products per
-  iteration); converged charts leave the active set (early exit);
+* engine 'numba' (default): each chart runs this iteration in compiled code, charts spread
+  over all cores; engine 'numpy' (the reference): all charts advance together in array code
+  and converged charts leave the active set (see :mod:`sca._batch_kernel`);
 * the start is the best point of a deterministic coarse grid (a coarser version of the one
   of :func:`sca.estimate`), evaluated for all charts at once with one matrix product per
   unique path length.
@@ -53,7 +54,7 @@ LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
 DEFAULT_ENGINE = "numba" if HAVE_NUMBA else "numpy"
 
 #: Exponent of eq 10: the batch iterates in u = C^CHL_EXPONENT.
-CHL_EXPONENT = 0.627
+CHL_EXPONENT = water.EQ10_EXPONENT
 
 STATUS = {
     0: "converged: relative decrease below tol",
