@@ -23,16 +23,6 @@ from .grids import FIG11
 WHITE = 18  # index of the white patch of the ColorChecker
 
 
-def reference_xyz(setup):
-    import colour
-
-    wl = setup.wavelengths
-    cmfs = np.asarray(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"][wl], dtype=float)
-    light = setup.illuminant * forward.quadrature_weights(wl)
-    xyz = (cmfs.T @ (light[:, None] * setup.reflectances)).T
-    return xyz / (cmfs[:, 1] @ light)
-
-
 def _normalise(xyz, ref):
     return xyz * (ref[WHITE, 1] / xyz[WHITE, 1])
 
@@ -61,7 +51,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
 
     setup = forward.chart_setup()
     M = forward.camera_to_xyz_matrix(setup)
-    ref = reference_xyz(setup)
+    ref = forward.chart_xyz(setup)
     white = ref[WHITE] / ref[WHITE, 1]
     air = _normalise((M @ (setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances))).T, ref)
     floor = float(np.mean(delta_e(air, ref, white)))

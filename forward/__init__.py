@@ -12,7 +12,7 @@ from .imaging import (
     path_length,
     veiling_light,
 )
-from .render import camera_to_xyz_matrix, chart_image, patch_srgb, patches_image
+from .render import camera_to_xyz_matrix, chart_image, chart_xyz, patch_srgb, patches_image
 from .sensor import SensorSettings, capture, sensor_noise
 from .simulate import ChartSimulation, simulate_chart
 from .spectra import (
@@ -21,6 +21,7 @@ from .spectra import (
     MODEL_RANGE_NM,
     camera_sensitivities,
     chart_reflectances,
+    cie_1931_cmfs,
     illuminant_spd,
     phytoplankton_basis,
     quadrature_weights,

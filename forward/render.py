@@ -13,24 +13,27 @@ import functools
 import numpy as np
 
 from .imaging import ChartSetup
+from .spectra import cie_1931_cmfs, quadrature_weights
+
+
+@functools.lru_cache(maxsize=16)
+def chart_xyz(setup: ChartSetup) -> np.ndarray:
+    """CIE 1931 XYZ (n, 3) of the setup's chart under its illuminant in air (Y of a perfect
+    white = 1): the colorimetric truth."""
+    cmfs = cie_1931_cmfs(setup.wavelengths)
+    light = setup.illuminant * quadrature_weights(setup.wavelengths)
+    xyz = (cmfs.T @ (light[:, None] * setup.reflectances)).T
+    out = xyz / (cmfs[:, 1] @ light)
+    out.setflags(write=False)
+    return out
 
 
 @functools.lru_cache(maxsize=16)
 def camera_to_xyz_matrix(setup: ChartSetup) -> np.ndarray:
     """3 x m matrix from the camera's model-unit values to CIE XYZ (Y of a white in air = 1),
     least-squares fitted on the setup's chart under its illuminant in air."""
-    import colour
-
-    wl = setup.wavelengths
-    cmfs = np.asarray(colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"][wl], dtype=float)
-    from .spectra import quadrature_weights
-
-    wq = quadrature_weights(wl)
-    light = setup.illuminant * wq
-    xyz = cmfs.T @ (light[:, None] * setup.reflectances)  # (3, n)
-    xyz = xyz / (cmfs[:, 1] @ light)  # Y of a perfect white = 1
     cam = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (m, n)
-    M, *_ = np.linalg.lstsq(cam.T, xyz.T, rcond=None)
+    M, *_ = np.linalg.lstsq(cam.T, chart_xyz(setup), rcond=None)
     return M.T  # (3, m)
 
 

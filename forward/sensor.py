@@ -19,12 +19,13 @@ reflector in air gives 1 in the most sensitive channel):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from . import _validate
-from .spectra import quadrature_weights
+from .spectra import cie_1931_cmfs, quadrature_weights
 
 PLANCK_H = 6.62607015e-34  # J s
 SPEED_OF_LIGHT = 2.99792458e8  # m s^-1
@@ -70,6 +71,7 @@ class SensorSettings:
         return self.full_well_e / (2 ** int(self.adc_bits) - 1)
 
 
+@functools.lru_cache(maxsize=64)
 def electrons_per_second(setup, settings: SensorSettings) -> float:
     """Gain G (electrons s^-1 per model unit) of the reference channel for a white patch in air.
 
@@ -78,11 +80,8 @@ def electrons_per_second(setup, settings: SensorSettings) -> float:
     irradiance E T / (4 N^2); photons are counted at each wavelength and weighted by the
     reference channel's sensitivity times the peak quantum efficiency.
     """
-    import colour
-
     wl = setup.wavelengths
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    v = np.asarray(cmfs[wl], dtype=float)[:, 1]
+    v = cie_1931_cmfs(wl)[:, 1]
     wq = quadrature_weights(wl)
     i = setup.illuminant
     kappa = settings.illuminance_lux / (LUMINOUS_EFFICACY * np.sum(i * v * wq))  # W m^-2 nm^-1 per unit i

@@ -154,6 +154,22 @@ def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
     return out[:, 0] if one_d else out
 
 
+@functools.lru_cache(maxsize=32)
+def _cmfs(wl_key: tuple) -> np.ndarray:
+    import colour
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    out = np.asarray(cmfs[np.array(wl_key)], dtype=float)
+    out.setflags(write=False)
+    return out
+
+
+def cie_1931_cmfs(wavelengths=None) -> np.ndarray:
+    """CIE 1931 2-degree colour-matching functions (x_bar, y_bar, z_bar) on the grid, (q, 3),
+    from colour-science (cached per grid)."""
+    return _cmfs(tuple(wavelength_grid(wavelengths)))
+
+
 # --------------------------------------------------------------------------- user spectra
 def _is_path(x) -> bool:
     return isinstance(x, (str, os.PathLike)) and (

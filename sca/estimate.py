@@ -176,15 +176,27 @@ class Estimator:
                              "exposure-normalised sensor values >= 0")
         return M
 
-    def _objective(self, Mv, chl, cdom, w, s):
-        k = self.model.attenuation(chl, cdom, w)
-        r = self.model.residual(Mv, k, s)
+    @staticmethod
+    def _objective(mdl, Mv, chl, cdom, w, s):
+        k = mdl.attenuation(chl, cdom, w)
+        r = mdl.residual(Mv, k, s)
         return float(r @ r), k
 
-    def initial_point(self, Mv, x0=None):
+    def prepare(self, rgb):
+        """Validate ``rgb`` and scale the problem: returns (vec(M) / max M, max M, the model
+        in those units, the fixed backscatter in those units or None)."""
+        M = self._check_rgb(rgb)
+        scale = float(np.max(M))
+        if scale <= 0:
+            raise ValueError("rgb: all values are zero; nothing to fit")
+        s_fixed = None if self.free_s else self.fixed["backscatter"] / scale
+        return M.ravel() / scale, scale, self.model.scaled(scale), s_fixed
+
+    def initial_point(self, Mv, x0=None, mdl=None, s_fixed=None):
         """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
-        closed-form s, unless ``x0`` (dict with 'chl' and/or 'cdom') gives it."""
-        mdl = self.model
+        closed-form s, unless ``x0`` (dict with 'chl' and/or 'cdom') gives it. ``mdl`` and
+        ``s_fixed`` are those of :meth:`prepare` (default: the unscaled model, s free)."""
+        mdl = self.model if mdl is None else mdl
         chl_grid = np.array([self.fixed["chl"]]) if not self.free_chl else INIT_CHL
         cdom_grid = np.array([self.fixed["cdom"]]) if not self.free_cdom else INIT_CDOM
         if x0 is not None:
@@ -200,7 +212,7 @@ class Estimator:
         W = np.multiply.outer(mdl.phyto_scale(C) / float(mdl.t440 @ u), u)
         k = mdl.attenuation(C, A, W)
         G = mdl.signal(k)
-        s = mdl.best_backscatter(Mv, G, self._s_fixed)
+        s = mdl.best_backscatter(Mv, G, s_fixed)
         r = Mv - G - np.repeat(s, mdl.n, axis=-1)
         f = np.einsum("ij,ij->i", r, r)
         j = int(np.argmin(f))
@@ -215,27 +227,10 @@ class Estimator:
         if int(max_iter) != max_iter or max_iter < 1:
             raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
         tol = _validate.scalar("tol", tol, positive=True)
-        mdl = self.model
-        M = self._check_rgb(rgb)
-        scale = float(np.max(M))
-        if scale <= 0:
-            raise ValueError("rgb: all values are zero; nothing to fit")
-        Mv = M.ravel() / scale
-        # the model in scaled units: B / scale; restore on exit
-        B_orig = mdl.B
-        mdl.B = B_orig / scale
-        try:
-            return self._loop(Mv, scale, mode, int(max_iter), tol, x0)
-        finally:
-            mdl.B = B_orig
+        Mv, scale, mdl, s_fixed = self.prepare(rgb)
+        return self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0)
 
-    @property
-    def _s_fixed(self):
-        return None if self.free_s else self.fixed["backscatter"] / self._scale
-
-    def _loop(self, Mv, scale, mode, max_iter, tol, x0):
-        mdl = self.model
-        self._scale = scale
+    def _loop(self, mdl, Mv, scale, s_fixed, mode, max_iter, tol, x0):
         safeguarded = mode == "safeguarded"
         n_s = mdl.m if self.free_s else 0
         sub = build_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
@@ -243,11 +238,11 @@ class Estimator:
         E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))  # s -> every patch of its channel
         f_exact = EXACT_FIT * float(Mv @ Mv)
 
-        chl, cdom, w = self.initial_point(Mv, x0)
+        chl, cdom, w = self.initial_point(Mv, x0, mdl, s_fixed)
         initial = {"chl": chl, "cdom": cdom}
         G = mdl.signal(mdl.attenuation(chl, cdom, w))
-        s = np.array(mdl.best_backscatter(Mv, G, self._s_fixed), dtype=float)
-        f, k = self._objective(Mv, chl, cdom, w, s)
+        s = np.array(mdl.best_backscatter(Mv, G, s_fixed), dtype=float)
+        f, k = self._objective(mdl, Mv, chl, cdom, w, s)
         history, steps = [f * scale**2], []
         radius = 1.0
         status, converged = "maximum number of iterations reached", False
@@ -369,10 +364,10 @@ class Estimator:
             if safeguarded:
                 w_new = mdl.feasible_w(chl_new, w_new)
                 G_new = mdl.signal(mdl.attenuation(chl_new, cdom_new, w_new))
-                s_new = np.array(mdl.best_backscatter(Mv, G_new, self._s_fixed), dtype=float)
+                s_new = np.array(mdl.best_backscatter(Mv, G_new, s_fixed), dtype=float)
             else:
                 s_new = np.maximum(s + v[self.n_free:], 0.0) if self.free_s else s.copy()
-            f_new, _ = self._objective(Mv, chl_new, cdom_new, w_new, s_new)
+            f_new, _ = self._objective(mdl, Mv, chl_new, cdom_new, w_new, s_new)
             steps.append(float(np.max(np.abs(delta))) if delta.size else 0.0)
             stationary = pred <= tol * f or f <= f_exact
             if not np.isfinite(f_new):
@@ -412,7 +407,7 @@ class Estimator:
             status, converged = "exact fit (objective at rounding level)", True
         k = mdl.attenuation(chl, cdom, w)
         se_chl, se_cdom = mdl.standard_errors(Mv, chl, cdom, w, s, (self.free_chl, self.free_cdom),
-                                              self._s_fixed)
+                                              s_fixed)
         return Estimate(
             chl=float(chl), cdom=float(cdom), chl_se=se_chl, cdom_se=se_cdom,
             w=np.array(w, float), backscatter=s * scale,

@@ -20,20 +20,10 @@ def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev
     mdl = est.model
     if mdl.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
-    M = est._check_rgb(rgb)
-    scale = float(np.max(M))
-    if scale <= 0:
-        raise ValueError("rgb: all values are zero; nothing to fit")
-    Mv = M.ravel() / scale
-    B = mdl.B / scale
-    est._scale = scale
-    mdl.B, B_orig = B, mdl.B
-    try:
-        C0, A0, w0 = est.initial_point(Mv)
-        G0 = mdl.signal(mdl.attenuation(C0, A0, w0))
-        s0 = np.asarray(mdl.best_backscatter(Mv, G0), float)
-    finally:
-        mdl.B = B_orig
+    Mv, scale, mdl, _ = est.prepare(rgb)
+    B = mdl.B
+    C0, A0, w0 = est.initial_point(Mv, mdl=mdl)
+    s0 = np.asarray(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(C0, A0, w0))), float)
     t440 = float(mdl.t440[0])
     E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))
 

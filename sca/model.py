@@ -10,6 +10,8 @@ physics functions of :mod:`forward.water` (nothing is re-derived here):
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from forward import water
@@ -53,6 +55,12 @@ class WaterModel:
         self.base = water.pure_water_absorption(wl)
         if beam:
             self.base = self.base + water.pure_water_scattering(wl) + fk
+
+    def scaled(self, factor: float) -> "WaterModel":
+        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest."""
+        new = copy.copy(self)
+        new.B = self.B / factor
+        return new
 
     # --- eq 17 -----------------------------------------------------------------------------
     def phyto_scale(self, chl, derivative=False):
