@@ -17,12 +17,12 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 reproduce-figures: $(STAMP)
-	$(PY) -m experiments --out figures
+	$(VENV)/bin/uw3p figures --out figures
 
 # one BLAS thread: every fit is tiny, and idle BLAS threads spinning after numpy's small
 # matrix calls steal the second core from the batched solver's numba threads
 bench: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.benchmark
+	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/uw3p bench
 
 clean:
 	rm -rf figures cache .pytest_cache

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import inspect
+import sys
 import time
 
 #: Figure scripts, in order.
@@ -46,4 +47,8 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except KeyboardInterrupt:  # finished fits are cached; a rerun resumes
+        print("interrupted (finished fits are cached; rerun to resume)", file=sys.stderr)
+        sys.exit(130)

@@ -29,6 +29,8 @@ import forward
 import sca
 from sca.lsq import estimate_least_squares
 
+from .baselines import RebuildEstimator
+
 RESOLUTIONS_NM = (5.0, 10.0, 20.0)
 CHLS = (1e-3, 0.05, 1.0, 20.0, 100.0)
 CDOMS = (0.0, 0.05, 0.5, 2.0)
@@ -96,7 +98,7 @@ def run_single(method, conds, rgbs, grid):
         kw = dict(depth=cond["depth"], distance=cond["distance"], setup=setup)
         t0 = time.perf_counter()
         if method == "cvx_rebuild":
-            e = sca.Estimator(rebuild=True, **kw).fit(rgb, mode="paper")
+            e = RebuildEstimator(**kw).fit(rgb, mode="paper")
         elif method == "sca_paper":
             e = sca.estimate(rgb, mode="paper", **kw)
         elif method == "sca_safeguarded":

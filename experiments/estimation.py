@@ -39,3 +39,16 @@ def mean_se(values):
 
 def resolve(grid_name):
     return get_grid(grid_name)
+
+
+def fit_header():
+    """Columns of the per-fit CSVs (``*_fits.csv``)."""
+    return ["chl", "cdom", "depth_m", "distance_m", "illuminance_lux", "seed", "chl_hat",
+            "cdom_hat", "rrmse_k", "converged", "iterations", "status"]
+
+
+def fit_row(x):
+    """One sweep result as a row of :func:`fit_header`."""
+    return [x["chl"], x["cdom"], x["depth"], x["distance"], x["illuminance_lux"], x["seed"],
+            f"{x['chl_hat']:.8g}", f"{x['cdom_hat']:.8g}", f"{x['rrmse_k']:.6g}", x["converged"],
+            x["iterations"], x["status"]]

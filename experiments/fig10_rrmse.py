@@ -7,7 +7,7 @@ import matplotlib.pyplot as plt
 
 from . import sweep
 from .common import figures_dir, save_figure, write_csv
-from .estimation import fig10_conditions, mean_se, resolve
+from .estimation import fig10_conditions, fit_header, fit_row, mean_se, resolve
 
 
 def summarise(results, g):
@@ -45,20 +45,9 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
                 x["converged"]] for x in rows],
               comment=f"Fig 10 ({g['name']} grid): C {g['fig10_chl']}, CDOM {g['fig10_cdom']}, "
                       f"{g['fig10_seeds']} seeds per condition, default sensor")
-    write_csv(figures_dir(outdir) / "fig10_fits.csv", _fit_header(), [_fit_row(x) for x in results],
+    write_csv(figures_dir(outdir) / "fig10_fits.csv", fit_header(), [fit_row(x) for x in results],
               comment="every fit behind Fig 10")
     return rows
-
-
-def _fit_header():
-    return ["chl", "cdom", "depth_m", "distance_m", "illuminance_lux", "seed", "chl_hat",
-            "cdom_hat", "rrmse_k", "converged", "iterations", "status"]
-
-
-def _fit_row(x):
-    return [x["chl"], x["cdom"], x["depth"], x["distance"], x["illuminance_lux"], x["seed"],
-            f"{x['chl_hat']:.8g}", f"{x['cdom_hat']:.8g}", f"{x['rrmse_k']:.6g}", x["converged"],
-            x["iterations"], x["status"]]
 
 
 if __name__ == "__main__":

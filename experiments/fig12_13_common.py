@@ -7,8 +7,7 @@ import numpy as np
 
 from . import sweep
 from .common import figures_dir, save_figure, write_csv
-from .estimation import fig12_conditions, resolve
-from .fig10_rrmse import _fit_header, _fit_row
+from .estimation import fig12_conditions, fit_header, fit_row, resolve
 
 
 def correlations(results, depth, quantity):
@@ -49,6 +48,6 @@ def make(quantity, name, colour_by, outdir=None, grid_name=None, cache_dir=None,
     write_csv(figures_dir(outdir) / f"{name}.csv",
               ["depth_m", "distance_m", "pearson_r", "pearson_r_log10", "n"], rows,
               comment=f"{name} ({g['name']} grid): Pearson r between true and estimated {quantity}")
-    write_csv(figures_dir(outdir) / f"{name}_fits.csv", _fit_header(),
-              [_fit_row(x) for x in results], comment=f"every fit behind {name}")
+    write_csv(figures_dir(outdir) / f"{name}_fits.csv", fit_header(),
+              [fit_row(x) for x in results], comment=f"every fit behind {name}")
     return rows

@@ -6,16 +6,20 @@ disk, one JSON file per condition, written atomically (temporary file + ``os.rep
 interrupted run loses nothing and a rerun computes only what is missing. The cache key
 includes a fingerprint of the ``forward`` and ``sca`` source code, so any code change
 invalidates old results. Work is spread over a process pool (both cores by default) with a
-tqdm progress bar.
+tqdm progress bar. The pool never outlives the run: on Ctrl-C or any error it is terminated at
+once, and a worker whose parent process has died (``kill -9``) exits by itself.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 import os
+import signal
+import threading
+import time
 import zlib
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +92,24 @@ def _work(args):
     return path
 
 
+#: How often (s) a pool worker checks that the process that started it is still alive.
+ORPHAN_CHECK_S = 0.5
+
+
+def _watch_parent(parent: int):
+    while True:
+        time.sleep(ORPHAN_CHECK_S)
+        if os.getppid() != parent:  # the parent died: we were re-parented
+            os._exit(1)
+
+
+def _init_worker(parent: int):
+    """Pool worker set-up: Ctrl-C is the parent's to handle (it terminates the pool), and the
+    worker exits when its parent dies."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
 def run(conditions, *, cache_dir=None, workers=None, progress=True, desc="sweep"):
     """Results (list of dicts, in the order of ``conditions``) and how many were computed."""
     cache = Path(cache_dir or DEFAULT_CACHE)
@@ -104,15 +126,26 @@ def run(conditions, *, cache_dir=None, workers=None, progress=True, desc="sweep"
         from tqdm import tqdm
 
         bar = tqdm(total=len(todo), desc=desc, disable=not progress, unit="fit")
-        if workers > 1 and len(todo) > 1:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                for _ in pool.map(_work, todo, chunksize=max(1, len(todo) // (8 * workers))):
+        try:
+            if workers > 1 and len(todo) > 1:
+                pool = multiprocessing.Pool(workers, initializer=_init_worker,
+                                            initargs=(os.getpid(),))
+                try:
+                    chunk = max(1, len(todo) // (8 * workers))
+                    for _ in pool.imap_unordered(_work, todo, chunksize=chunk):
+                        bar.update()
+                    pool.close()
+                except BaseException:
+                    pool.terminate()  # Ctrl-C or an error: stop the workers now
+                    raise
+                finally:
+                    pool.join()
+            else:
+                for item in todo:
+                    _work(item)
                     bar.update()
-        else:
-            for item in todo:
-                _work(item)
-                bar.update()
-        bar.close()
+        finally:
+            bar.close()
     return [json.loads(p.read_text()) for p in paths], len(todo)
 
 

@@ -3,6 +3,7 @@
 Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model" (eqs 1-14, Table 1).
 """
 
+from . import validate
 from .imaging import (
     PATH_MODELS,
     ChartSetup,
@@ -10,6 +11,7 @@ from .imaging import (
     camera_response,
     chart_setup,
     path_length,
+    resolve_setup,
     veiling_light,
 )
 from .render import camera_to_xyz_matrix, chart_image, chart_xyz, patch_srgb, patches_image
@@ -23,13 +25,19 @@ from .spectra import (
     chart_reflectances,
     cie_1931_cmfs,
     illuminant_spd,
-    phytoplankton_basis,
     quadrature_weights,
     wavelength_grid,
 )
 from .water import (
     CDOM_SLOPE,
+    CHL_TERMS,
     NAP_SLOPE,
+    PAPER_WATER,
+    Water,
+    WaterTerms,
+    phytoplankton_basis,
+    resolve_water,
+    table1,
     absorption,
     attenuation_coefficient,
     backscattering,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _validate
+from . import validate
 from .spectra import (
     DEFAULT_CAMERA,
     camera_sensitivities,
@@ -20,16 +20,12 @@ from .spectra import (
     quadrature_weights,
     wavelength_grid,
 )
-from .water import attenuation_coefficient, backscattering, absorption
-
-#: Path models for the attenuation k: 'beam' uses c = a + b (eqs 3, 4), 'absorption' the
-#: literal eq 13 / 14 (absorption a only).
-PATH_MODELS = ("beam", "absorption")
+from .water import PATH_MODELS, Water, resolve_water
 
 
 def length(name: str, value) -> np.ndarray:
     """A path length in m (scalar or array): finite and >= 0, else ``ValueError`` naming it."""
-    return _validate.nonnegative(name, value, unit="m")
+    return validate.nonnegative(name, value, unit="m")
 
 
 def path_length(depth, distance) -> np.ndarray:
@@ -38,25 +34,25 @@ def path_length(depth, distance) -> np.ndarray:
 
 
 def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *,
-                path_model: str = "beam", **absorption_kwargs) -> np.ndarray:
+                path_model: str | None = None, water: Water | None = None, basis=None,
+                weights=None, cdom_slope: float | None = None) -> np.ndarray:
     """Path attenuation k(lambda) = exp(-(depth + distance) c(lambda)), dimensionless (eqs 3, 14).
 
-    ``path_model='absorption'`` uses the paper's literal eq 13, exp(-d a(lambda)).
+    ``water`` (:class:`forward.Water`, default the paper's) gives c; its path model 'absorption'
+    (or ``path_model='absorption'``) uses the paper's literal eq 13, exp(-d a(lambda)).
     Broadcasts over array ``chl``/``cdom``/``depth``/``distance`` (all of one shape S): (S..., q).
     """
     wl = wavelength_grid(wavelengths)
     L = path_length(depth, distance)
-    if path_model == "beam":
-        coef = attenuation_coefficient(wl, chl, cdom, **absorption_kwargs)
-    elif path_model == "absorption":
-        coef = absorption(wl, chl, cdom, **absorption_kwargs)
-    else:
-        raise ValueError(f"path_model: must be one of {PATH_MODELS}, got {path_model!r}")
+    water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
+    terms = water.on_grid(wl, basis=basis, weights=weights)
+    coef = terms.coefficient(validate.nonnegative("chl", chl), validate.nonnegative("cdom", cdom))
     return np.exp(-L[..., None] * coef)
 
 
 def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *,
-                  illuminant=None, **absorption_kwargs) -> np.ndarray:
+                  illuminant=None, water: Water | None = None, basis=None, weights=None,
+                  cdom_slope: float | None = None) -> np.ndarray:
     """Backscattered (veiling) light rho_b(lambda) of eq 2, in the units of i(lambda) x reflectance.
 
     Single scattering along the camera ray of length ``distance`` at the chart's depth, lit by
@@ -65,14 +61,17 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
         rho_b = i(lambda) exp(-c depth) (b_b / c) (1 - exp(-c distance)),
 
     the classical veiling-light form (b_b / c is the asymptote of an infinitely long ray).
-    Uses the beam attenuation c (eq 4) and b_b from :func:`forward.water.backscattering`.
+    Uses the beam attenuation c (eq 4) and b_b of :meth:`forward.WaterTerms.backscattering`,
+    whatever the path model.
     """
     wl = wavelength_grid(wavelengths)
     i = illuminant_spd(illuminant, wl)
     d = length("depth", depth)
     r = length("distance", distance)
-    c = attenuation_coefficient(wl, chl, cdom, **absorption_kwargs)
-    bb = backscattering(wl, chl)
+    terms = resolve_water(water, cdom_slope=cdom_slope).on_grid(wl, basis=basis, weights=weights)
+    chl, cdom = validate.nonnegative("chl", chl), validate.nonnegative("cdom", cdom)
+    c = terms.beam_coefficient(chl, cdom)
+    bb = terms.backscattering(chl)
     return i * np.exp(-d[..., None] * c) * (bb / c) * -np.expm1(-r[..., None] * c)
 
 

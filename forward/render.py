@@ -34,7 +34,9 @@ def camera_to_xyz_matrix(setup: ChartSetup) -> np.ndarray:
     least-squares fitted on the setup's chart under its illuminant in air."""
     cam = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (m, n)
     M, *_ = np.linalg.lstsq(cam.T, chart_xyz(setup), rcond=None)
-    return M.T  # (3, m)
+    out = np.ascontiguousarray(M.T)  # (3, m)
+    out.setflags(write=False)  # cached: read-only
+    return out
 
 
 def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.ndarray:

@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import _validate
+from . import validate
 from .spectra import cie_1931_cmfs, quadrature_weights
 
 PLANCK_H = 6.62607015e-34  # J s
@@ -51,8 +51,8 @@ class SensorSettings:
     def __post_init__(self):
         for name in ("illuminance_lux", "f_number", "optics_transmittance", "pixel_pitch_um",
                      "peak_quantum_efficiency", "full_well_e", "target_fraction", "max_exposure_s"):
-            _validate.scalar(name, getattr(self, name), positive=True)
-        _validate.scalar("read_noise_e", self.read_noise_e)
+            validate.scalar(name, getattr(self, name), positive=True)
+        validate.scalar("read_noise_e", self.read_noise_e)
         if self.target_fraction > 1:
             raise ValueError(f"target_fraction: must be in (0, 1], got {self.target_fraction}")
         if self.optics_transmittance > 1 or self.peak_quantum_efficiency > 1:

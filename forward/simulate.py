@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _validate
-from .imaging import ChartSetup, attenuation, camera_response, resolve_setup, veiling_light
+from . import validate
+from .imaging import ChartSetup, camera_response, path_length, resolve_setup, veiling_light
 from .sensor import SensorSettings, capture
-from .spectra import DEFAULT_CAMERA, phytoplankton_basis
-from .water import CDOM_SLOPE, attenuation_coefficient
+from .spectra import DEFAULT_CAMERA
+from .water import Water, resolve_water
 
 
 @dataclass
@@ -45,6 +45,7 @@ class ChartSimulation:
     path_model: str
     sensor: SensorSettings
     setup: ChartSetup = field(repr=False)
+    water: Water = field(repr=False, default=None)
 
     def to_dict(self) -> dict:
         """A JSON-ready dict of the inputs and results (arrays as nested lists)."""
@@ -56,6 +57,7 @@ class ChartSimulation:
                     "attenuation_coefficient", "codes"):
             out[key] = np.asarray(getattr(self, key)).tolist()
         out["sensor"] = self.sensor.to_dict()
+        out["water"] = self.water.constants()
         return out
 
     def to_json(self) -> str:
@@ -64,8 +66,9 @@ class ChartSimulation:
 
 def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: bool = True,
                    seed=None, wavelengths=None, illuminant=None, reflectances=None, basis=None,
-                   weights=None, cdom_slope: float = CDOM_SLOPE, path_model: str = "beam",
-                   backscatter: bool = True, sensor: SensorSettings | None = None,
+                   weights=None, water: Water | None = None, cdom_slope: float | None = None,
+                   path_model: str | None = None, backscatter: bool = True,
+                   sensor: SensorSettings | None = None,
                    setup: ChartSetup | None = None) -> ChartSimulation:
     """Simulate the camera's patch values of a chart at ``depth`` m seen from ``distance`` m.
 
@@ -79,27 +82,30 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
         ``setup`` replaces all four.
     noise : sensor noise on (default) or the exact expectation.
     seed : seed of the noise generator (``numpy.random.default_rng``).
-    basis, weights : phytoplankton basis T (eq 9) and weights for z > 1.
-    path_model : 'beam' (k = exp(-L c), default) or 'absorption' (the literal eq 13).
+    basis, weights : phytoplankton basis T (eq 9) on the grid and weights for z > 1.
+    water : :class:`forward.Water`, every constant and table of eqs 4-12 and the path model
+        (default: the paper's).
+    path_model, cdom_slope : shortcuts that replace those fields of ``water``: 'beam'
+        (k = exp(-L c), default) or 'absorption' (the literal eq 13); eq 6's slope, nm^-1.
     backscatter : include the veiling light of eq 2 (default True).
     sensor : :class:`forward.sensor.SensorSettings` (defaults in DECISIONS.md).
     """
-    chl = _validate.scalar("chl", chl)
-    cdom = _validate.scalar("cdom", cdom)
-    depth = _validate.scalar("depth", depth)
-    distance = _validate.scalar("distance", distance)
+    chl = validate.scalar("chl", chl)
+    cdom = validate.scalar("cdom", cdom)
+    depth = validate.scalar("depth", depth)
+    distance = validate.scalar("distance", distance)
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     sensor = SensorSettings() if sensor is None else sensor
     if not isinstance(sensor, SensorSettings):
         raise ValueError("sensor: expected a forward.SensorSettings")
+    water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
     wl = setup.wavelengths
-    if basis is not None or weights is not None:
-        phytoplankton_basis(wl, basis)  # validate early
-    kw = dict(basis=basis, weights=weights, cdom_slope=cdom_slope)
-    k = attenuation(wl, chl, cdom, depth, distance, path_model=path_model, **kw)
-    c = attenuation_coefficient(wl, chl, cdom, **kw)
+    terms = water.on_grid(wl, basis=basis, weights=weights)
+    k = np.exp(-path_length(depth, distance) * terms.coefficient(chl, cdom))
+    c = terms.beam_coefficient(chl, cdom)
     if backscatter:
-        rho_b = veiling_light(wl, chl, cdom, depth, distance, illuminant=setup.illuminant, **kw)
+        rho_b = veiling_light(wl, chl, cdom, depth, distance, illuminant=setup.illuminant,
+                              water=water, basis=basis, weights=weights)
     else:
         rho_b = np.zeros_like(wl)
     s = setup.sensitivities.T @ rho_b
@@ -115,6 +121,6 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
         camera=setup.sensitivities, illuminant=setup.illuminant, reflectances=setup.reflectances,
         chl=chl, cdom=cdom, depth=depth, distance=distance, camera_name=setup.camera,
         attenuation_coefficient=c, veiling_light=rho_b, exposure_s=cap["exposure_s"],
-        codes=cap["codes"], noise=bool(noise), seed=seed, path_model=path_model, sensor=sensor,
-        setup=setup,
+        codes=cap["codes"], noise=bool(noise), seed=seed, path_model=water.path_model,
+        sensor=sensor, setup=setup, water=water,
     )

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _validate
+from . import validate
 
 #: Model wavelength range in nm (inclusive); the basis and pure-water tables cover it.
 MODEL_RANGE_NM = (400.0, 700.0)
@@ -47,7 +47,7 @@ def wavelength_grid(wavelengths=None) -> np.ndarray:
     if wavelengths is None:
         wl = np.arange(MODEL_RANGE_NM[0], MODEL_RANGE_NM[1] + 0.5 * DEFAULT_STEP_NM, DEFAULT_STEP_NM)
     else:
-        wl = _validate.array("wavelengths", wavelengths, ndim=1).copy()
+        wl = validate.array("wavelengths", wavelengths, ndim=1).copy()
         if wl.size < 3:
             raise ValueError(f"wavelengths: need at least 3 wavelengths, got {wl.size}")
         if np.any(np.diff(wl) <= 0):
@@ -79,12 +79,13 @@ def _data_dir():
 
 
 @functools.lru_cache(maxsize=None)
-def read_table(filename: str) -> tuple[tuple[str, ...], np.ndarray]:
-    """Read a CSV table of ``data/``: returns (column names, values); '#' lines are the header."""
+def read_table(filename: str) -> tuple[tuple[str, ...], tuple[tuple[str, ...], ...]]:
+    """Read a CSV table of ``data/``: returns (column names, rows of strings), both immutable
+    tuples (the result is cached); '#' lines are the header."""
     text = (_data_dir() / filename).read_text(encoding="utf-8")
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     names = tuple(s.strip() for s in lines[0].split(","))
-    rows = [ln.split(",") for ln in lines[1:]]
+    rows = tuple(tuple(ln.split(",")) for ln in lines[1:])
     return names, rows
 
 
@@ -122,7 +123,7 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"{name}: no numeric rows in {p}")
     if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
         raise ValueError(f"{name}: {p} must have a wavelength column and >= 1 value column in every row")
-    arr = _validate.array(name, rows, ndim=2)
+    arr = validate.array(name, rows, ndim=2)
     wl = arr[:, 0]
     if np.any(np.diff(wl) <= 0):
         raise ValueError(f"{name}: wavelengths in {p} must be strictly increasing")
@@ -171,7 +172,7 @@ def cie_1931_cmfs(wavelengths=None) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- user spectra
-def _is_path(x) -> bool:
+def is_path(x) -> bool:
     return isinstance(x, (str, os.PathLike)) and (
         str(x).lower().endswith((".csv", ".txt")) or Path(x).is_file()
     )
@@ -183,8 +184,8 @@ def _from_colour(obj, wl, name):
     return resample(obj.wavelengths, vals, wl, name=name)
 
 
-def _on_grid(value, wl, name, ncols):
-    arr = _validate.array(name, value, nonnegative=True)
+def on_grid(value, wl, name, ncols):
+    arr = validate.array(name, value, nonnegative=True)
     if arr.ndim == 1 and ncols == 1:
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] != wl.size or (ncols is not None and arr.shape[1] != ncols):
@@ -207,8 +208,11 @@ def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
     wl = np.array(wl_key)
     entry = db[name]
     if not hasattr(entry, "wavelengths"):  # a ColorChecker (a mapping): its patches in order
-        return np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
-    return _from_colour(entry, wl, arg)
+        out = np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
+    else:
+        out = _from_colour(entry, wl, arg)
+    out.setflags(write=False)  # cached: read-only
+    return out
 
 
 def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
@@ -221,14 +225,14 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     import colour
 
     wl = wavelength_grid(wavelengths)
-    if isinstance(camera, str) and not _is_path(camera):
+    if isinstance(camera, str) and not is_path(camera):
         sens = _named("MSDS_CAMERA_SENSITIVITIES", "camera", camera, tuple(wl)).copy()
-    elif _is_path(camera):
+    elif is_path(camera):
         sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera")
     elif isinstance(camera, colour.MultiSpectralDistributions):
         sens = _from_colour(camera, wl, "camera")
     else:
-        sens = _on_grid(camera, wl, "camera", None)
+        sens = on_grid(camera, wl, "camera", None)
     sens = np.clip(sens, 0.0, None)
     peak = sens.max(axis=0)
     if np.all(peak <= 0):
@@ -251,14 +255,14 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     wl = wavelength_grid(wavelengths)
     if illuminant is None:
         illuminant = DEFAULT_ILLUMINANT
-    if isinstance(illuminant, str) and not _is_path(illuminant):
+    if isinstance(illuminant, str) and not is_path(illuminant):
         spd = _named("SDS_ILLUMINANTS", "illuminant", illuminant, tuple(wl)).copy()
-    elif _is_path(illuminant):
+    elif is_path(illuminant):
         spd = resample(*read_spectral_csv(illuminant, name="illuminant"), wl, name="illuminant")[:, 0]
     elif isinstance(illuminant, colour.SpectralDistribution):
         spd = _from_colour(illuminant, wl, "illuminant")
     else:
-        spd = _on_grid(illuminant, wl, "illuminant", 1)[:, 0]
+        spd = on_grid(illuminant, wl, "illuminant", 1)[:, 0]
     if spd.max() <= 0:
         raise ValueError("illuminant: is zero everywhere on the wavelength grid")
     return np.clip(spd, 0, None) / spd.max()
@@ -277,9 +281,9 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
     wl = wavelength_grid(wavelengths)
     if reflectances is None:
         reflectances = DEFAULT_CHART
-    if isinstance(reflectances, str) and not _is_path(reflectances):
+    if isinstance(reflectances, str) and not is_path(reflectances):
         refl = _named("SDS_COLOURCHECKERS", "reflectances", reflectances, tuple(wl)).copy()
-    elif _is_path(reflectances):
+    elif is_path(reflectances):
         refl = resample(*read_spectral_csv(reflectances, name="reflectances"), wl, name="reflectances")
     elif isinstance(reflectances, colour.MultiSpectralDistributions):
         refl = _from_colour(reflectances, wl, "reflectances")
@@ -291,36 +295,7 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
         sds = list(reflectances.values()) if isinstance(reflectances, dict) else list(reflectances)
         refl = np.stack([_from_colour(sd, wl, "reflectances") for sd in sds], axis=1)
     else:
-        refl = _on_grid(reflectances, wl, "reflectances", None)
+        refl = on_grid(reflectances, wl, "reflectances", None)
     if np.any(refl < 0):
         raise ValueError("reflectances: contain negative values")
     return refl
-
-
-def phytoplankton_basis(wavelengths=None, basis=None) -> tuple[np.ndarray, np.ndarray]:
-    """The phytoplankton absorption basis T of eq 9 on the grid, (q, z), and its row at 440 nm.
-
-    ``None``: the single shape of ``data/phytoplankton_absorption_basis.csv``, normalised so that
-    t_1(440 nm) = 1. Otherwise an array (q,) or (q, z) on the grid, or a CSV file (wavelength,
-    one column per basis function). The second return value is t(440 nm), (z,), read from the
-    table (or interpolated linearly on the grid), used by eqs 10 and 17.
-    """
-    wl = wavelength_grid(wavelengths)
-    if basis is None:
-        src_wl, vals = read_spectral_table("phytoplankton_absorption_basis.csv")
-        t440 = np.array([np.interp(LAMBDA_0_NM, src_wl, v) for v in vals.T])
-        vals = vals / t440
-        return resample(src_wl, vals, wl, name="basis"), np.ones(vals.shape[1])
-    if _is_path(basis):
-        src_wl, vals = read_spectral_csv(basis, name="basis")
-        if np.any(vals < 0):
-            raise ValueError("basis: contains negative values")
-        t440 = np.array([np.interp(LAMBDA_0_NM, src_wl, v) for v in vals.T])
-        return resample(src_wl, vals, wl, name="basis"), t440
-    T = _on_grid(basis, wl, "basis", None)
-    if not (wl[0] <= LAMBDA_0_NM <= wl[-1]):
-        raise ValueError("basis: the wavelength grid must contain 440 nm (eq 17) for an array basis")
-    t440 = np.array([np.interp(LAMBDA_0_NM, wl, col) for col in T.T])
-    if np.all(t440 <= 0):
-        raise ValueError("basis: all basis functions are zero at 440 nm, so eq 17 cannot fix their scale")
-    return T, t440

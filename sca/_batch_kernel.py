@@ -1,8 +1,12 @@
 """The per-chart evaluation of the batched solver: objective, gradient and Gauss-Newton matrix.
 
-Given the weights Phi (N, 5) of the spectral terms S (5, q) of the attenuation coefficient
-(c = base + Phi S, built from :mod:`forward.water` by :class:`sca.batch.BatchModel`) and their
-derivatives dPhi/du, for every chart i:
+The attenuation coefficient comes from :class:`forward.WaterTerms` as numbers, not formulas:
+
+    c = base + a_CDOM e_cdom + Phi(C) S,   Phi_j(C) = p_j C^e_j + g_j (1 - exp(-h_j C))
+
+with S (4, q) the spectral shapes and ``tab`` (4, 4) the rows (p, e, g, h) of
+:meth:`forward.Water.chl_terms`; the iteration variable is u = C^e0 (e0: eq 10's exponent).
+For every chart i:
 
     k = exp(-L_i c),  G = B k / scale_i,  s = max(0, channel means of M - G) (or fixed),
     r = M - G - s 1^T,  J = -(projected dG/d(u, a_CDOM)),
@@ -10,11 +14,12 @@ derivatives dPhi/du, for every chart i:
 
 Two engines run the batched Levenberg-Marquardt iteration of :mod:`sca.batch`:
 
-* 'numpy': array code over all active charts, with :func:`evaluate_numpy` below; the
-  reference the tests compare against, and the fallback without numba;
+* 'numpy': array code over all active charts, with :func:`evaluate_numpy` below (weights from
+  :meth:`forward.Water.chl_weights`); the reference, and the fallback without numba;
 * 'numba': :func:`lm_numba`, the same iteration compiled per chart (a parallel loop over
-  charts on all cores, no large temporaries, no Python work per iteration). Its physics are
-  the formula functions of :mod:`forward.water` (eqs 8, 10, 12) compiled by numba, not copies.
+  charts on all cores, no large temporaries, no Python work per iteration). It contains no
+  physics: every constant and spectrum arrives as an argument, so its on-disk cache (keyed on
+  this file) cannot hold numbers that a change of ``forward.Water`` made stale.
 """
 
 from __future__ import annotations
@@ -29,9 +34,11 @@ except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
 
 
-def evaluate_numpy(phi, dphi, L, S, base, ecdom, Bt, M, scale, fs, has_fs, m, n, grad):
+def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, scale, fs, has_fs, m, n, grad):
+    """f, s, g, H (see the module docstring) for charts with weights ``phi`` (N, 4), their
+    derivatives d phi / du ``dphi`` and a_CDOM ``A`` (N,)."""
     N = phi.shape[0]
-    k = np.exp(-L[:, None] * (phi @ S + base))
+    k = np.exp(-L[:, None] * (phi @ S + np.multiply.outer(A, ecdom) + base))
     G = (k @ Bt) / scale[:, None]
     R0 = M.reshape(N, m, n) - G.reshape(N, m, n)
     s = fs.copy() if has_fs else np.maximum(R0.mean(axis=-1), 0.0)
@@ -58,44 +65,35 @@ def evaluate_numpy(phi, dphi, L, S, base, ecdom, Bt, M, scale, fs, has_fs, m, n,
 
 
 if HAVE_NUMBA:
-    from forward import water as _water
-
-    _CHL_EXP = _water.EQ10_EXPONENT
-    _eq10 = njit(cache=True)(_water.eq10)
-    _eq10_d = njit(cache=True)(_water.eq10_derivative)
-    _eq8 = njit(cache=True)(_water.eq8)
-    _eq8_d = njit(cache=True)(_water.eq8_derivative)
-    _eq12 = njit(cache=True)(_water.eq12_small)
-    _eq12_d = njit(cache=True)(_water.eq12_small_derivative)
     _TINY = np.finfo(np.float64).tiny
 
     @njit(cache=True, fastmath=True, error_model="numpy")
-    def _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, c12, s12, beam,
-                  grad, s_out, k, kc, ka, G, GC, GA):  # pragma: no cover - compiled
-        """Objective, gradient and Gauss-Newton matrix of chart i at (u = C^0.627, a_CDOM)."""
+    def _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0,
+                  grad, s_out, k, kc, ka, G, GC, GA, phi, dphi):  # pragma: no cover - compiled
+        """Objective, gradient and Gauss-Newton matrix of chart i at (u = C^e0, a_CDOM)."""
         q = S.shape[1]
+        nt = S.shape[0]
         mn = m * n
-        # weights of the spectral terms at C (evaluated at the smallest normal float for C = 0,
-        # where eq 10's value, ~1e-195, is zero to double precision and d/du stays finite)
-        C = u ** (1.0 / _CHL_EXP) if u > 0.0 else 0.0
+        # C's weights (evaluated at the smallest normal float for C = 0, where every power of
+        # C is zero to double precision and d/du stays finite)
+        C = u ** (1.0 / e0) if u > 0.0 else 0.0
         cf = C if C > _TINY else _TINY
-        small = _eq12(cf, c12, s12) if beam else 0.0
-        p0, p1, p2, p3, p4 = _eq10(cf), A, _eq8(cf), small, (cf - small if beam else 0.0)
-        q0 = q2 = q3 = q4 = 0.0
-        if grad:
-            dcdu = cf / (u * _CHL_EXP) if C > _TINY else cf ** (1.0 - _CHL_EXP) / _CHL_EXP
-            dsm = _eq12_d(cf, c12, s12) if beam else 0.0
-            q0 = _eq10_d(cf) * dcdu
-            q2 = _eq8_d(cf) * dcdu
-            q3 = dsm * dcdu
-            q4 = (1.0 - dsm) * dcdu if beam else 0.0
+        dcdu = cf / (u * e0) if C > _TINY else cf ** (1.0 - e0) / e0
+        for j in range(nt):
+            pw = cf ** tab[j, 1]
+            ex = np.exp(-tab[j, 3] * cf)
+            phi[j] = tab[j, 0] * pw - tab[j, 2] * np.expm1(-tab[j, 3] * cf)
+            dphi[j] = (tab[j, 0] * tab[j, 1] * pw / cf + tab[j, 2] * tab[j, 3] * ex) * dcdu
         Li = L[i]
         for l in range(q):
-            c = base[l] + p0 * S[0, l] + p1 * S[1, l] + p2 * S[2, l] + p3 * S[3, l] + p4 * S[4, l]
+            c = base[l] + A * ecdom[l]
+            dc = 0.0
+            for j in range(nt):
+                c += phi[j] * S[j, l]
+                dc += dphi[j] * S[j, l]
             kl = np.exp(-Li * c)
             k[l] = kl
             if grad:
-                dc = q0 * S[0, l] + q2 * S[2, l] + q3 * S[3, l] + q4 * S[4, l]
                 kc[l] = -Li * kl * dc
                 ka[l] = -Li * kl * ecdom[l]
         inv = 1.0 / scale[i]
@@ -172,7 +170,7 @@ if HAVE_NUMBA:
         return f, g1, g2, h11, h12, h22
 
     @njit(parallel=True, cache=True, fastmath=True, error_model="numpy")
-    def lm_numba(C0, A0, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, c12, s12, beam,
+    def lm_numba(C0, A0, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0,
                  max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover - compiled
         """The Levenberg-Marquardt iteration of :func:`sca.batch._solve_chunk`, per chart."""
         N = C0.shape[0]
@@ -193,12 +191,14 @@ if HAVE_NUMBA:
             GC = np.empty(mn)
             GA = np.empty(mn)
             s_i = np.empty(m)
-            u = C0[i] ** _CHL_EXP
+            phi = np.empty(S.shape[0])
+            dphi = np.empty(S.shape[0])
+            u = C0[i] ** e0
             A = A0[i]
             mu = mu0
             f, g1, g2, h11, h12, h22 = _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom,
-                                                 Bt, m, n, c12, s12, beam, True, s_i, k, kc, ka,
-                                                 G, GC, GA)
+                                                 Bt, m, n, tab, e0, True, s_i, k, kc, ka,
+                                                 G, GC, GA, phi, dphi)
             code = 3
             it = 0
             if f <= f_exact[i]:
@@ -227,8 +227,8 @@ if HAVE_NUMBA:
                     un = u + d1 if u + d1 > 0.0 else 0.0
                     an = A + d2 if A + d2 > 0.0 else 0.0
                     fn, n1, n2, n11, n12, n22 = _eval_one(un, an, i, L, scale, M, fs, has_fs, S,
-                                                          base, ecdom, Bt, m, n, c12, s12, beam,
-                                                          True, s_i, k, kc, ka, G, GC, GA)
+                                                          base, ecdom, Bt, m, n, tab, e0,
+                                                          True, s_i, k, kc, ka, G, GC, GA, phi, dphi)
                     if fn < f:
                         dec = f - fn
                         f_prev = f
@@ -248,8 +248,8 @@ if HAVE_NUMBA:
                             break
             # final values at the returned point
             f, _, _, _, _, _ = _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m,
-                                         n, c12, s12, beam, False, s_i, k, kc, ka, G, GC, GA)
-            C_out[i] = u ** (1.0 / _CHL_EXP) if u > 0.0 else 0.0
+                                         n, tab, e0, False, s_i, k, kc, ka, G, GC, GA, phi, dphi)
+            C_out[i] = u ** (1.0 / e0) if u > 0.0 else 0.0
             A_out[i] = A
             f_out[i] = f
             for ch in range(m):

@@ -8,9 +8,10 @@ for N charts that share camera, illuminant, chart and grid (path lengths may dif
   z = 1, w is tied to C by eq 17 exactly (w = 0.0378 C^0.627 / t_1(440));
 * the reduced residual's Jacobian is exact (the per-channel mean is projected out where
   s_c > 0);
-* the iteration runs in u = C^0.627 (proportional to a_phi(440), eq 10) instead of C: every
-  C-dependent term is then smooth at C = 0 (C^0.724 = u^1.155, C = u^1.595), where the
-  derivative in C itself is infinite; u >= 0 <=> C >= 0, so the optimum is the same;
+* the iteration runs in u = C^e0 (e0 = 0.627, the exponent of eq 10, so u is proportional to
+  a_phi(440)) instead of C: every C-dependent term is then smooth at C = 0 (C^0.724 = u^1.155,
+  C = u^1.595), where the derivative in C itself is infinite; u >= 0 <=> C >= 0, so the
+  optimum is the same;
 * a Levenberg-Marquardt step with Marquardt scaling (diag of J^T J) and projected bounds
   (u, a_CDOM >= 0: a variable at its bound whose gradient points outwards is held);
 * engine 'numba' (default): each chart runs this iteration in compiled code, charts spread
@@ -26,19 +27,21 @@ says why); nothing is silently wrong.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from forward import _validate, water
+from forward import validate
 from forward.imaging import ChartSetup, length, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
+from forward.water import Water, resolve_water
 
 from ._batch_kernel import HAVE_NUMBA, evaluate_numpy
 if HAVE_NUMBA:
     from ._batch_kernel import lm_numba
-from .estimate import EXACT_FIT
+from .estimate import EXACT_FIT, MAX_RGB
 from .model import WaterModel
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).
@@ -53,8 +56,9 @@ LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
 
 DEFAULT_ENGINE = "numba" if HAVE_NUMBA else "numpy"
 
-#: Exponent of eq 10: the batch iterates in u = C^CHL_EXPONENT.
-CHL_EXPONENT = water.EQ10_EXPONENT
+#: One compiled parallel kernel runs at a time: it already uses every core, and numba's
+#: threading layers are not all safe for concurrent launches from several Python threads.
+_NUMBA_LOCK = threading.Lock()
 
 STATUS = {
     0: "converged: relative decrease below tol",
@@ -87,50 +91,41 @@ class BatchEstimate:
 
 
 class BatchModel:
-    """Vectorised k(C, a_CDOM), the signals and their derivatives (z = 1, w on eq 17)."""
+    """Vectorised k(C, a_CDOM), the signals and their derivatives (z = 1, w on eq 17), with
+    every number from :class:`forward.Water` (via :class:`sca.model.WaterModel`)."""
 
-    def __init__(self, setup: ChartSetup, *, basis=None, path_model="beam", cdom_slope=water.CDOM_SLOPE):
-        self.mdl = WaterModel(setup, 0.0, 0.0, basis=basis, path_model=path_model,
-                              cdom_slope=cdom_slope)
+    def __init__(self, setup: ChartSetup, *, basis=None, water: Water | None = None):
+        self.mdl = WaterModel(setup, 0.0, 0.0, basis=basis, water=water)
         if self.mdl.z != 1:
             raise ValueError(f"basis: the batched solver supports one basis function (z = 1), got z = {self.mdl.z}")
-        self.t = self.mdl.T[:, 0] / float(self.mdl.t440[0])  # a_phi = (T w) = alpha(C) * t
+        self.water = self.mdl.water
+        self.terms = terms = self.mdl.terms
         self.Bt = np.ascontiguousarray(self.mdl.B.T)  # (q, m n)
         self.m, self.n = self.mdl.m, self.mdl.n
         self.wl = self.mdl.wavelengths
-        self.beam = path_model == "beam"
-        # c = base + Phi(C, a_CDOM) @ S: the spectral terms of eqs 5-12 (from forward.water,
-        # assembled by WaterModel); Phi holds their scalar weights
-        self.S = np.vstack([self.t, self.mdl.cdom_shape, self.mdl.nap_shape, self.mdl.bp_terms])
-        self.base = self.mdl.base
+        # c = base + a_CDOM ecdom + Phi(C) @ S (forward.WaterTerms); the kernels get these arrays
+        self.S = np.ascontiguousarray(terms.shapes)
+        self.base = np.ascontiguousarray(terms.base)
+        self.ecdom = np.ascontiguousarray(terms.cdom_shape)
+        self.table = np.ascontiguousarray(self.water.chl_terms())
+        #: the iteration variable is u = C^e0 (eq 10's exponent)
+        self.e0 = float(self.water.phyto_exponent)
 
-    def weights(self, chl, cdom, derivative=False):
-        """Phi (N, 5): the scalar weights of the spectral terms S of c (see ``terms``) and, with
-        ``derivative``, dPhi/du with u = C^0.627."""
+    def weights(self, chl, derivative=False):
+        """Phi (N, 4), the weights of the shapes S, and with ``derivative`` dPhi/du, u = C^e0."""
         chl = np.asarray(chl, float)
-        alpha = water.phytoplankton_absorption_440(chl)
-        nap = water.nap_absorption_440(chl)
-        w12, w3 = water.particle_scattering_weights(chl)
-        if not self.beam:
-            w12, w3 = np.zeros_like(chl), np.zeros_like(chl)
-        phi = np.stack([alpha, np.asarray(cdom, float), nap, w12, w3], axis=-1)
         if not derivative:
-            return phi
-        # in u = C^0.627 every term's derivative is finite down to C = 0; evaluating the C
+            return self.water.chl_weights(chl)
+        # in u = C^e0 every term's derivative is finite down to C = 0; evaluating the C
         # derivatives at the smallest normal float keeps the products exact in the limit
         cf = np.maximum(chl, np.finfo(float).tiny)
-        dchl_du = cf ** (1.0 - CHL_EXPONENT) / CHL_EXPONENT  # C = u^(1/0.627)
-        _, dalpha = water.phytoplankton_absorption_440(cf, derivative=True)
-        _, dnap = water.nap_absorption_440(cf, derivative=True)
-        _, (d12, d3) = water.particle_scattering_weights(cf, derivative=True)
-        if not self.beam:
-            d12, d3 = np.zeros_like(chl), np.zeros_like(chl)
-        dphi = np.stack([dalpha, np.zeros_like(chl), dnap, d12, d3], axis=-1) * dchl_du[:, None]
-        return phi, dphi
+        dchl_du = cf ** (1.0 - self.e0) / self.e0  # C = u^(1/e0)
+        phi, dphi = self.water.chl_weights(chl, derivative=True, floor=np.finfo(float).tiny)
+        return phi, dphi * dchl_du[:, None]
 
     def coefficient(self, chl, cdom):
         """c (N, q) in m^-1 (a for the 'absorption' path model)."""
-        return self.weights(chl, cdom) @ self.S + self.base
+        return self.terms.coefficient(chl, cdom)
 
 
 def _initial(bm: BatchModel, M, L, fixed_s):
@@ -159,9 +154,9 @@ def _initial(bm: BatchModel, M, L, fixed_s):
 
 
 def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
-                   reflectances=None, wavelengths=None, basis=None, path_model: str = "beam",
-                   cdom_slope: float = water.CDOM_SLOPE, fix=None, max_iter: int = 100,
-                   tol: float = 1e-12, setup: ChartSetup | None = None,
+                   reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
+                   path_model: str | None = None, cdom_slope: float | None = None, fix=None,
+                   max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE) -> BatchEstimate:
     """Estimate C, a_CDOM(440), w and s for a stack of charts ``rgb_stack`` (N, m, n).
 
@@ -169,15 +164,20 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
     ``engine``: 'numba' (default: the iteration compiled per chart, on all cores) or 'numpy'
     (array code, the reference); both run the same iteration. Returns a :class:`BatchEstimate`.
+    Safe to call from several threads.
     """
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
-    bm = BatchModel(setup, basis=basis, path_model=path_model, cdom_slope=cdom_slope)
-    M = _validate.array("rgb_stack", rgb_stack, ndim=3)
+    water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
+    bm = BatchModel(setup, basis=basis, water=water)
+    M = validate.array("rgb_stack", rgb_stack, ndim=3)
     if M.shape[1:] != (bm.m, bm.n):
         raise ValueError(f"rgb_stack: expected shape (N, {bm.m}, {bm.n}), got {M.shape}")
     if np.any(M < 0):
         raise ValueError("rgb_stack: contains negative values")
+    if M.size and M.max() > MAX_RGB:
+        raise ValueError(f"rgb_stack: values up to {M.max():g} exceed {MAX_RGB:g}; measurements "
+                         "in model units are O(1) (a white reflector in air = 1)")
     N = M.shape[0]
     scale = M.reshape(N, -1).max(axis=1)
     if np.any(scale <= 0):
@@ -185,12 +185,12 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     L = np.broadcast_to(length("depth", depth) + length("distance", distance), (N,)).astype(float)
     if int(max_iter) != max_iter or max_iter < 1:
         raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
-    tol = _validate.scalar("tol", tol, positive=True)
+    tol = validate.scalar("tol", tol, positive=True)
     fixed_s = None
     if fix:
         if set(fix) - {"backscatter"}:
             raise ValueError("fix: the batched solver can fix only 'backscatter'")
-        fixed_s = _validate.array("fix['backscatter']", np.broadcast_to(fix["backscatter"], (bm.m,)),
+        fixed_s = validate.array("fix['backscatter']", np.broadcast_to(fix["backscatter"], (bm.m,)),
                                   nonnegative=True)
 
     if engine not in ENGINES:
@@ -201,7 +201,7 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     parts = [_solve_chunk(*a) for a in args]
     chl, cdom, s_final, k_final, f_final, iters, code = (np.concatenate(x) for x in zip(*parts))
     converged = code <= 2
-    w = (water.phytoplankton_absorption_440(chl) / float(bm.mdl.t440[0]))[:, None]
+    w = (water.phytoplankton_440(chl) / float(bm.mdl.t440[0]))[:, None]
     return BatchEstimate(
         chl=chl, cdom=cdom, w=w, backscatter=s_final * scale[:, None], attenuation=k_final,
         wavelengths=bm.wl, objective=f_final * scale**2, iterations=iters, converged=converged,
@@ -220,15 +220,15 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
     chl, cdom = _initial(bm, M, L, fixed_s)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", Ms, Ms)
     if engine == "numba":
-        t = water.table1()
-        return lm_numba(chl, cdom, np.ascontiguousarray(L), np.ascontiguousarray(scale),
-                        np.ascontiguousarray(Ms), np.ascontiguousarray(fs), has_fs, bm.S, bm.base,
-                        bm.mdl.cdom_shape, bm.Bt, bm.m, bm.n, t["C_12"], t["S_12"], bm.beam,
-                        int(max_iter), float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
+        with _NUMBA_LOCK:
+            return lm_numba(chl, cdom, np.ascontiguousarray(L), np.ascontiguousarray(scale),
+                            np.ascontiguousarray(Ms), np.ascontiguousarray(fs), has_fs, bm.S,
+                            bm.base, bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0,
+                            int(max_iter), float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
 
     def evaluate(idx, C, A, grad):
-        phi, dphi = bm.weights(C, A, derivative=True)
-        return evaluate_numpy(phi, dphi, L[idx], bm.S, bm.base, bm.mdl.cdom_shape, bm.Bt, Ms[idx],
+        phi, dphi = bm.weights(C, derivative=True)
+        return evaluate_numpy(phi, dphi, A, L[idx], bm.S, bm.base, bm.ecdom, bm.Bt, Ms[idx],
                               scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
 
     iters = np.zeros(N, dtype=int)
@@ -245,7 +245,7 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
         if active.size == 0:
             break
         C, A = chl[active], cdom[active]
-        U = C ** CHL_EXPONENT
+        U = C ** bm.e0
         g1, g2 = g[:, 0], g[:, 1]
         h11, h12, h22 = H[:, 0], H[:, 1], H[:, 2]
         # projected bounds: hold a variable at 0 whose descent direction points below 0;
@@ -270,7 +270,7 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
         iters[active] = it
         # stationary: the model predicts (relatively) nothing more; stop without a trial
         stat = pred <= tol * fa
-        Cn = np.maximum(U + d1, 0.0) ** (1.0 / CHL_EXPONENT)
+        Cn = np.maximum(U + d1, 0.0) ** (1.0 / bm.e0)
         An = np.maximum(A + d2, 0.0)
         # evaluate the trial point with its gradient: most LM steps are accepted, and an
         # accepted point's gradient is then already there for the next step
@@ -302,7 +302,7 @@ def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
             active, fa, g, H = active[go], fa[go], g[go], H[go]
     # final values: s (and f once more, consistently) at the returned point, and k on the grid
     f_final, s_final, _, _ = evaluate(np.arange(N), chl, cdom, False)
-    k_final = np.exp(-L[:, None] * (bm.weights(chl, cdom) @ bm.S + bm.base))
+    k_final = np.exp(-L[:, None] * bm.coefficient(chl, cdom))
     return chl, cdom, s_final, k_final, f_final, iters, code
 
 

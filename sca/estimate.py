@@ -17,6 +17,11 @@ Two modes (DECISIONS.md):
 ``converged`` is True only where the returned point is stationary (the subproblem predicts a
 relative decrease below ``tol``) or fits the data to rounding error; every other end is
 reported in ``status``.
+
+The loop's parts (methods of :class:`Estimator`): ``_linearise`` (the QP's data at the current
+point), ``_set_subproblem`` / ``_solve_step`` (Clarabel, its fallbacks, the active-set polish),
+``_candidate`` (the trial point and the decrease the model predicts), ``_judge`` (acceptance and
+the trust-region update, :func:`_update_radius`) and ``_result``.
 """
 
 from __future__ import annotations
@@ -28,13 +33,13 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
-from forward import _validate
+from forward import validate
 from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
-from forward.water import CDOM_SLOPE
+from forward.water import Water, resolve_water
 
 from .model import WaterModel
-from .subproblem import build_subproblem, constant_problem, equality_step, polish
+from .subproblem import compiled_subproblem, equality_step, polish
 
 MODES = ("paper", "safeguarded")
 FIXABLE = ("chl", "cdom", "backscatter")
@@ -68,6 +73,26 @@ INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 18)])
 
 #: Relative objective at which the fit is exact to rounding error: ||residual|| <= 1e-12 ||M||.
 EXACT_FIT = 1e-24
+#: Largest accepted measurement: model units are O(1), and larger values overflow the
+#: objective in data units (its square).
+MAX_RGB = 1e150
+
+# Trust region of the safeguarded mode, on the scaled unknowns (Nocedal & Wright, Numerical
+# Optimization, 2nd ed., Springer 2006, Algorithm 4.1, with eta = 0: any decrease is accepted):
+#: initial radius Delta_0
+TR_RADIUS0 = 1.0
+#: rho = actual / predicted decrease below this: shrink (Alg. 4.1's 1/4)
+TR_ETA_SHRINK = 0.25
+#: rho above this, with the step at the boundary: grow (Alg. 4.1's 3/4)
+TR_ETA_GROW = 0.75
+#: shrink divisor (Alg. 4.1: Delta / 4) and growth factor (Alg. 4.1: 2 Delta)
+TR_SHRINK, TR_GROW = 4.0, 2.0
+#: a step of at least this fraction of the radius counts as "at the boundary" (||p|| = Delta)
+TR_AT_EDGE = 0.9
+#: largest radius (Alg. 4.1's Delta-hat) and the floor after a shrink
+TR_RADIUS_MAX, TR_RADIUS_MIN = 1e4, 1e-14
+#: after a rejected step the radius falls to ||step|| / 4; below this the loop gives up
+TR_COLLAPSE = 1e-12
 
 
 @dataclass
@@ -100,6 +125,9 @@ class Estimate:
     clarabel_time_s: float = 0.0  # of which Clarabel itself (its own timer)
     n_solves: int = 0
     polish_rescues: int = 0  # subproblems Clarabel stopped early that the polish completed
+    #: the true objective of every trial point, accepted or not (``history`` keeps the accepted)
+    trials: list = field(default_factory=list)
+    path_model: str = "beam"
     step_history: list = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
@@ -113,24 +141,22 @@ class Estimate:
 
 
 class Estimator:
-    """Estimator for one (camera, illuminant, chart, grid, basis, path): build once, fit many.
+    """Estimator for one (camera, illuminant, chart, grid, water model, basis): build once, fit many.
 
-    The cvxpy subproblem is compiled once per problem structure and shared (see
-    :func:`sca.subproblem.build_subproblem`); only parameter values change per iteration.
+    The cvxpy subproblem is compiled once per problem structure and per thread (see
+    :func:`sca.subproblem.compiled_subproblem`); only parameter values change per iteration.
+    An ``Estimator`` holds no state that a fit changes, so one may be shared between threads.
     """
 
     def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
-                 reflectances=None, wavelengths=None, basis=None, path_model: str = "beam",
-                 cdom_slope: float = CDOM_SLOPE, fix=None, setup: ChartSetup | None = None,
-                 rebuild: bool = False):
-        #: rebuild=True: build and canonicalise a new cvxpy problem with constants every
-        #: iteration instead of updating the parameters of the compiled one (benchmark baseline)
-        self.rebuild = bool(rebuild)
-        depth = _validate.scalar("depth", depth)
-        distance = _validate.scalar("distance", distance)
+                 reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
+                 path_model: str | None = None, cdom_slope: float | None = None, fix=None,
+                 setup: ChartSetup | None = None):
+        depth = validate.scalar("depth", depth)
+        distance = validate.scalar("distance", distance)
         self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
-        self.model = WaterModel(setup, depth, distance, basis=basis, path_model=path_model,
-                                cdom_slope=cdom_slope)
+        self.water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
+        self.model = WaterModel(setup, depth, distance, basis=basis, water=self.water)
         self.depth, self.distance = depth, distance
         self.fixed = self._parse_fix(fix)
         mdl = self.model
@@ -149,6 +175,9 @@ class Estimator:
             raise ValueError("fix: nothing is left to estimate")
         n_cc = int(self.free_chl) + int(self.free_cdom)
         self.w_slice = (n_cc, n_cc + mdl.z) if self.free_w else None
+        # the free entries of x = (C, a_CDOM, w) in the order of the QP's delta
+        self.cols = ([0] if self.free_chl else []) + ([1] if self.free_cdom else []) + \
+            (list(range(2, 2 + mdl.z)) if self.free_w else [])
 
     def _parse_fix(self, fix):
         if fix is None:
@@ -160,20 +189,23 @@ class Estimator:
             if key not in FIXABLE:
                 raise ValueError(f"fix: unknown parameter {key!r}; choose from {FIXABLE}")
             if key == "backscatter":
-                arr = _validate.array("fix['backscatter']", np.broadcast_to(val, (self.model.m,)),
-                                      nonnegative=True)
+                arr = validate.array("fix['backscatter']", np.broadcast_to(val, (self.model.m,)),
+                                     nonnegative=True)
                 out[key] = np.array(arr, dtype=float)
             else:
-                out[key] = _validate.scalar(f"fix[{key!r}]", val)
+                out[key] = validate.scalar(f"fix[{key!r}]", val)
         return out
 
     # ----------------------------------------------------------------------------- helpers
     def _check_rgb(self, rgb):
         shape = (self.model.m, self.model.n)
-        M = _validate.array("rgb", rgb, shape=shape)
+        M = validate.array("rgb", rgb, shape=shape)
         if np.any(M < 0):
             raise ValueError(f"rgb: contains negative values (min {M.min():g}); measurements are "
                              "exposure-normalised sensor values >= 0")
+        if M.max() > MAX_RGB:
+            raise ValueError(f"rgb: values up to {M.max():g} exceed {MAX_RGB:g}; measurements in "
+                             "model units are O(1) (a white reflector in air = 1)")
         return M
 
     @staticmethod
@@ -203,9 +235,9 @@ class Estimator:
             if not isinstance(x0, dict) or not set(x0) <= {"chl", "cdom"}:
                 raise ValueError("x0: expected a dict with keys 'chl' and/or 'cdom'")
             if "chl" in x0 and self.free_chl:
-                chl_grid = np.array([_validate.scalar("x0['chl']", x0["chl"])])
+                chl_grid = np.array([validate.scalar("x0['chl']", x0["chl"])])
             if "cdom" in x0 and self.free_cdom:
-                cdom_grid = np.array([_validate.scalar("x0['cdom']", x0["cdom"])])
+                cdom_grid = np.array([validate.scalar("x0['cdom']", x0["cdom"])])
         C, A = np.meshgrid(chl_grid, cdom_grid, indexing="ij")
         C, A = C.ravel(), A.ravel()
         u = np.full(mdl.z, 1.0 / mdl.z)
@@ -226,200 +258,287 @@ class Estimator:
             raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
         if int(max_iter) != max_iter or max_iter < 1:
             raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
-        tol = _validate.scalar("tol", tol, positive=True)
+        tol = validate.scalar("tol", tol, positive=True)
         Mv, scale, mdl, s_fixed = self.prepare(rgb)
         return self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0)
 
     def _loop(self, mdl, Mv, scale, s_fixed, mode, max_iter, tol, x0):
+        """Linearise, solve the QP, judge the step with the true objective, repeat."""
         safeguarded = mode == "safeguarded"
-        n_s = mdl.m if self.free_s else 0
-        sub = build_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
-                               mdl.wavelengths.size, n_s, safeguarded, self.free_w)
-        E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))  # s -> every patch of its channel
-        f_exact = EXACT_FIT * float(Mv @ Mv)
-
+        sub = compiled_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
+                                  mdl.wavelengths.size, mdl.m if self.free_s else 0, safeguarded,
+                                  self.free_w)
+        st = _FitState(mdl=mdl, Mv=Mv, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mv @ Mv))
         chl, cdom, w = self.initial_point(Mv, x0, mdl, s_fixed)
-        initial = {"chl": chl, "cdom": cdom}
-        G = mdl.signal(mdl.attenuation(chl, cdom, w))
-        s = np.array(mdl.best_backscatter(Mv, G, s_fixed), dtype=float)
-        f, k = self._objective(mdl, Mv, chl, cdom, w, s)
-        history, steps = [f * scale**2], []
-        radius = 1.0
-        status, converged = "maximum number of iterations reached", False
-        n_solves, t_solve, t_clarabel, rescues = 0, 0.0, 0.0, 0
+        st.initial = {"chl": chl, "cdom": cdom}
+        s = np.array(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(chl, cdom, w)), s_fixed),
+                     dtype=float)
+        st.x = (chl, cdom, w, s)
+        st.f, _ = self._objective(mdl, Mv, chl, cdom, w, s)
+        st.history.append(st.f)
         it = 0
         for it in range(1, max_iter + 1):
-            if f <= f_exact:
-                status, converged = "exact fit (objective at rounding level)", True
+            if st.f <= st.f_exact:
+                st.stop("exact fit (objective at rounding level)", True)
                 it -= 1
                 break
-            k, dk = mdl.attenuation_jacobian(chl, cdom, w)
-            G = mdl.signal(k)
-            J = dk.T @ mdl.B.T  # (2 + z, m n)
-            D_chl = max(chl, CHL_SCALE_MIN)
-            D_cdom = max(cdom, CDOM_SCALE_MIN)
-            w_min = float(mdl.phyto_scale(CHL_SCALE_MIN)) / (mdl.z * float(np.max(mdl.t440)))
-            D_w = np.maximum(np.abs(w), w_min)
-            cols, scales = [], []
-            if self.free_chl:
-                cols.append(0)
-                scales.append(D_chl)
-            if self.free_cdom:
-                cols.append(1)
-                scales.append(D_cdom)
-            if self.free_w:
-                cols += list(range(2, 2 + mdl.z))
-                scales += list(D_w)
-            scales = np.array(scales)
-            r0 = Mv - G - np.repeat(s, mdl.n)
-            AE = J[cols].T * scales
-            if self.free_s:
-                AE = np.hstack([AE, E])
-            Q, Rm = np.linalg.qr(AE)
-            b = Q.T @ r0
-            unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
-            c0 = max(float(r0 @ r0 - b @ b), 0.0)  # the part of ||r0||^2 no step can remove
-            if unit <= 1e-300:
-                status, converged = "converged: the gradient vanishes", True
+            lin = self._linearise(st)
+            if lin.unit <= 1e-300:
+                st.stop("converged: the gradient vanishes", True)
                 break
-            sub.R.value = Rm
-            sub.b.value = b / unit
-            eq_row, eq_rhs = None, 0.0
-            if self.free_w:  # eq 17 linearised: t440.(w + D_w dw) = alpha(C) + alpha'(C) D_C dC
-                alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
-                eq_row = np.zeros(Rm.shape[1])
-                eq_row[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * D_w
-                if self.free_chl:
-                    eq_row[0] = -float(dalpha) * D_chl
-                    eq_rhs = float(alpha) - float(mdl.t440 @ w)
-                else:
-                    eq_rhs = float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
-            # Bounds far beyond any step the model can want only hurt the interior-point
-            # start; they are capped at BOUND_CAP times the least-squares step that respects
-            # the linearised eq 17 (without it, C and w are nearly collinear and the
-            # unconstrained step is meaningless).
-            v_ls = equality_step(Rm, b / unit, eq_row, eq_rhs / unit)
-            cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
-            if self.free_s:
-                sub.s_lo.value = np.maximum(-s / unit, -cap)
-            if self.n_pos:
-                lo = []
-                if self.free_chl:
-                    lo.append(-chl / D_chl)
-                if self.free_cdom:
-                    lo.append(-cdom / D_cdom)
-                if self.w_bound:
-                    lo.append(-float(w[0]) / float(D_w[0]))
-                sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
-            if safeguarded and self.n_free:
-                sub.hi.value = np.full(self.n_free, min(radius / unit, cap))
-            if self.free_w:
-                if not self.w_bound:
-                    TDw = mdl.T * D_w
-                    sub.TDw.value = TDw
-                    sub.Tw_rhs.value = np.maximum(-(mdl.T @ w) / unit,
-                                                  -cap * np.abs(TDw).sum(axis=1))
-                sub.a_eq.value = eq_row[:self.n_free]
-                sub.b_eq.value = eq_rhs / unit
-            t0 = time.perf_counter()
-            if self.rebuild:  # the CVX-style baseline: a new problem every iteration
-                problem, v_var = constant_problem(sub, AE, r0 / unit)
-            else:
-                problem, v_var = sub.problem, sub.v
-            v_var.value = None  # a shared, cached problem: never read a previous solve's values
-            failure = _solve(problem)
-            t_solve += time.perf_counter() - t0
-            n_solves += 1
-            stats = getattr(problem, "solver_stats", None)
-            if stats is not None and stats.solve_time:
-                t_clarabel += float(stats.solve_time)
-            if not failure:
-                v, _ = polish(sub, np.asarray(v_var.value, float))
-            else:
-                # Clarabel stopped early (e.g. its iteration limit on a degenerate, weakly
-                # active bound) but returned an iterate: the active-set polish may turn it into
-                # a feasible point that the model says is no worse than not moving (v = 0,
-                # feasible in safeguarded mode). Counted in ``polish_rescues``; a solve that
-                # returned nothing usable stays a reported failure.
-                if v_var.value is not None and np.all(np.isfinite(v_var.value)):
-                    v, rescued = polish(sub, np.asarray(v_var.value, float),
-                                        f_ref=1.0 if safeguarded else None)
-                    if rescued:
-                        failure = ""
-                        rescues += 1
+            v, failure = self._solve_step(sub, lin, st, safeguarded)
             if failure:
-                status = f"solver failed at iteration {it}: {failure}"
+                st.stop(f"solver failed at iteration {it}: {failure}", False)
                 break
-            qp_value = float(np.sum((Rm @ v - b / unit) ** 2))
-            v = v * unit
-            delta = v[:self.n_free]
-            # decrease predicted by the linearised model
-            pred = f - (qp_value * unit**2 + c0)
-            # the candidate
-            full = np.zeros(2 + mdl.z)
-            full[cols] = delta * scales
-            chl_new = max(chl + full[0], 0.0) if self.free_chl else chl
-            cdom_new = max(cdom + full[1], 0.0) if self.free_cdom else cdom
-            w_new = w + full[2:] if self.free_w else w
-            if safeguarded:
-                w_new = mdl.feasible_w(chl_new, w_new)
-                G_new = mdl.signal(mdl.attenuation(chl_new, cdom_new, w_new))
-                s_new = np.array(mdl.best_backscatter(Mv, G_new, s_fixed), dtype=float)
-            else:
-                s_new = np.maximum(s + v[self.n_free:], 0.0) if self.free_s else s.copy()
-            f_new, _ = self._objective(mdl, Mv, chl_new, cdom_new, w_new, s_new)
-            steps.append(float(np.max(np.abs(delta))) if delta.size else 0.0)
-            stationary = pred <= tol * f or f <= f_exact
-            if not np.isfinite(f_new):
-                status = f"non-finite objective at iteration {it}"
+            cand = self._candidate(st, lin, v, safeguarded)
+            if not np.isfinite(cand.f):
+                st.stop(f"non-finite objective at iteration {it}", False)
                 break
-            if f_new < f:
-                decrease = f - f_new
-                chl, cdom, w, s, f = chl_new, cdom_new, w_new, s_new, f_new
-                history.append(f * scale**2)
-                if safeguarded:
-                    rho = decrease / pred if pred > 0 else 0.0
-                    at_edge = steps[-1] >= 0.9 * radius
-                    if rho > 0.75 and at_edge:
-                        radius = min(2.0 * radius, 1e4)
-                    elif rho < 0.25:
-                        radius = max(radius / 4.0, 1e-14)
-                    if decrease <= tol * (f + decrease) and pred <= 10 * tol * (f + decrease):
-                        status, converged = "converged: relative decrease below tol", True
-                        break
-                continue
-            # the objective did not decrease
+            if self._judge(st, cand, tol, safeguarded):
+                break
+        else:
+            st.stop("maximum number of iterations reached", False)
+        if st.f <= st.f_exact and not st.converged:
+            st.stop("exact fit (objective at rounding level)", True)
+        return self._result(st, scale, mode, it)
+
+    def _linearise(self, st) -> "_Linearisation":
+        """The QP data at the current point: scaled Jacobian [A E] = Q R and the residual."""
+        mdl = st.mdl
+        chl, cdom, w, s = st.x
+        k, dk = mdl.attenuation_jacobian(chl, cdom, w)
+        J = dk.T @ mdl.B.T  # (2 + z, m n)
+        D_chl = max(chl, CHL_SCALE_MIN)
+        D_cdom = max(cdom, CDOM_SCALE_MIN)
+        w_min = float(mdl.phyto_scale(CHL_SCALE_MIN)) / (mdl.z * float(np.max(mdl.t440)))
+        D_w = np.maximum(np.abs(w), w_min)
+        scales = np.array(([D_chl] if self.free_chl else []) + ([D_cdom] if self.free_cdom else [])
+                          + (list(D_w) if self.free_w else []))
+        r0 = st.Mv - mdl.signal(k) - np.repeat(s, mdl.n)
+        AE = J[self.cols].T * scales
+        if self.free_s:
+            AE = np.hstack([AE, np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))])
+        Q, Rm = np.linalg.qr(AE)
+        b = Q.T @ r0
+        unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
+        c0 = max(float(r0 @ r0 - b @ b), 0.0)  # the part of ||r0||^2 no step can remove
+        return _Linearisation(AE, r0, Rm, b, unit, c0, scales, D_chl, D_cdom, D_w)
+
+    def _eq17_row(self, st, lin):
+        """Eq 17 linearised: t440.(w + D_w dw) = alpha(C) + alpha'(C) D_C dC, as (row, rhs)."""
+        if not self.free_w:
+            return None, 0.0
+        mdl = st.mdl
+        chl, _, w, _ = st.x
+        row = np.zeros(lin.R.shape[1])
+        row[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * lin.D_w
+        if self.free_chl:
+            alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
+            row[0] = -float(dalpha) * lin.D_chl
+            return row, float(alpha) - float(mdl.t440 @ w)
+        return row, float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
+
+    def _set_subproblem(self, sub, lin, st, safeguarded):
+        """Write the QP's parameters (all in units of ``lin.unit``)."""
+        mdl = st.mdl
+        chl, cdom, w, s = st.x
+        unit = lin.unit
+        sub.R.value = lin.R
+        sub.b.value = lin.b / unit
+        eq_row, eq_rhs = self._eq17_row(st, lin)
+        # Bounds far beyond any step the model can want only hurt the interior-point start;
+        # they are capped at BOUND_CAP times the least-squares step that respects the
+        # linearised eq 17 (without it, C and w are nearly collinear and the unconstrained
+        # step is meaningless).
+        v_ls = equality_step(lin.R, lin.b / unit, eq_row, eq_rhs / unit)
+        cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
+        if self.free_s:
+            sub.s_lo.value = np.maximum(-s / unit, -cap)
+        if self.n_pos:
+            lo = ([-chl / lin.D_chl] if self.free_chl else []) + \
+                ([-cdom / lin.D_cdom] if self.free_cdom else []) + \
+                ([-float(w[0]) / float(lin.D_w[0])] if self.w_bound else [])
+            sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
+        if safeguarded and self.n_free:
+            sub.hi.value = np.full(self.n_free, min(st.radius / unit, cap))
+        if self.free_w:
+            if not self.w_bound:
+                TDw = mdl.T * lin.D_w
+                sub.TDw.value = TDw
+                sub.Tw_rhs.value = np.maximum(-(mdl.T @ w) / unit, -cap * np.abs(TDw).sum(axis=1))
+            sub.a_eq.value = eq_row[:self.n_free]
+            sub.b_eq.value = eq_rhs / unit
+
+    def qp_problem(self, sub, lin):
+        """The cvxpy problem and variable solved each iteration: the compiled DPP problem.
+        (A benchmark baseline overrides this to rebuild the problem every time.)"""
+        return sub.problem, sub.v
+
+    def _solve_step(self, sub, lin, st, safeguarded):
+        """Solve the QP (with the fallbacks and the active-set polish): the step in data units
+        and '' or the reasons it failed."""
+        self._set_subproblem(sub, lin, st, safeguarded)
+        t0 = time.perf_counter()
+        problem, v_var = self.qp_problem(sub, lin)
+        v_var.value = None  # a cached problem: never read a previous solve's values
+        failure = _solve(problem)
+        st.t_solve += time.perf_counter() - t0
+        st.n_solves += 1
+        stats = getattr(problem, "solver_stats", None)
+        if stats is not None and stats.solve_time:
+            st.t_clarabel += float(stats.solve_time)
+        v = None
+        if not failure:
+            v, _ = polish(sub, np.asarray(v_var.value, float))
+        elif v_var.value is not None and np.all(np.isfinite(v_var.value)):
+            # Clarabel stopped early (e.g. its iteration limit on a degenerate, weakly active
+            # bound) but returned an iterate: the active-set polish may turn it into a
+            # feasible point that the model says is no worse than not moving (v = 0, feasible
+            # in safeguarded mode). Counted in ``polish_rescues``.
+            v, rescued = polish(sub, np.asarray(v_var.value, float),
+                                f_ref=1.0 if safeguarded else None)
+            if rescued:
+                failure = ""
+                st.rescues += 1
+        if failure:
+            return None, failure
+        st.qp_value = float(np.sum((lin.R @ v - lin.b / lin.unit) ** 2))
+        return v * lin.unit, ""
+
+    def _candidate(self, st, lin, v, safeguarded) -> "_Candidate":
+        """The trial point of step ``v``, its true objective and the decrease the linearised
+        model predicted for it."""
+        mdl = st.mdl
+        chl, cdom, w, s = st.x
+        delta = v[:self.n_free]
+        full = np.zeros(2 + mdl.z)
+        full[self.cols] = delta * lin.scales
+        chl_new = max(chl + full[0], 0.0) if self.free_chl else chl
+        cdom_new = max(cdom + full[1], 0.0) if self.free_cdom else cdom
+        w_new = w + full[2:] if self.free_w else w
+        if safeguarded:  # feasibility restoration: w back on eq 17, s re-fitted in closed form
+            w_new = mdl.feasible_w(chl_new, w_new)
+            G_new = mdl.signal(mdl.attenuation(chl_new, cdom_new, w_new))
+            s_new = np.array(mdl.best_backscatter(st.Mv, G_new, st.s_fixed), dtype=float)
+        else:
+            s_new = np.maximum(s + v[self.n_free:], 0.0) if self.free_s else s.copy()
+        f_new, _ = self._objective(mdl, st.Mv, chl_new, cdom_new, w_new, s_new)
+        pred = st.f - (st.qp_value * lin.unit**2 + lin.c0)
+        step = float(np.max(np.abs(delta))) if delta.size else 0.0
+        st.steps.append(step)
+        st.trials.append(f_new)
+        return _Candidate((chl_new, cdom_new, w_new, s_new), f_new, pred, step)
+
+    def _judge(self, st, cand, tol, safeguarded) -> bool:
+        """Accept or reject the candidate, update the trust region; True when the loop stops."""
+        stationary = cand.pred <= tol * st.f or st.f <= st.f_exact
+        if cand.f < st.f:  # accept
+            decrease = st.f - cand.f
+            st.x, st.f = cand.x, cand.f
+            st.history.append(st.f)
             if not safeguarded:
-                if stationary:
-                    status, converged = "objective stopped decreasing at a stationary point", True
-                else:
-                    status = ("objective stopped decreasing after a full Taylor step, but the "
-                              "point is not stationary (paper mode stopped early)")
-                break
+                return False
+            st.radius = _update_radius(st.radius, decrease / cand.pred if cand.pred > 0 else 0.0,
+                                       cand.step)
+            if decrease <= tol * (st.f + decrease) and cand.pred <= 10 * tol * (st.f + decrease):
+                return st.stop("converged: relative decrease below tol", True)
+            return False
+        # the objective did not decrease
+        if not safeguarded:
             if stationary:
-                status, converged = "converged: no further decrease predicted", True
-                break
-            radius = min(radius, steps[-1]) / 4.0
-            if radius < 1e-12:
-                status = "trust region collapsed without reaching a stationary point"
-                break
-        if f <= f_exact and not converged:
-            status, converged = "exact fit (objective at rounding level)", True
-        k = mdl.attenuation(chl, cdom, w)
-        se_chl, se_cdom = mdl.standard_errors(Mv, chl, cdom, w, s, (self.free_chl, self.free_cdom),
-                                              s_fixed)
+                return st.stop("objective stopped decreasing at a stationary point", True)
+            return st.stop("objective stopped decreasing after a full Taylor step, but the point "
+                           "is not stationary (paper mode stopped early)", False)
+        if stationary:
+            return st.stop("converged: no further decrease predicted", True)
+        st.radius = min(st.radius, cand.step) / TR_SHRINK
+        if st.radius < TR_COLLAPSE:
+            return st.stop("trust region collapsed without reaching a stationary point", False)
+        return False
+
+    def _result(self, st, scale, mode, it) -> Estimate:
+        mdl = st.mdl
+        chl, cdom, w, s = st.x
+        se_chl, se_cdom = mdl.standard_errors(st.Mv, chl, cdom, w, s,
+                                              (self.free_chl, self.free_cdom), st.s_fixed)
+        s2 = scale * scale
         return Estimate(
             chl=float(chl), cdom=float(cdom), chl_se=se_chl, cdom_se=se_cdom,
             w=np.array(w, float), backscatter=s * scale,
-            attenuation=k, attenuation_coefficient=mdl.coefficient(chl, cdom, w),
-            wavelengths=mdl.wavelengths, objective=f * scale**2, iterations=it,
-            converged=bool(converged), status=status, history=history, mode=mode,
-            initial=initial, fixed=dict(self.fixed),
-            eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
-            solve_time_s=t_solve, clarabel_time_s=t_clarabel, n_solves=n_solves,
-            polish_rescues=rescues,
-            step_history=steps,
+            attenuation=mdl.attenuation(chl, cdom, w),
+            attenuation_coefficient=mdl.coefficient(chl, cdom, w),
+            wavelengths=mdl.wavelengths, objective=st.f * s2, iterations=it,
+            converged=bool(st.converged), status=st.status,
+            history=[f * s2 for f in st.history], mode=mode, initial=st.initial,
+            fixed=dict(self.fixed), eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
+            solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel, n_solves=st.n_solves,
+            polish_rescues=st.rescues, trials=[f * s2 for f in st.trials],
+            path_model=self.water.path_model, step_history=st.steps,
         )
+
+
+def _update_radius(radius, rho, step):
+    """Trust-region radius after an accepted step (Nocedal & Wright, Alg. 4.1): grow when the
+    model predicted the decrease well and the step reached the boundary, shrink when it did
+    not."""
+    if rho > TR_ETA_GROW and step >= TR_AT_EDGE * radius:
+        return min(TR_GROW * radius, TR_RADIUS_MAX)
+    if rho < TR_ETA_SHRINK:
+        return max(radius / TR_SHRINK, TR_RADIUS_MIN)
+    return radius
+
+
+@dataclass
+class _Linearisation:
+    """The QP of one iteration: [A E] (scaled Jacobian and the s columns), r0, its QR factor R,
+    Q^T r0, the unit ||Q^T r0||, the irreducible part c0 of ||r0||^2, and the scales D."""
+
+    AE: np.ndarray
+    r0: np.ndarray
+    R: np.ndarray
+    b: np.ndarray
+    unit: float
+    c0: float
+    scales: np.ndarray
+    D_chl: float
+    D_cdom: float
+    D_w: np.ndarray
+
+
+@dataclass
+class _Candidate:
+    x: tuple
+    f: float
+    pred: float
+    step: float
+
+
+@dataclass
+class _FitState:
+    """Everything one fit changes (local to the call: an Estimator itself is never mutated)."""
+
+    mdl: WaterModel
+    Mv: np.ndarray
+    s_fixed: np.ndarray | None
+    f_exact: float
+    x: tuple = ()
+    f: float = np.inf
+    initial: dict = field(default_factory=dict)
+    radius: float = TR_RADIUS0
+    history: list = field(default_factory=list)
+    trials: list = field(default_factory=list)
+    steps: list = field(default_factory=list)
+    status: str = ""
+    converged: bool = False
+    qp_value: float = 0.0
+    n_solves: int = 0
+    t_solve: float = 0.0
+    t_clarabel: float = 0.0
+    rescues: int = 0
+
+    def stop(self, status: str, converged: bool) -> bool:
+        self.status, self.converged = status, converged
+        return True
 
 
 def _solve(problem) -> str:
@@ -444,8 +563,9 @@ def _solve(problem) -> str:
 
 def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,
              wavelengths=None, basis=None, mode: str = "safeguarded", max_iter: int = 100,
-             tol: float = 1e-10, fix=None, x0=None, path_model: str = "beam",
-             cdom_slope: float = CDOM_SLOPE, setup: ChartSetup | None = None) -> Estimate:
+             tol: float = 1e-10, fix=None, x0=None, water: Water | None = None,
+             path_model: str | None = None, cdom_slope: float | None = None,
+             setup: ChartSetup | None = None) -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -453,17 +573,21 @@ def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, re
     rgb : (m, n) measured patch values in the model units of :func:`forward.simulate_chart`
         (exposure-normalised: a white reflector in air = 1 in the reference channel).
     depth, distance : m, the path of the measurement (known to the diver).
-    camera, illuminant, reflectances, wavelengths, basis, path_model, cdom_slope : as in
+    camera, illuminant, reflectances, wavelengths, basis : as in
         :func:`forward.simulate_chart`; must describe the same camera and chart as the data.
+    water : :class:`forward.Water` (constants, tables, path model; default the paper's);
+        ``path_model`` and ``cdom_slope`` replace those fields.
     mode : 'safeguarded' (default) or 'paper' (the literal loop).
     max_iter : maximum number of convex subproblems.
     tol : relative objective decrease at which the loop stops.
     fix : hold parameters fixed, e.g. ``{'backscatter': 0}`` (chart a few cm away) or
         ``{'cdom': 0.1}``; the loop then solves the smaller problem.
     x0 : optional start ``{'chl': ..., 'cdom': ...}`` instead of the coarse grid search.
+
+    Safe to call from several threads (each thread compiles its own subproblem).
     """
     est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
-                    reflectances=reflectances, wavelengths=wavelengths, basis=basis,
+                    reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
                     path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup)
     return est.fit(rgb, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
 

@@ -1,8 +1,9 @@
-"""Reference method for the benchmark: ``scipy.optimize.least_squares`` on the reduced problem.
+"""Reference method: ``scipy.optimize.least_squares`` on the reduced problem.
 
-Unknowns (C, a_CDOM(440), s) with bounds >= 0; w is tied to C by eq 17 exactly (z = 1). The
-residual and its analytic Jacobian come from :class:`sca.model.WaterModel`; the start is the
-coarse grid of :meth:`sca.Estimator.initial_point`. Trust-region reflective ('trf').
+Unknowns x = (C, a_CDOM(440), s) with bounds >= 0; w is tied to C by eq 17 exactly (z = 1). The
+residual and its analytic Jacobian come from :class:`sca.model.WaterModel` (and so from
+:class:`forward.Water`); the start is the coarse grid of :meth:`sca.Estimator.initial_point`.
+Trust-region reflective ('trf').
 """
 
 from __future__ import annotations
@@ -11,19 +12,15 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .estimate import Estimate, Estimator
+from .model import WaterModel
 
 
-def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev: int = 500,
-                           **kwargs) -> Estimate:
-    """Fit one chart with scipy's bounded least squares; fields as :class:`sca.Estimate`."""
-    est = Estimator(depth=depth, distance=distance, **kwargs)
-    mdl = est.model
+def residual_functions(mdl: WaterModel, Mv):
+    """(fun, jac, unpack) of the reduced problem for the data ``Mv`` (vec of M, in the units of
+    ``mdl``): fun(x) = vec(M - G(x) - s 1^T), jac(x) = d fun / dx, unpack(x) = (C, a_CDOM, w, s)."""
     if mdl.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
-    Mv, scale, mdl, _ = est.prepare(rgb)
     B = mdl.B
-    C0, A0, w0 = est.initial_point(Mv, mdl=mdl)
-    s0 = np.asarray(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(C0, A0, w0))), float)
     t440 = float(mdl.t440[0])
     E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))
 
@@ -42,6 +39,20 @@ def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev
         dk_dC = dk[:, 0] + dk[:, 2] * float(dalpha) / t440  # w follows C along eq 17
         return -np.column_stack([B @ dk_dC, B @ dk[:, 1], E])
 
+    return fun, jac, unpack
+
+
+def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev: int = 500,
+                           **kwargs) -> Estimate:
+    """Fit one chart with scipy's bounded least squares; fields as :class:`sca.Estimate`.
+    Keyword arguments as :func:`sca.estimate` (``water=``, ``camera=``, ...)."""
+    est = Estimator(depth=depth, distance=distance, **kwargs)
+    if est.model.z != 1:
+        raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
+    Mv, scale, mdl, _ = est.prepare(rgb)
+    fun, jac, unpack = residual_functions(mdl, Mv)
+    C0, A0, w0 = est.initial_point(Mv, mdl=mdl)
+    s0 = np.asarray(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(C0, A0, w0))), float)
     x0 = np.concatenate([[C0, A0], s0])
     res = least_squares(fun, x0, jac=jac, bounds=(0.0, np.inf), method="trf", x_scale="jac",
                         ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
@@ -49,9 +60,10 @@ def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev
     k = mdl.attenuation(C, A, w)
     f = float(res.fun @ res.fun)
     return Estimate(
-        chl=float(C), cdom=float(A), chl_se=float("nan"), cdom_se=float("nan"), w=w, backscatter=s * scale, attenuation=k,
-        attenuation_coefficient=mdl.coefficient(C, A, w), wavelengths=mdl.wavelengths,
-        objective=f * scale**2, iterations=int(res.nfev), converged=bool(res.status > 0),
-        status=f"scipy least_squares: {res.message}", history=[], mode="scipy_least_squares",
-        initial={"chl": C0, "cdom": A0}, fixed={}, eq17_residual=0.0,
+        chl=float(C), cdom=float(A), chl_se=float("nan"), cdom_se=float("nan"), w=w,
+        backscatter=s * scale, attenuation=k, attenuation_coefficient=mdl.coefficient(C, A, w),
+        wavelengths=mdl.wavelengths, objective=f * scale**2, iterations=int(res.nfev),
+        converged=bool(res.status > 0), status=f"scipy least_squares: {res.message}", history=[],
+        mode="scipy_least_squares", initial={"chl": C0, "cdom": A0}, fixed={},
+        eq17_residual=0.0, path_model=est.water.path_model,
     )

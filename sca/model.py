@@ -1,9 +1,9 @@
 """The nonlinear measurement model of eq 15 and its Jacobian, for the estimator.
 
-x = (C, a_CDOM(440), w) with w in R^z (eq 9). The attenuation coefficient is assembled from the
-physics functions of :mod:`forward.water` (nothing is re-derived here):
+x = (C, a_CDOM(440), w) with w in R^z (eq 9). The path coefficient c(x) and dc/dx come from
+:class:`forward.WaterTerms` (built by :meth:`forward.Water.on_grid`); nothing is re-derived
+here:
 
-    c(x) = a_w + T w + a_CDOM(x) + a_NAP(C) [+ b_w + b_p(C) for the 'beam' path model]
     k(x) = exp(-L c(x)),   L = depth + distance                       (eqs 4-14)
     G(x) = P^T diag(i) diag(k(x)) R,   vec(G) = B k  with B = (P (x) R) diag(i)   (eq 15)
 """
@@ -14,9 +14,8 @@ import copy
 
 import numpy as np
 
-from forward import water
-from forward.imaging import PATH_MODELS, ChartSetup, path_length
-from forward.spectra import phytoplankton_basis
+from forward.imaging import ChartSetup, path_length
+from forward.water import Water, resolve_water
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated: both
 #: are infinite at C = 0 (DECISIONS.md).
@@ -24,37 +23,22 @@ CHL_DERIVATIVE_FLOOR = 1e-6
 
 
 class WaterModel:
-    """k(x), G(x) and their derivatives for one chart setup, basis and path."""
+    """k(x), G(x) and their derivatives for one chart setup, water model, basis and path."""
 
     def __init__(self, setup: ChartSetup, depth, distance, *, basis=None,
-                 path_model: str = "beam", cdom_slope: float = water.CDOM_SLOPE):
-        if path_model not in PATH_MODELS:
-            raise ValueError(f"path_model: must be one of {PATH_MODELS}, got {path_model!r}")
+                 water: Water | None = None):
         self.setup = setup
+        self.water = water = resolve_water(water)
         self.wavelengths = wl = setup.wavelengths
-        self.T, self.t440 = phytoplankton_basis(wl, basis)
+        self.terms = water.on_grid(wl, basis=basis)
+        self.T, self.t440 = self.terms.T, self.terms.t440
         self.z = self.T.shape[1]
         self.L = np.asarray(path_length(depth, distance), dtype=float)
-        self.path_model = path_model
-        self.cdom_slope = cdom_slope
+        self.path_model = water.path_model
         P, i, R = setup.sensitivities, setup.illuminant, setup.reflectances
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
-        # c is linear in a few scalar weights of C and a_CDOM (eqs 5-12), so the spectral terms
-        # are built once from forward.water and combined per evaluation:
-        #   c = base + T w + a_CDOM e_cdom + a_NAP,440(C) e_nap [+ w12(C) f12 + w3(C) f3]
-        beam = path_model == "beam"
-        self.beam = beam
-        self.cdom_shape = water.cdom_absorption(wl, 1.0, slope=cdom_slope)
-        self.nap_shape = water.nap_absorption(wl, 1.0) / water.nap_absorption_440(1.0)
-        f12, f3, fk = water.particle_scattering_terms(wl)
-        t1 = water.table1()
-        self._c12, self._s12 = t1["C_12"], t1["S_12"]
-        self.bp_terms = np.stack([f12, f3]) if beam else np.zeros((2, wl.size))
-        self.base = water.pure_water_absorption(wl)
-        if beam:
-            self.base = self.base + water.pure_water_scattering(wl) + fk
 
     def scaled(self, factor: float) -> "WaterModel":
         """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest."""
@@ -65,11 +49,7 @@ class WaterModel:
     # --- eq 17 -----------------------------------------------------------------------------
     def phyto_scale(self, chl, derivative=False):
         """(T w)(440) required by eq 17: 0.0378 C^0.627 (and its derivative at the floor)."""
-        # the formula kernels of forward.water: the loop's own state needs no re-validation
-        c = np.asarray(chl, float)
-        if not derivative:
-            return water.eq10(c)
-        return water.eq10(c), water.eq10_derivative(np.maximum(c, CHL_DERIVATIVE_FLOOR))
+        return self.water.phytoplankton_440(chl, derivative=derivative, floor=CHL_DERIVATIVE_FLOOR)
 
     def feasible_w(self, chl, w_shape=None) -> np.ndarray:
         """w on the eq 17 manifold: ``w_shape`` rescaled so that t440 . w = 0.0378 C^0.627."""
@@ -81,26 +61,9 @@ class WaterModel:
         return shape * (float(self.phyto_scale(chl)) / t)
 
     # --- attenuation -----------------------------------------------------------------------
-    def chl_weights(self, chl, derivative=False):
-        """(N, 3) weights of (e_nap, f12, f3) for C: eq 8 and eq 12's particle weights; with
-        ``derivative``, also d/dC evaluated at max(C, CHL_DERIVATIVE_FLOOR)."""
-        # the formula kernels of forward.water (eqs 8, 12) without re-validating the loop's state
-        chl = np.asarray(chl, float)
-        c12, s12 = self._c12, self._s12
-        w12 = water.eq12_small(chl, c12, s12)
-        wts = np.stack([water.eq8(chl), w12, chl - w12], axis=-1)
-        if not derivative:
-            return wts
-        cf = np.maximum(chl, CHL_DERIVATIVE_FLOOR)
-        d12 = water.eq12_small_derivative(cf, c12, s12)
-        return wts, np.stack([water.eq8_derivative(cf), d12, 1.0 - d12], axis=-1)
-
     def coefficient(self, chl, cdom, w):
         """c(x) (or a(x) for the 'absorption' path model), m^-1, shape (..., q)."""
-        cdom = np.asarray(cdom, float)
-        terms = np.vstack([self.nap_shape, self.bp_terms])
-        return (self.base + np.asarray(w, float) @ self.T.T
-                + np.multiply.outer(cdom, self.cdom_shape) + self.chl_weights(chl) @ terms)
+        return self.terms.coefficient(chl, cdom, w)
 
     def attenuation(self, chl, cdom, w):
         """k(x) = exp(-L c(x)), shape (..., q)."""
@@ -111,10 +74,8 @@ class WaterModel:
 
         The C column is evaluated at max(C, CHL_DERIVATIVE_FLOOR), so it is finite at C = 0.
         """
-        _, dw = self.chl_weights(chl, derivative=True)
         k = self.attenuation(chl, cdom, w)
-        dc_dchl = dw @ np.vstack([self.nap_shape, self.bp_terms])
-        dc = np.column_stack([dc_dchl, self.cdom_shape, self.T])
+        dc = self.terms.jacobian(chl, cdom, w, floor=CHL_DERIVATIVE_FLOOR)
         return k, (-self.L * k)[:, None] * dc
 
     # --- measurements ----------------------------------------------------------------------

@@ -23,12 +23,14 @@ every patch of its channel. Two exact reformulations keep the solver's numbers O
 R, Q^T r0 / rho and the bounds / rho are ``cp.Parameter`` s set each iteration (no product of
 two parameters, so the problem compiles once). The problem depends only on its
 *structure* (which unknowns are free, z, q, m, trust region or not), so one compiled problem
-serves every depth, distance and data set of that structure.
+serves every depth, distance and data set of that structure. A compiled problem is mutable
+(its parameter values, its variable's value), so each thread has its own
+(:func:`compiled_subproblem`): fits in several threads never share one.
 """
 
 from __future__ import annotations
 
-import functools
+import threading
 from dataclasses import dataclass
 
 import cvxpy as cp
@@ -52,10 +54,31 @@ class Subproblem:
     n_s: int
 
 
-@functools.lru_cache(maxsize=64)
+_LOCAL = threading.local()
+
+
+def compiled_subproblem(*structure) -> "Subproblem":
+    """The problem of :func:`build_subproblem` for ``structure``, built once per thread and
+    reused by every later fit in that thread (the DPP compile happens on its first solve)."""
+    cache = getattr(_LOCAL, "cache", None)
+    if cache is None:
+        cache = _LOCAL.cache = {}
+        _LOCAL.builds = 0
+    sub = cache.get(structure)
+    if sub is None:
+        sub = cache[structure] = build_subproblem(*structure)
+        _LOCAL.builds += 1
+    return sub
+
+
+def thread_builds() -> int:
+    """How many subproblems this thread has built (a diagnostic for tests)."""
+    return getattr(_LOCAL, "builds", 0)
+
+
 def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s: int,
                      trust_region: bool, has_equality: bool) -> Subproblem:
-    """Build (once per structure) the DPP QP above.
+    """Build the DPP QP above (a new problem; :func:`compiled_subproblem` caches it per thread).
 
     ``n_free``: number of free entries of delta, the first ``n_pos`` of which (C, a_CDOM) are
     bounded below; ``w_slice``: (start, stop) of the w entries inside delta (None if w is not
@@ -177,29 +200,6 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol
     if f_p <= f_v + 1e-14 * max(1.0, f_v):
         return vp, True
     return v, False
-
-
-def constant_problem(sub: Subproblem, AE, r0):
-    """The same QP as ``sub`` written as a CVX user would: the full least-squares residual
-    ``r0 - AE v`` (m n rows, not QR-compressed) and every bound as a constant, in a fresh
-    problem that cvxpy must canonicalise from scratch (the benchmark's baseline).
-    Returns (problem, v)."""
-    nv = sub.n_free + sub.n_s
-    v = cp.Variable(nv)
-    cons = []
-    if sub.lo is not None:
-        cons.append(v[:sub.lo.value.size] >= sub.lo.value)
-    if sub.hi is not None:
-        cons += [v[:sub.n_free] <= sub.hi.value, v[:sub.n_free] >= -sub.hi.value]
-    if sub.TDw is not None:
-        w0 = sub.n_free - sub.TDw.value.shape[1]
-        cons.append(sub.TDw.value @ v[w0:sub.n_free] >= sub.Tw_rhs.value)
-    if sub.a_eq is not None:
-        cons.append(sub.a_eq.value @ v[:sub.n_free] == sub.b_eq.value)
-    if sub.s_lo is not None:
-        cons.append(v[sub.n_free:] >= sub.s_lo.value)
-    problem = cp.Problem(cp.Minimize(cp.sum_squares(r0 - AE @ v)), cons)
-    return problem, v
 
 
 def equality_step(R, b, eq_row=None, eq_rhs=0.0):

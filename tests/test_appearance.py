@@ -1,0 +1,31 @@
+"""The appearance figure scripts (Figs 5-8) and their trends."""
+
+import numpy as np
+
+import forward
+
+
+def test_appearance_figures_and_hue_trend(tmp_path):
+    from experiments import fig05_06_appearance_sites, fig07_depth_distance, fig08_chlorophyll
+
+    fig05_06_appearance_sites.main(tmp_path)
+    res7 = fig07_depth_distance.main(tmp_path)
+    fig08_chlorophyll.main(tmp_path)
+    for name in ("fig05_06_sites", "fig07_depth_distance", "fig08_chlorophyll"):
+        for ext in ("png", "pdf"):
+            assert (tmp_path / f"{name}.{ext}").stat().st_size > 1000
+    # hue moves from blue toward green as C rises: camera G/B of the white patch increases
+    ratios = []
+    for c in fig08_chlorophyll.CHL_MG_M3:
+        rgb = forward.simulate_chart(c, 0.1, 10, 1, noise=False).rgb[:, 18]
+        ratios.append(rgb[1] / rgb[2])
+    assert np.all(np.diff(ratios) > 0) and ratios[0] < 1.5 < ratios[-1]
+    # colours fade with depth: the spread of the patches' camera chromaticities shrinks
+    spread = {}
+    for cond, _ in res7:
+        if cond["distance"] == 1.0:
+            rgb = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], 1.0, noise=False).rgb
+            spread[cond["depth"]] = (rgb / rgb.sum(0)).std(1).sum()
+    depths = sorted(spread)
+    assert len(depths) == 4
+    assert all(spread[a] > spread[b] for a, b in zip(depths, depths[1:])), spread

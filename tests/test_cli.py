@@ -1,0 +1,230 @@
+"""The ``uw3p`` command: simulate, estimate (single and batch), robustness, exit codes."""
+
+import csv
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import forward
+from uw3p.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+UW3P = [sys.executable, "-m", "uw3p"]
+
+
+def run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    code = main(argv, out, err)
+    return code, out.getvalue(), err.getvalue()
+
+
+def write_chart(path, rgb, order=("red", "green", "blue")):
+    idx = {"red": 0, "green": 1, "blue": 2}
+    lines = ["patch," + ",".join(order)]
+    lines += [f"{p + 1}," + ",".join(repr(float(rgb[idx[c], p])) for c in order) for p in range(24)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_version():
+    proc = subprocess.run(UW3P + ["--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stdout.strip().startswith("uw3p 0.")
+
+
+def test_simulate_csv_and_json(tmp_path):
+    code, out, _ = run(["simulate", "--chl", "1", "--cdom", "0.1", "--depth", "10", "--distance", "5",
+                        "--no-noise"])
+    assert code == 0
+    rows = list(csv.reader(io.StringIO(out)))
+    assert rows[0] == ["patch", "red", "green", "blue"] and len(rows) == 25
+    sim = forward.simulate_chart(1, 0.1, 10, 5, noise=False)
+    np.testing.assert_allclose(np.array(rows[1:], float)[:, 1:].T, sim.rgb, rtol=1e-15)
+    f = tmp_path / "s.json"
+    code, _, err = run(["simulate", "--chl", "1", "--cdom", "0.1", "--depth", "10", "--distance", "5",
+                        "--seed", "4", "--b-k", "0.002", "--out", str(f)])
+    data = json.loads(f.read_text())
+    assert code == 0 and data["seed"] == 4 and data["water"]["b_k"] == 0.002
+
+
+@pytest.mark.parametrize("argv,word", [
+    (["--chl", "-1", "--cdom", "0.1", "--depth", "10", "--distance", "5"], "chl"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "10", "--distance", "5", "--camera", "Sigma SDMerill (NPL)"], "camera"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "nan", "--distance", "5"], "depth"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "1", "--distance", "5", "--b-k", "-1"], "--b-k"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "1", "--distance", "5", "--out", "/no/such/dir/x.csv"], "--out"),
+])
+def test_simulate_bad_input_exits_2(argv, word):
+    code, out, err = run(["simulate"] + argv)
+    assert code == 2 and err.startswith("uw3p simulate: error: " + word), err
+
+
+def test_estimate_round_trip_and_json(tmp_path):
+    f = tmp_path / "m.csv"
+    code, _, _ = run(["simulate", "--chl", "2", "--cdom", "0.3", "--depth", "10", "--distance", "5",
+                      "--no-noise", "--out", str(f)])
+    assert code == 0
+    code, out, err = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--json"])
+    assert code == 0, err
+    res = json.loads(out)
+    assert res["converged"] and abs(res["chl"] / 2 - 1) < 1e-6 and abs(res["cdom"] / 0.3 - 1) < 1e-6
+    code, out, _ = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--mode", "paper"])
+    assert "chl (C)" in out and "wavelength_nm,attenuation_k" in out and code in (0, 1)
+
+
+def test_estimate_reads_columns_by_name(tmp_path):
+    sim = forward.simulate_chart(2.0, 0.3, 10, 5, noise=False)
+    a = write_chart(tmp_path / "rgb.csv", sim.rgb)
+    b = write_chart(tmp_path / "bgr.csv", sim.rgb, order=("blue", "green", "red"))
+    # rows in another order are put back in patch order
+    lines = b.read_text().splitlines()
+    b.write_text("\n".join([lines[0]] + lines[:0:-1]) + "\n")
+    outs = []
+    for f in (a, b):
+        code, out, err = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--json"])
+        assert code == 0, err
+        outs.append(json.loads(out))
+    assert outs[0]["chl"] == outs[1]["chl"] and abs(outs[0]["chl"] / 2 - 1) < 1e-6
+
+
+def test_estimate_path_model_and_water_options(tmp_path):
+    sim = forward.simulate_chart(2.0, 0.3, 10, 5, noise=False, path_model="absorption",
+                                 water=forward.Water(nap_slope=0.008))
+    f = write_chart(tmp_path / "m.csv", sim.rgb)
+    code, out, err = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--json",
+                          "--path-model", "absorption", "--nap-slope", "0.008"])
+    res = json.loads(out)
+    assert code == 0 and abs(res["chl"] / 2 - 1) < 1e-6 and res["path_model"] == "absorption"
+    code, out, _ = run(["estimate", str(f), "--depth", "10", "--distance", "5", "--json"])
+    assert abs(json.loads(out)["chl"] / 2 - 1) > 1e-3  # the default water does not fit it
+
+
+@pytest.mark.parametrize("content,word", [
+    ("patch,red,green,blue\n1,0.1,0.2\n", "measurements"),
+    ("patch,red,green,blue\n" + "".join(f"{p},1e300,1e300,1e300\n" for p in range(1, 25)), "measurements"),
+    ("patch,red,green,blue\n" + "".join(f"{p},0.1,x,0.1\n" for p in range(1, 25)), "measurements"),
+    ("patch,red,green,blue\n" + "".join(f"1,0.1,0.1,0.1\n" for p in range(1, 25)), "measurements"),
+    ("\x00\x01binary", "measurements"),
+])
+def test_estimate_bad_files_exit_2(tmp_path, content, word):
+    f = tmp_path / "bad.csv"
+    f.write_text(content)
+    code, _, err = run(["estimate", str(f), "--depth", "10", "--distance", "5"])
+    assert code == 2 and err.startswith(f"uw3p estimate: error: {word}"), err
+    assert "Traceback" not in err
+
+
+def test_estimate_bad_arguments_exit_2(tmp_path):
+    f = write_chart(tmp_path / "m.csv", forward.simulate_chart(1, 0.1, 10, 5, noise=False).rgb)
+    code, _, err = run(["estimate", str(f), "--depth", "-1", "--distance", "5"])
+    assert code == 2 and "depth" in err
+    code, _, err = run(["estimate", str(tmp_path / "missing.csv"), "--depth", "1", "--distance", "5"])
+    assert code == 2 and "file not found" in err
+
+
+def _batch_file(path, truth, distance=2.0, ids=None):
+    lines = ["chart,patch,red,green,blue,depth_m"]
+    for j, (c, a, d) in enumerate(truth):
+        rgb = forward.simulate_chart(c, a, d, distance, noise=False).rgb
+        cid = ids[j] if ids else str(j)
+        lines += [f"{cid},{p + 1},{rgb[0, p]!r},{rgb[1, p]!r},{rgb[2, p]!r},{d}" for p in range(24)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_estimate_batch_ids_json_and_refusals(tmp_path):
+    truth = [(1.0, 0.1, 5.0), (3.0, 0.5, 10.0)]
+    f = _batch_file(tmp_path / "batch.csv", truth, ids=["dive A", "dive-B"])
+    code, out, err = run(["estimate", "--batch", str(f), "--distance", "2"])
+    assert code == 0, err
+    rows = list(csv.DictReader(io.StringIO(out)))
+    assert [r["chart"] for r in rows] == ["dive A", "dive-B"]
+    for row, (c, a, _) in zip(rows, truth):
+        assert abs(float(row["chl"]) / c - 1) < 1e-6 and abs(float(row["cdom"]) / a - 1) < 1e-6
+        assert row["converged"] == "True"
+    code, out, err = run(["estimate", "--batch", str(f), "--distance", "2", "--json"])
+    data = json.loads(out)
+    assert code == 0 and [c["chart"] for c in data["charts"]] == ["dive A", "dive-B"]
+    assert abs(data["charts"][1]["chl"] / 3 - 1) < 1e-6
+    code, _, err = run(["estimate", "--batch", str(f), "--distance", "2", "--mode", "paper"])
+    assert code == 2 and err.startswith("uw3p estimate: error: --mode")
+    code, _, err = run(["estimate", "--batch", str(f)])
+    assert code == 2 and "--distance" in err
+
+
+def test_output_cut_short_by_reader_is_quiet(tmp_path):
+    # an output larger than a pipe's buffer, read only to its first line
+    rgb = forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb
+    lines = ["chart,patch,red,green,blue"]
+    for j in range(1500):
+        lines += [f"c{j},{p + 1},{rgb[0, p]!r},{rgb[1, p]!r},{rgb[2, p]!r}" for p in range(24)]
+    f = tmp_path / "big.csv"
+    f.write_text("\n".join(lines) + "\n")
+    cmd = " ".join(UW3P) + f" estimate --batch {f} --depth 5 --distance 2 --json | head -c 100"
+    proc = subprocess.run(["bash", "-o", "pipefail", "-c", cmd], capture_output=True, text=True)
+    assert "Traceback" not in proc.stderr and "BrokenPipe" not in proc.stderr, proc.stderr
+    assert proc.returncode == 0 and len(proc.stdout) == 100
+
+
+def _children(pid):
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _alive(pid):
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def _start_sweep(tmp_path):
+    cmd = [sys.executable, "-m", "experiments", "fig12_chlorophyll_estimates", "--out", str(tmp_path),
+           "--cache", str(tmp_path / "cache"), "--workers", "2"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    kids = []
+    while time.time() < deadline and len(kids) < 2 and proc.poll() is None:
+        kids = _children(proc.pid)
+        time.sleep(0.1)
+    assert len(kids) >= 2, f"the pool did not start: {proc.poll()} {proc.stderr.read() if proc.poll() is not None else ''}"
+    time.sleep(1.0)  # the workers are fitting
+    return proc, kids
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_killed_sweep_leaves_no_workers(tmp_path):
+    proc, kids = _start_sweep(tmp_path)
+    proc.kill()
+    proc.wait()
+    deadline = time.time() + 10
+    while time.time() < deadline and any(_alive(k) for k in kids):
+        time.sleep(0.1)
+    assert not any(_alive(k) for k in kids), "pool workers outlived the killed run"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
+def test_ctrl_c_stops_sweep_quickly_without_traceback(tmp_path):
+    proc, kids = _start_sweep(tmp_path)
+    t0 = time.time()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert time.time() - t0 < 5.0
+    assert proc.returncode == 130 and "Traceback" not in err, err
+    assert "interrupted" in err
+    assert not any(_alive(k) for k in kids)

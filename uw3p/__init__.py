@@ -1,0 +1,15 @@
+"""uw3p: the application layer (command line) above ``forward``, ``sca`` and ``experiments``.
+
+Layers, each importing only those below it: ``forward`` (physics, sensor, rendering) <-
+``sca`` (estimators) <- ``experiments`` (figures, benchmarks) and ``uw3p`` (the ``uw3p``
+command).
+"""
+
+from importlib import metadata as _metadata
+
+try:
+    __version__ = _metadata.version("uw3p")
+except _metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "unknown"
+
+__all__ = ["__version__"]

@@ -1,0 +1,7 @@
+"""``python -m uw3p``: the same as the ``uw3p`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

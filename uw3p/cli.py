@@ -1,0 +1,292 @@
+"""The ``uw3p`` command: simulate a chart, estimate the water, regenerate figures, benchmark.
+
+    uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper]
+    uw3p estimate --batch charts.csv --distance 5 [--json]
+    uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
+    uw3p bench [--quick]                               (what `make bench` runs)
+    uw3p --version
+
+Exit status: 0 success (``estimate``: every fit converged), 1 a fit did not converge (its
+status says why), 2 bad input (the message names the argument or file), 130 interrupted.
+Output cut short by its reader (``uw3p estimate ... | head``) ends quietly with the status the
+command would have had.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .patchfile import patch_csv, read_batch_csv, read_patch_csv
+
+EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+# --------------------------------------------------------------------------- shared options
+def _add_setup(p):
+    p.add_argument("--camera", default="Nikon 5100 (NPL)",
+                   help="colour-science camera name or CSV file (default: %(default)s)")
+    p.add_argument("--illuminant", default=None, help="colour-science illuminant name or CSV (default D65)")
+    p.add_argument("--reflectances", default=None, help="chart name or CSV (default BabelColor Average)")
+    p.add_argument("--step", type=float, default=None, help="wavelength step in nm (default 10)")
+    p.add_argument("--wl-min", type=float, default=400.0, help="first wavelength, nm (default 400)")
+    p.add_argument("--wl-max", type=float, default=700.0, help="last wavelength, nm (default 700)")
+    g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
+    g.add_argument("--path-model", default="beam", choices=["beam", "absorption"],
+                   help="k = exp(-L c) (beam, default) or exp(-L a) (eq 13 as printed)")
+    g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
+    g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
+    g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
+
+
+def _grid(args):
+    if args.step is None and args.wl_min == 400.0 and args.wl_max == 700.0:
+        return None
+    step = 10.0 if args.step is None else args.step
+    if not step > 0:
+        raise ValueError(f"--step: must be > 0, got {step}")
+    return np.arange(args.wl_min, args.wl_max + step / 2, step)
+
+
+def _water(args):
+    import forward
+
+    kw = {"path_model": args.path_model}
+    for opt, key in (("cdom_slope", "cdom_slope"), ("nap_slope", "nap_slope"), ("b_k", "b_k")):
+        if getattr(args, opt) is not None:
+            kw[key] = getattr(args, opt)
+    try:
+        return forward.Water(**kw)
+    except ValueError as exc:
+        raise ValueError(f"--{str(exc).replace('_', '-')}") from None
+
+
+def _write_file(path, text, err):
+    p = Path(path)
+    try:
+        p.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        why = "its folder does not exist" if not p.parent.is_dir() else exc.strerror
+        raise ValueError(f"--out: cannot write {p}: {why}") from None
+    err.write(f"wrote {p}\n")
+
+
+# --------------------------------------------------------------------------- simulate
+def _simulate(args, out, err):
+    import forward
+
+    if args.out is not None and not args.out.lower().endswith((".json", ".csv")):
+        raise ValueError(f"--out: must end in .json or .csv, got {args.out!r}")
+    sim = forward.simulate_chart(args.chl, args.cdom, args.depth, args.distance, camera=args.camera,
+                                 illuminant=args.illuminant, reflectances=args.reflectances,
+                                 noise=not args.no_noise, seed=args.seed, wavelengths=_grid(args),
+                                 water=_water(args))
+    if args.out is None:
+        out.write(patch_csv(sim.rgb))
+    else:
+        _write_file(args.out, sim.to_json() if args.out.lower().endswith(".json")
+                    else patch_csv(sim.rgb), err)
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------- estimate
+def _setup_kwargs(args):
+    return dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
+                wavelengths=_grid(args), water=_water(args))
+
+
+def _estimate_batch(args, out, err):
+    from sca import estimate_batch
+
+    if args.mode is not None:
+        raise ValueError("--mode: the batched solver (--batch) has one algorithm (variable "
+                         "projection + Levenberg-Marquardt); omit --mode")
+    if args.fix_cdom is not None:
+        raise ValueError("--fix-cdom: not available with --batch")
+    charts, M, depth, distance = read_batch_csv(args.batch)
+    for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
+        if np.isnan(arr).any():
+            if opt is None:
+                raise ValueError(f"--{name}: required unless the batch file has a {name}_m column")
+            arr[np.isnan(arr)] = opt
+    fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
+    res = estimate_batch(M, depth=depth, distance=distance, fix=fix, max_iter=args.max_iter,
+                         **_setup_kwargs(args))
+    if args.json:
+        records = [dict(chart=c, chl=float(res.chl[j]), cdom=float(res.cdom[j]),
+                        backscatter=res.backscatter[j].tolist(),
+                        attenuation=res.attenuation[j].tolist(),
+                        objective=float(res.objective[j]), converged=bool(res.converged[j]),
+                        iterations=int(res.iterations[j]), status=str(res.status[j]),
+                        depth=float(depth[j]), distance=float(distance[j]))
+                   for j, c in enumerate(charts)]
+        out.write(json.dumps(dict(wavelengths=res.wavelengths.tolist(), charts=records),
+                             indent=1) + "\n")
+    else:
+        m = M.shape[1]
+        out.write("chart,chl,cdom," + ",".join(f"backscatter_{j}" for j in range(m))
+                  + ",objective,converged,iterations,status\n")
+        for j, c in enumerate(charts):
+            out.write(f"{c},{res.chl[j]!r},{res.cdom[j]!r},"
+                      + ",".join(repr(float(v)) for v in res.backscatter[j])
+                      + f",{res.objective[j]!r},{bool(res.converged[j])},{res.iterations[j]},"
+                        f"{res.status[j]}\n")
+    err.write(f"{len(charts)} charts, {int(res.converged.sum())} converged, {res.elapsed_s:.3f} s\n")
+    return EXIT_OK if res.converged.all() else EXIT_NOT_CONVERGED
+
+
+def _estimate(args, out, err):
+    from sca import estimate
+
+    if (args.batch is None) == (args.measurements is None):
+        raise ValueError("measurements: give either a measurements CSV or --batch FILE")
+    if args.batch is not None:
+        return _estimate_batch(args, out, err)
+    if args.depth is None or args.distance is None:
+        raise ValueError("--depth, --distance: both are required")
+    M = read_patch_csv(args.measurements)
+    fix = {}
+    if args.fix_backscatter is not None:
+        fix["backscatter"] = args.fix_backscatter
+    if args.fix_cdom is not None:
+        fix["cdom"] = args.fix_cdom
+    try:
+        res = estimate(M, depth=args.depth, distance=args.distance, mode=args.mode or "safeguarded",
+                       fix=fix or None, max_iter=args.max_iter, **_setup_kwargs(args))
+    except ValueError as exc:
+        msg = str(exc)
+        if msg.startswith("rgb:"):  # name the file, in its orientation (rows = patches)
+            raise ValueError(f"measurements: {args.measurements}: one row per patch and one column "
+                             f"per channel expected; {msg[4:].strip()} (channels x patches)") from None
+        raise
+    if args.json:
+        out.write(json.dumps(res.to_dict(), indent=1) + "\n")
+    else:
+        out.write(f"chl (C)          {res.chl:.6g} mg m^-3 (standard error {res.chl_se:.2g})\n")
+        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1 (standard error {res.cdom_se:.2g})\n")
+        out.write("backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter) + "\n")
+        out.write(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
+                  f"mode {res.mode}, path model {res.path_model})\n")
+        out.write("wavelength_nm,attenuation_k\n")
+        for wl, k in zip(res.wavelengths, res.attenuation):
+            out.write(f"{wl:g},{k:.8g}\n")
+    return EXIT_OK if res.converged else EXIT_NOT_CONVERGED
+
+
+# --------------------------------------------------------------------------- figures, bench
+def _figures(args, out, err):
+    from experiments.__main__ import main as figures_main
+
+    argv = list(args.names) + ["--out", args.out]
+    for opt in ("grid", "cache", "workers"):
+        if getattr(args, opt) is not None:
+            argv += [f"--{opt}", str(getattr(args, opt))]
+    figures_main(argv)
+    return EXIT_OK
+
+
+def _bench(args, out, err):
+    # one BLAS thread (see the Makefile and DECISIONS.md); set before numpy is imported, so the
+    # benchmark runs in its own process
+    env = dict(os.environ)
+    env.setdefault("OPENBLAS_NUM_THREADS", "1")
+    cmd = [sys.executable, "-m", "experiments.benchmark"] + (["--quick"] if args.quick else [])
+    proc = subprocess.Popen(cmd, env=env)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        proc.wait()
+        raise
+
+
+# --------------------------------------------------------------------------- parser, main
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="uw3p", description=__doc__.splitlines()[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     epilog="\n".join(__doc__.splitlines()[2:]))
+    parser.add_argument("--version", action="version", version=f"uw3p {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("simulate", help="simulate the 24 patch values of a chart underwater")
+    p.add_argument("--chl", type=float, required=True, help="chlorophyll C, mg m^-3")
+    p.add_argument("--cdom", type=float, required=True, help="a_CDOM(440), m^-1")
+    p.add_argument("--depth", type=float, required=True, help="chart depth, m")
+    p.add_argument("--distance", type=float, required=True, help="camera-to-chart distance, m")
+    p.add_argument("--no-noise", action="store_true", help="the exact expectation, no sensor noise")
+    p.add_argument("--seed", type=int, default=None, help="noise seed")
+    p.add_argument("--out", default=None, help="output file (.json: everything; .csv: patch values)")
+    _add_setup(p)
+    p.set_defaults(func=_simulate)
+
+    p = sub.add_parser("estimate", help="estimate C, CDOM and attenuation from patch values")
+    p.add_argument("measurements", nargs="?", default=None,
+                   help="CSV with a header patch,red,green,blue (one row per patch)")
+    p.add_argument("--batch", default=None, metavar="FILE",
+                   help="many charts at once (sca.estimate_batch): CSV with columns chart, patch, "
+                        "red, green, blue [, depth_m, distance_m]; one output row per chart")
+    p.add_argument("--depth", type=float, default=None, help="chart depth, m")
+    p.add_argument("--distance", type=float, default=None, help="camera-to-chart distance, m")
+    p.add_argument("--mode", default=None, choices=["safeguarded", "paper"],
+                   help="single chart only (default safeguarded)")
+    p.add_argument("--max-iter", type=int, default=100)
+    p.add_argument("--fix-backscatter", type=float, default=None, help="hold s fixed (e.g. 0)")
+    p.add_argument("--fix-cdom", type=float, default=None, help="hold a_CDOM(440) fixed, m^-1")
+    p.add_argument("--json", action="store_true", help="print the whole result as JSON")
+    _add_setup(p)
+    p.set_defaults(func=_estimate)
+
+    p = sub.add_parser("figures", help="regenerate Figs 5-13 and the noise study (make reproduce-figures)")
+    p.add_argument("names", nargs="*", help="a subset of the figure scripts (default all)")
+    p.add_argument("--out", default="figures", help="output folder (default figures/)")
+    p.add_argument("--grid", default=None, choices=["paper", "reduced"], help="sweep grid (default paper)")
+    p.add_argument("--cache", default=None, help="result cache folder (default cache/)")
+    p.add_argument("--workers", type=int, default=None, help="processes (default 2)")
+    p.set_defaults(func=_figures)
+
+    p = sub.add_parser("bench", help="speed against error of every estimator (make bench)")
+    p.add_argument("--quick", action="store_true", help="reduced sizes (a check, not the record)")
+    p.set_defaults(func=_bench)
+    return parser
+
+
+def _emit(text, out, code):
+    """Write the buffered output; a reader that closed the pipe ends it quietly."""
+    try:
+        out.write(text)
+        out.flush()
+    except BrokenPipeError:
+        if out is sys.stdout:  # no second error when Python flushes stdout at exit
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+    return code
+
+
+def main(argv=None, out=None, err=None) -> int:
+    out = sys.stdout if out is None else out
+    err = sys.stderr if err is None else err
+    args = build_parser().parse_args(argv)  # usage errors: argparse prints them and exits 2
+    buf = io.StringIO() if args.command in ("simulate", "estimate") else out
+    try:
+        code = int(args.func(args, buf, err) or 0)
+    except ValueError as exc:
+        err.write(f"uw3p {args.command}: error: {exc}\n")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        err.write(f"uw3p {args.command}: interrupted\n")
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        return _emit("", out, EXIT_OK)
+    return _emit(buf.getvalue(), out, code) if buf is not out else code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
