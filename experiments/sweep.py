@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import signal
 import threading
 import time
 import zlib
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -110,6 +110,24 @@ def _init_worker(parent: int):
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
 
 
+def _run_pool(todo, workers, bar):
+    """Fit ``todo`` in a process pool. A worker that dies raises ``BrokenProcessPool`` (nothing
+    hangs); on Ctrl-C or any error the workers are terminated at once."""
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_worker,
+                               initargs=(os.getpid(),))
+    try:
+        futures = [pool.submit(_work, item) for item in todo]
+        for fut in as_completed(futures):
+            fut.result()
+            bar.update()
+    except BaseException:
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
 def run(conditions, *, cache_dir=None, workers=None, progress=True, desc="sweep"):
     """Results (list of dicts, in the order of ``conditions``) and how many were computed."""
     cache = Path(cache_dir or DEFAULT_CACHE)
@@ -128,18 +146,7 @@ def run(conditions, *, cache_dir=None, workers=None, progress=True, desc="sweep"
         bar = tqdm(total=len(todo), desc=desc, disable=not progress, unit="fit")
         try:
             if workers > 1 and len(todo) > 1:
-                pool = multiprocessing.Pool(workers, initializer=_init_worker,
-                                            initargs=(os.getpid(),))
-                try:
-                    chunk = max(1, len(todo) // (8 * workers))
-                    for _ in pool.imap_unordered(_work, todo, chunksize=chunk):
-                        bar.update()
-                    pool.close()
-                except BaseException:
-                    pool.terminate()  # Ctrl-C or an error: stop the workers now
-                    raise
-                finally:
-                    pool.join()
+                _run_pool(todo, workers, bar)
             else:
                 for item in todo:
                     _work(item)

@@ -116,16 +116,28 @@ def sensor_noise(expected_e, settings: SensorSettings, rng: np.random.Generator)
     return codes.mean(axis=-1)
 
 
+def pixel_variance_e2(expected_e, settings: SensorSettings) -> np.ndarray:
+    """Variance (e^2) of one pixel's value: shot noise (Poisson: the mean), read noise and the
+    ADC's rounding (uniform over one code: LSB^2 / 12)."""
+    return (np.asarray(expected_e, dtype=float) + settings.read_noise_e ** 2
+            + settings.lsb_e ** 2 / 12.0)
+
+
 def capture(expected, setup, settings: SensorSettings, *, noise: bool = True, rng=None) -> dict:
     """Expose and read out model signals ``expected`` (m, n).
 
-    Returns a dict with ``rgb`` (exposure-normalised, model units), ``codes`` (mean raw codes per
-    patch), ``exposure_s``, ``gain_e_per_s`` and ``expected_e`` (expected electrons per pixel).
-    With ``noise=False`` ``rgb`` is ``expected`` itself and ``codes`` its noise-free code value.
+    Returns a dict with ``rgb`` (exposure-normalised, model units), ``sigma`` (the standard
+    deviation of each ``rgb`` value under this sensor: :func:`pixel_variance_e2` over
+    ``pixels_per_patch`` pixels, in model units), ``saturation`` (the model-unit value of a full
+    well: values there are clipped), ``codes`` (mean raw codes per patch), ``exposure_s``,
+    ``gain_e_per_s`` and ``expected_e`` (expected electrons per pixel). With ``noise=False``
+    ``rgb`` is ``expected`` itself and ``codes`` its noise-free code value; ``sigma`` is the same.
     """
     gain = electrons_per_second(setup, settings)
     t = auto_exposure(expected, gain, settings)
     expected_e = np.asarray(expected, dtype=float) * gain * t
+    sigma = np.sqrt(pixel_variance_e2(expected_e, settings) / settings.pixels_per_patch) / (gain * t)
+    saturation = settings.full_well_e / (gain * t)
     if noise:
         if rng is None:
             rng = np.random.default_rng()
@@ -134,4 +146,5 @@ def capture(expected, setup, settings: SensorSettings, *, noise: bool = True, rn
     else:
         codes = np.minimum(expected_e, settings.full_well_e) / settings.lsb_e
         rgb = np.array(expected, dtype=float)
-    return {"rgb": rgb, "codes": codes, "exposure_s": t, "gain_e_per_s": gain, "expected_e": expected_e}
+    return {"rgb": rgb, "sigma": sigma, "saturation": saturation, "codes": codes, "exposure_s": t,
+            "gain_e_per_s": gain, "expected_e": expected_e}

@@ -20,10 +20,15 @@ class ChartSimulation:
 
     ``rgb`` (m, n) are exposure-normalised patch values in model units: noise-free they equal
     ``P^T diag(i) diag(k) R + s`` with ``camera`` = P, ``illuminant`` = i, ``reflectances`` = R,
-    ``attenuation`` = k and ``backscatter`` = s.
+    ``attenuation`` = k and ``backscatter`` = s. ``rgb_sigma`` (m, n) is the standard deviation
+    of each value under the sensor's noise (also when ``noise=False``), the ``sigma=`` of
+    :func:`sca.estimate`; ``saturation`` is the value (model units) of a full pixel well: values
+    there are clipped.
     """
 
     rgb: np.ndarray
+    rgb_sigma: np.ndarray
+    saturation: float
     rgb_expected: np.ndarray
     attenuation: np.ndarray
     backscatter: np.ndarray
@@ -53,7 +58,8 @@ class ChartSimulation:
         for key in ("chl", "cdom", "depth", "distance", "camera_name", "noise", "seed",
                     "path_model", "exposure_s"):
             out[key] = getattr(self, key)
-        for key in ("wavelengths", "rgb", "rgb_expected", "attenuation", "backscatter",
+        out["saturation"] = self.saturation
+        for key in ("wavelengths", "rgb", "rgb_sigma", "rgb_expected", "attenuation", "backscatter",
                     "attenuation_coefficient", "codes"):
             out[key] = np.asarray(getattr(self, key)).tolist()
         out["sensor"] = self.sensor.to_dict()
@@ -78,7 +84,7 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     cdom : CDOM absorption at 440 nm, m^-1.
     depth, distance : m; light travels ``depth`` down and ``distance`` to the camera.
     camera, illuminant, reflectances, wavelengths : see :func:`forward.imaging.chart_setup`
-        (defaults Nikon 5100 (NPL), D65, BabelColor Average, 400-700 nm at 10 nm). A prebuilt
+        (defaults Nikon 5100 (NPL), D65, BabelColor Average, 400-700 nm at 1 nm). A prebuilt
         ``setup`` replaces all four.
     noise : sensor noise on (default) or the exact expectation.
     seed : seed of the noise generator (``numpy.random.default_rng``).
@@ -117,7 +123,8 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     rng = np.random.default_rng(seed)
     cap = capture(expected, setup, sensor, noise=bool(noise), rng=rng)
     return ChartSimulation(
-        rgb=cap["rgb"], rgb_expected=expected, attenuation=k, backscatter=s, wavelengths=wl,
+        rgb=cap["rgb"], rgb_sigma=cap["sigma"], saturation=float(cap["saturation"]),
+        rgb_expected=expected, attenuation=k, backscatter=s, wavelengths=wl,
         camera=setup.sensitivities, illuminant=setup.illuminant, reflectances=setup.reflectances,
         chl=chl, cdom=cdom, depth=depth, distance=distance, camera_name=setup.camera,
         attenuation_coefficient=c, veiling_light=rho_b, exposure_s=cap["exposure_s"],

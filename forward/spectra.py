@@ -27,8 +27,10 @@ from . import validate
 
 #: Model wavelength range in nm (inclusive); the basis and pure-water tables cover it.
 MODEL_RANGE_NM = (400.0, 700.0)
-#: Default grid: 400-700 nm in 10 nm steps (q = 31).
-DEFAULT_STEP_NM = 10.0
+#: Default grid: 400-700 nm in 1 nm steps (q = 301): the finest the data support, so that the
+#: simulator is a continuous world and the estimator's quadrature fits it (DECISIONS.md,
+#: "Spectral grid"). ``wavelengths=np.arange(400, 701, 10)`` gives the paper's coarse bands.
+DEFAULT_STEP_NM = 1.0
 #: Reference wavelength of eqs 6, 7, 8, 10, 17 (nm).
 LAMBDA_0_NM = 440.0
 
@@ -41,7 +43,7 @@ DEFAULT_CHART = "BabelColor Average"
 def wavelength_grid(wavelengths=None) -> np.ndarray:
     """Return the model wavelength grid in nm as a read-only float array.
 
-    ``None`` gives 400-700 nm at 10 nm. Any strictly increasing grid of at least 3 points inside
+    ``None`` gives 400-700 nm at 1 nm (:data:`DEFAULT_STEP_NM`). Any strictly increasing grid of at least 3 points inside
     400-700 nm is accepted (uniform or not).
     """
     if wavelengths is None:

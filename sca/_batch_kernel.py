@@ -1,4 +1,4 @@
-"""The per-chart evaluation of the batched solver: objective, gradient and Gauss-Newton matrix.
+"""Per-chart numerics of the batched solver and of the profile-likelihood intervals.
 
 The attenuation coefficient comes from :class:`forward.WaterTerms` as numbers, not formulas:
 
@@ -6,44 +6,66 @@ The attenuation coefficient comes from :class:`forward.WaterTerms` as numbers, n
 
 with S (4, q) the spectral shapes and ``tab`` (4, 4) the rows (p, e, g, h) of
 :meth:`forward.Water.chl_terms`; the iteration variable is u = C^e0 (e0: eq 10's exponent).
-For every chart i:
+For every chart i, with weights w2 = 1 / sigma^2 (ones where the noise is unknown):
 
-    k = exp(-L_i c),  G = B k / scale_i,  s = max(0, channel means of M - G) (or fixed),
-    r = M - G - s 1^T,  J = -(projected dG/d(u, a_CDOM)),
+    k = exp(-L_i c),  G = B k / scale_i,  s = max(0, w2-weighted channel means of M - G)
+    (or fixed),  r = sqrt(w2) (M - G - s 1^T),  J = dr/d(u, a_CDOM) (s profiled out),
     f = ||r||^2,  g = J^T r,  H = J^T J  (3 entries: h11, h12, h22).
 
-Two engines run the batched Levenberg-Marquardt iteration of :mod:`sca.batch`:
+A problem is passed as one tuple ``prob = (L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m,
+n, tab, e0)`` and work arrays as ``buf = (s, k, kc, ka, G, GC, GA, phi, dphi)`` (see
+:func:`make_buffers`). Everything here is plain scalar code: numba compiles it (parallel over
+charts) when it is installed, and it runs as ordinary Python otherwise. It contains no physics:
+every constant and spectrum arrives as an argument, so numba's on-disk cache (keyed on this
+file) cannot hold numbers that a change of ``forward.Water`` made stale.
 
-* 'numpy': array code over all active charts, with :func:`evaluate_numpy` below (weights from
-  :meth:`forward.Water.chl_weights`); the reference, and the fallback without numba;
-* 'numba': :func:`lm_numba`, the same iteration compiled per chart (a parallel loop over
-  charts on all cores, no large temporaries, no Python work per iteration). It contains no
-  physics: every constant and spectrum arrives as an argument, so its on-disk cache (keyed on
-  this file) cannot hold numbers that a change of ``forward.Water`` made stale.
+:func:`evaluate_numpy` is the array-code evaluation of the 'numpy' engine (the reference).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-try:  # numba is a dependency; the numpy engine keeps the package usable without it
+try:  # numba is a dependency; without it the same functions run as plain Python
+    import os
+
+    import numba
     from numba import njit, prange
 
+    # 'workqueue' is fork-safe (GNU OpenMP is not: numba ends a forked child that uses it, as in
+    # a multiprocessing pool started after a batch fit); it is not safe for concurrent launches
+    # from several threads, which sca.batch serialises with a lock. A user's
+    # NUMBA_THREADING_LAYER still wins.
+    if "NUMBA_THREADING_LAYER" not in os.environ:
+        numba.config.THREADING_LAYER = "workqueue"
     HAVE_NUMBA = True
 except ImportError:  # pragma: no cover
     HAVE_NUMBA = False
+    prange = range
+
+    def njit(*args, **kwargs):
+        if len(args) == 1 and callable(args[0]) and not kwargs:
+            return args[0]
+        return lambda f: f
+
+_TINY = np.finfo(np.float64).tiny
+#: Result codes of a profile bound: found, at zero (lower end 0), beyond the cap (open), failed.
+BOUND_FOUND, BOUND_ZERO, BOUND_OPEN, BOUND_FAILED = 0, 1, 2, 3
 
 
-def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, scale, fs, has_fs, m, n, grad):
+def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, W2, scale, fs, has_fs, m, n, grad):
     """f, s, g, H (see the module docstring) for charts with weights ``phi`` (N, 4), their
-    derivatives d phi / du ``dphi`` and a_CDOM ``A`` (N,)."""
+    derivatives d phi / du ``dphi``, a_CDOM ``A`` (N,) and noise weights ``W2`` (N, m n)."""
     N = phi.shape[0]
     k = np.exp(-L[:, None] * (phi @ S + np.multiply.outer(A, ecdom) + base))
     G = (k @ Bt) / scale[:, None]
+    w2 = W2.reshape(N, m, n)
     R0 = M.reshape(N, m, n) - G.reshape(N, m, n)
-    s = fs.copy() if has_fs else np.maximum(R0.mean(axis=-1), 0.0)
+    s = fs.copy() if has_fs else np.maximum((w2 * R0).sum(-1) / w2.sum(-1), 0.0)
     r = R0 - s[..., None]
-    f = np.einsum("ijk,ijk->i", r, r)
+    f = np.einsum("ijk,ijk->i", w2 * r, r)
     g = np.zeros((N, 2))
     H = np.zeros((N, 3))
     if grad:
@@ -52,210 +74,372 @@ def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, scale, fs, has_fs, m,
         JA = -(((lk * ecdom) @ Bt) / scale[:, None]).reshape(N, m, n)
         if not has_fs:
             act = (s > 0)[..., None]
-            JC = JC - act * JC.mean(axis=-1, keepdims=True)
-            JA = JA - act * JA.mean(axis=-1, keepdims=True)
-        g[:, 0] = np.einsum("ijk,ijk->i", JC, r)
-        g[:, 1] = np.einsum("ijk,ijk->i", JA, r)
-        H[:, 0] = np.einsum("ijk,ijk->i", JC, JC)
-        H[:, 1] = np.einsum("ijk,ijk->i", JC, JA)
-        H[:, 2] = np.einsum("ijk,ijk->i", JA, JA)
+            JC = JC - act * (w2 * JC).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
+            JA = JA - act * (w2 * JA).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
+        g[:, 0] = np.einsum("ijk,ijk->i", w2 * JC, r)
+        g[:, 1] = np.einsum("ijk,ijk->i", w2 * JA, r)
+        H[:, 0] = np.einsum("ijk,ijk->i", w2 * JC, JC)
+        H[:, 1] = np.einsum("ijk,ijk->i", w2 * JC, JA)
+        H[:, 2] = np.einsum("ijk,ijk->i", w2 * JA, JA)
     return f, s, g, H
 
 
+@njit(cache=True)
+def make_buffers(q, m, n):
+    """Work arrays of one chart: (s, k, kc, ka, G, GC, GA, phi, dphi)."""
+    mn = m * n
+    return (np.empty(m), np.empty(q), np.empty(q), np.empty(q), np.empty(mn), np.empty(mn),
+            np.empty(mn), np.empty(4), np.empty(4))
 
 
-if HAVE_NUMBA:
-    _TINY = np.finfo(np.float64).tiny
-
-    @njit(cache=True, fastmath=True, error_model="numpy")
-    def _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0,
-                  grad, s_out, k, kc, ka, G, GC, GA, phi, dphi):  # pragma: no cover - compiled
-        """Objective, gradient and Gauss-Newton matrix of chart i at (u = C^e0, a_CDOM)."""
-        q = S.shape[1]
-        nt = S.shape[0]
-        mn = m * n
-        # C's weights (evaluated at the smallest normal float for C = 0, where every power of
-        # C is zero to double precision and d/du stays finite)
-        C = u ** (1.0 / e0) if u > 0.0 else 0.0
-        cf = C if C > _TINY else _TINY
-        dcdu = cf / (u * e0) if C > _TINY else cf ** (1.0 - e0) / e0
+@njit(cache=True, fastmath=True, error_model="numpy")
+def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
+    """Objective, gradient and Gauss-Newton matrix of chart i at (u = C^e0, a_CDOM)."""
+    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0 = prob
+    s_out, k, kc, ka, G, GC, GA, phi, dphi = buf
+    q = S.shape[1]
+    nt = S.shape[0]
+    mn = m * n
+    # C's weights (at the smallest normal float for C = 0, where every power of C is zero to
+    # double precision and d/du stays finite)
+    C = u ** (1.0 / e0) if u > 0.0 else 0.0
+    cf = C if C > _TINY else _TINY
+    dcdu = cf / (u * e0) if C > _TINY else cf ** (1.0 - e0) / e0
+    for j in range(nt):
+        pw = cf ** tab[j, 1]
+        ex = np.exp(-tab[j, 3] * cf)
+        phi[j] = tab[j, 0] * pw - tab[j, 2] * np.expm1(-tab[j, 3] * cf)
+        dphi[j] = (tab[j, 0] * tab[j, 1] * pw / cf + tab[j, 2] * tab[j, 3] * ex) * dcdu
+    Li = L[i]
+    for l in range(q):
+        c = base[l] + A * ecdom[l]
+        dc = 0.0
         for j in range(nt):
-            pw = cf ** tab[j, 1]
-            ex = np.exp(-tab[j, 3] * cf)
-            phi[j] = tab[j, 0] * pw - tab[j, 2] * np.expm1(-tab[j, 3] * cf)
-            dphi[j] = (tab[j, 0] * tab[j, 1] * pw / cf + tab[j, 2] * tab[j, 3] * ex) * dcdu
-        Li = L[i]
-        for l in range(q):
-            c = base[l] + A * ecdom[l]
-            dc = 0.0
-            for j in range(nt):
-                c += phi[j] * S[j, l]
-                dc += dphi[j] * S[j, l]
-            kl = np.exp(-Li * c)
-            k[l] = kl
-            if grad:
-                kc[l] = -Li * kl * dc
-                ka[l] = -Li * kl * ecdom[l]
-        inv = 1.0 / scale[i]
-        for j in range(mn):
-            G[j] = 0.0
-            GC[j] = 0.0
-            GA[j] = 0.0
+            c += phi[j] * S[j, l]
+            dc += dphi[j] * S[j, l]
+        kl = np.exp(-Li * c)
+        k[l] = kl
         if grad:
-            for l in range(q):
-                a0 = k[l] * inv
-                a1 = kc[l] * inv
-                a2 = ka[l] * inv
-                for j in range(mn):
-                    b = Bt[l, j]
-                    G[j] += b * a0
-                    GC[j] += b * a1
-                    GA[j] += b * a2
+            kc[l] = -Li * kl * dc
+            ka[l] = -Li * kl * ecdom[l]
+    inv = 1.0 / scale[i]
+    for j in range(mn):
+        G[j] = 0.0
+        GC[j] = 0.0
+        GA[j] = 0.0
+    if grad:
+        for l in range(q):
+            a0 = k[l] * inv
+            a1 = kc[l] * inv
+            a2 = ka[l] * inv
+            for j in range(mn):
+                b = Bt[l, j]
+                G[j] += b * a0
+                GC[j] += b * a1
+                GA[j] += b * a2
+    else:
+        for l in range(q):
+            a0 = k[l] * inv
+            for j in range(mn):
+                G[j] += Bt[l, j] * a0
+    # Per channel: s from the weighted mean residual, then f, g = J^T r and H = J^T J. Where s
+    # is free (active), J's columns are -dG minus their weighted mean; the weighted residual
+    # then sums to zero over the channel, so g needs no centring, and H's centring is a
+    # rank-one correction of the raw sums.
+    f = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    h11 = 0.0
+    h12 = 0.0
+    h22 = 0.0
+    for ch in range(m):
+        o = ch * n
+        sw = 0.0
+        sr = 0.0
+        for p in range(n):
+            w = W2[i, o + p]
+            sw += w
+            sr += w * (M[i, o + p] - G[o + p])
+        if has_fs:
+            sc = fs[i, ch]
+            act = 0.0
         else:
-            for l in range(q):
-                a0 = k[l] * inv
-                for j in range(mn):
-                    G[j] += Bt[l, j] * a0
-        # Per channel: s from the mean residual, then f, g = J^T r and H = J^T J without
-        # branches in the patch loops. Where s is free (active), J's columns are the centred
-        # -dG; since the residual then sums to zero over the channel, g needs no centring, and
-        # H's centring is a rank-one correction of the raw sums.
-        f = 0.0
-        g1 = 0.0
-        g2 = 0.0
-        h11 = 0.0
-        h12 = 0.0
-        h22 = 0.0
-        for ch in range(m):
-            o = ch * n
-            sum_r0 = 0.0
+            sc = sr / sw if sr > 0.0 else 0.0
+            act = 1.0 if sr > 0.0 else 0.0
+        s_out[ch] = sc
+        for p in range(n):
+            r = M[i, o + p] - G[o + p] - sc
+            f += W2[i, o + p] * r * r
+        if grad:
+            gc = 0.0
+            ga = 0.0
+            cc = 0.0
+            ca = 0.0
+            aa = 0.0
+            sc_ = 0.0
+            sa_ = 0.0
             for p in range(n):
-                sum_r0 += M[i, o + p] - G[o + p]
-            if has_fs:
-                sc = fs[i, ch]
-                act = 0.0
-            else:
-                sc = sum_r0 / n if sum_r0 > 0.0 else 0.0
-                act = 1.0 if sum_r0 > 0.0 else 0.0
-            s_out[ch] = sc
-            ff = 0.0
-            for p in range(n):
+                w = W2[i, o + p]
                 r = M[i, o + p] - G[o + p] - sc
-                ff += r * r
-            f += ff
-            if grad:
-                gc = 0.0
-                ga = 0.0
-                cc = 0.0
-                ca = 0.0
-                aa = 0.0
-                sc_ = 0.0
-                sa_ = 0.0
-                for p in range(n):
-                    r = M[i, o + p] - G[o + p] - sc
-                    x = GC[o + p]
-                    y = GA[o + p]
-                    gc += x * r
-                    ga += y * r
-                    cc += x * x
-                    ca += x * y
-                    aa += y * y
-                    sc_ += x
-                    sa_ += y
-                g1 -= gc
-                g2 -= ga
-                h11 += cc - act * sc_ * sc_ / n
-                h12 += ca - act * sc_ * sa_ / n
-                h22 += aa - act * sa_ * sa_ / n
-        return f, g1, g2, h11, h12, h22
+                x = GC[o + p]
+                y = GA[o + p]
+                gc += w * x * r
+                ga += w * y * r
+                cc += w * x * x
+                ca += w * x * y
+                aa += w * y * y
+                sc_ += w * x
+                sa_ += w * y
+            g1 -= gc
+            g2 -= ga
+            h11 += cc - act * sc_ * sc_ / sw
+            h12 += ca - act * sc_ * sa_ / sw
+            h22 += aa - act * sa_ * sa_ / sw
+    return f, g1, g2, h11, h12, h22
 
-    @njit(parallel=True, cache=True, fastmath=True, error_model="numpy")
-    def lm_numba(C0, A0, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0,
-                 max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover - compiled
-        """The Levenberg-Marquardt iteration of :func:`sca.batch._solve_chunk`, per chart."""
-        N = C0.shape[0]
-        q = S.shape[1]
-        mn = m * n
-        C_out = np.empty(N)
-        A_out = np.empty(N)
-        f_out = np.empty(N)
-        s_out = np.empty((N, m))
-        k_out = np.empty((N, q))
-        it_out = np.zeros(N, dtype=np.int64)
-        code_out = np.full(N, 3, dtype=np.int64)
-        for i in prange(N):
-            k = np.empty(q)
-            kc = np.empty(q)
-            ka = np.empty(q)
-            G = np.empty(mn)
-            GC = np.empty(mn)
-            GA = np.empty(mn)
-            s_i = np.empty(m)
-            phi = np.empty(S.shape[0])
-            dphi = np.empty(S.shape[0])
-            u = C0[i] ** e0
-            A = A0[i]
-            mu = mu0
-            f, g1, g2, h11, h12, h22 = _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom,
-                                                 Bt, m, n, tab, e0, True, s_i, k, kc, ka,
-                                                 G, GC, GA, phi, dphi)
-            code = 3
-            it = 0
-            if f <= f_exact[i]:
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def lm_chart(u, A, i, prob, buf, max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover
+    """Levenberg-Marquardt of chart i from (u, A): returns (u, A, f, iterations, code); the
+    codes are those of :data:`sca.batch.STATUS`."""
+    mu = mu0
+    f, g1, g2, h11, h12, h22 = eval_chart(u, A, i, prob, buf, True)
+    code = 3
+    it = 0
+    if f <= f_exact:
+        return u, A, f, 0, 1
+    for it in range(1, max_iter + 1):
+        free1 = (not (u <= 0.0 and g1 > 0.0)) and h11 > 0.0
+        free2 = (not (A <= 0.0 and g2 > 0.0)) and h22 > 0.0
+        a11 = h11 * (1.0 + mu) if free1 else 1.0
+        a22 = h22 * (1.0 + mu) if free2 else 1.0
+        a12 = h12 if (free1 and free2) else 0.0
+        b1 = -g1 if free1 else 0.0
+        b2 = -g2 if free2 else 0.0
+        det = a11 * a22 - a12 * a12
+        if det > 1e-14 * a11 * a22:
+            d1 = (b1 * a22 - a12 * b2) / det
+            d2 = (a11 * b2 - a12 * b1) / det
+        else:
+            d1 = b1 / a11
+            d2 = b2 / a22
+        pred = -2.0 * (g1 * d1 + g2 * d2) - (h11 * d1 * d1 + 2.0 * h12 * d1 * d2 + h22 * d2 * d2)
+        if pred <= tol * f:
+            code = 2
+            break
+        un = u + d1 if u + d1 > 0.0 else 0.0
+        an = A + d2 if A + d2 > 0.0 else 0.0
+        fn, n1, n2, n11, n12, n22 = eval_chart(un, an, i, prob, buf, True)
+        if fn < f:
+            dec = f - fn
+            f_prev = f
+            u, A, f = un, an, fn
+            g1, g2, h11, h12, h22 = n1, n2, n11, n12, n22
+            mu = mu / down if mu / down > 1e-12 else 1e-12
+            if f <= f_exact:
                 code = 1
-            else:
-                for it in range(1, max_iter + 1):
-                    free1 = (not (u <= 0.0 and g1 > 0.0)) and h11 > 0.0
-                    free2 = (not (A <= 0.0 and g2 > 0.0)) and h22 > 0.0
-                    a11 = h11 * (1.0 + mu) if free1 else 1.0
-                    a22 = h22 * (1.0 + mu) if free2 else 1.0
-                    a12 = h12 if (free1 and free2) else 0.0
-                    b1 = -g1 if free1 else 0.0
-                    b2 = -g2 if free2 else 0.0
-                    det = a11 * a22 - a12 * a12
-                    if det > 1e-14 * a11 * a22:
-                        d1 = (b1 * a22 - a12 * b2) / det
-                        d2 = (a11 * b2 - a12 * b1) / det
-                    else:
-                        d1 = b1 / a11
-                        d2 = b2 / a22
-                    pred = -2.0 * (g1 * d1 + g2 * d2) - (h11 * d1 * d1 + 2.0 * h12 * d1 * d2
-                                                         + h22 * d2 * d2)
-                    if pred <= tol * f:
-                        code = 2
-                        break
-                    un = u + d1 if u + d1 > 0.0 else 0.0
-                    an = A + d2 if A + d2 > 0.0 else 0.0
-                    fn, n1, n2, n11, n12, n22 = _eval_one(un, an, i, L, scale, M, fs, has_fs, S,
-                                                          base, ecdom, Bt, m, n, tab, e0,
-                                                          True, s_i, k, kc, ka, G, GC, GA, phi, dphi)
-                    if fn < f:
-                        dec = f - fn
-                        f_prev = f
-                        u, A, f = un, an, fn
-                        g1, g2, h11, h12, h22 = n1, n2, n11, n12, n22
-                        mu = mu / down if mu / down > 1e-12 else 1e-12
-                        if f <= f_exact[i]:
-                            code = 1
-                            break
-                        if dec <= tol * f_prev:
-                            code = 0
-                            break
-                    else:
-                        mu *= up
-                        if mu > 1e12:
-                            code = 4
-                            break
-            # final values at the returned point
-            f, _, _, _, _, _ = _eval_one(u, A, i, L, scale, M, fs, has_fs, S, base, ecdom, Bt, m,
-                                         n, tab, e0, False, s_i, k, kc, ka, G, GC, GA, phi, dphi)
-            C_out[i] = u ** (1.0 / e0) if u > 0.0 else 0.0
-            A_out[i] = A
-            f_out[i] = f
-            for ch in range(m):
-                s_out[i, ch] = s_i[ch]
-            for l in range(q):
-                k_out[i, l] = k[l]
-            it_out[i] = it
-            code_out[i] = code
-        return C_out, A_out, s_out, k_out, f_out, it_out, code_out
+                break
+            if dec <= tol * f_prev:
+                code = 0
+                break
+        else:
+            mu *= up
+            if mu > 1e12:
+                code = 4
+                break
+    return u, A, f, it, code
+
+
+@njit(parallel=True, cache=True, fastmath=True, error_model="numpy")
+def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover
+    """:func:`lm_chart` over all charts (in parallel): (C, A, s, k, f, iterations, codes)."""
+    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0 = prob
+    N = C0.shape[0]
+    q = S.shape[1]
+    C_out = np.empty(N)
+    A_out = np.empty(N)
+    f_out = np.empty(N)
+    s_out = np.empty((N, m))
+    k_out = np.empty((N, q))
+    it_out = np.zeros(N, dtype=np.int64)
+    code_out = np.full(N, 3, dtype=np.int64)
+    for i in prange(N):
+        buf = make_buffers(q, m, n)
+        u, A, f, it, code = lm_chart(C0[i] ** e0, A0[i], i, prob, buf, max_iter, tol,
+                                     f_exact[i], mu0, down, up)
+        # final values at the returned point
+        f, _, _, _, _, _ = eval_chart(u, A, i, prob, buf, False)
+        C_out[i] = u ** (1.0 / e0) if u > 0.0 else 0.0
+        A_out[i] = A
+        f_out[i] = f
+        for ch in range(m):
+            s_out[i, ch] = buf[0][ch]
+        for l in range(q):
+            k_out[i, l] = buf[1][l]
+        it_out[i] = it
+        code_out[i] = code
+    return C_out, A_out, s_out, k_out, f_out, it_out, code_out
+
+
+# --------------------------------------------------------------------------- profile likelihood
+@njit(cache=True, error_model="numpy")
+def profile_point(theta, psi, which, free_other, i, prob, buf, atol):  # pragma: no cover
+    """min over psi >= 0 of f with theta fixed (``which`` 0: theta = u, psi = a_CDOM; 1: theta =
+    a_CDOM, psi = u), by projected Gauss-Newton steps from ``psi``; returns (f, psi). Stops
+    when the predicted decrease is below ``atol`` (absolute, in f's units)."""
+    u = theta if which == 0 else psi
+    A = psi if which == 0 else theta
+    f, g1, g2, h11, h12, h22 = eval_chart(u, A, i, prob, buf, True)
+    if not free_other:
+        return f, psi
+    for _ in range(20):
+        g = g2 if which == 0 else g1
+        h = h22 if which == 0 else h11
+        if not h > 0.0 or (psi <= 0.0 and g > 0.0) or g * g / h <= atol:
+            break
+        step = -g / h
+        t = 1.0
+        moved = False
+        for _ in range(12):
+            pn = psi + t * step
+            if pn < 0.0:
+                pn = 0.0
+            u2 = theta if which == 0 else pn
+            A2 = pn if which == 0 else theta
+            fn, n1, n2, n11, n12, n22 = eval_chart(u2, A2, i, prob, buf, True)
+            if fn < f:
+                psi, f = pn, fn
+                g1, g2, h11, h12, h22 = n1, n2, n11, n12, n22
+                moved = True
+                break
+            t *= 0.5
+        if not moved:
+            break
+    return f, psi
+
+
+@njit(cache=True, error_model="numpy")
+def profile_bound(theta_hat, psi_hat, f_hat, delta, heff, side, which, free_other, theta_max,
+                  i, prob, buf):  # pragma: no cover
+    """One end of the profile-likelihood interval of theta: where min_psi f = f_hat + delta.
+
+    Searches from the optimum along ``side`` (+1 up, -1 down) on z(theta) = sqrt(P(theta) -
+    f_hat), which is linear in theta for a linear model: a first step from the Gauss-Newton
+    curvature ``heff``, secant extrapolation until the target is bracketed, then the Illinois
+    method. Returns (theta, code): :data:`BOUND_FOUND`, :data:`BOUND_ZERO` (the profile stays
+    below the target down to theta = 0: the lower end is 0), :data:`BOUND_OPEN` (it stays below
+    up to ``theta_max``: the upper end is open) or :data:`BOUND_FAILED`.
+    """
+    if not delta > 0.0:  # an exact fit with the noise estimated from it: a zero-width interval
+        return theta_hat, BOUND_FOUND
+    zt = math.sqrt(delta)
+    atol = 1e-4 * delta
+    if side < 0.0 and theta_hat <= 0.0:
+        return 0.0, BOUND_ZERO
+    step = math.sqrt(delta / heff) if heff > 0.0 else 0.0
+    if not (step > 0.0 and step < 1e300):
+        step = max(abs(theta_hat), 1e-3)
+    t_lo, z_lo, psi = theta_hat, 0.0, psi_hat
+    t1 = theta_hat + side * step
+    t_hi, z_hi = t1, 0.0
+    found = False
+    for _ in range(80):
+        if side < 0.0 and t1 < 0.0:
+            t1 = 0.0
+        if side > 0.0 and t1 > theta_max:
+            t1 = theta_max
+        f1, psi1 = profile_point(t1, psi, which, free_other, i, prob, buf, atol)
+        if not (f1 < 1e300):  # NaN or overflow
+            return math.nan, BOUND_FAILED
+        z1 = math.sqrt(max(f1 - f_hat, 0.0))
+        if z1 >= zt:
+            t_hi, z_hi = t1, z1
+            found = True
+            break
+        if side < 0.0 and t1 <= 0.0:
+            return 0.0, BOUND_ZERO
+        if side > 0.0 and t1 >= theta_max:
+            return theta_max, BOUND_OPEN
+        span = t1 - t_lo
+        dz = z1 - z_lo
+        tn = t1 + 3.0 * span
+        if dz > 0.0:
+            tn = t1 + (zt - z1) * span / dz * 1.05  # a little beyond, to bracket
+            if abs(tn - t1) > 4.0 * abs(span):
+                tn = t1 + 4.0 * span
+        t_lo, z_lo, psi = t1, z1, psi1
+        t1 = tn
+    if not found:
+        return math.nan, BOUND_FAILED
+    a, fa = t_lo, z_lo - zt
+    b, fb = t_hi, z_hi - zt
+    for _ in range(60):
+        if abs(fb) <= 1e-3 * zt:
+            return b, BOUND_FOUND
+        if abs(b - a) <= 1e-12 * max(abs(a), abs(b)):
+            return b, BOUND_FOUND
+        c = b - fb * (b - a) / (fb - fa)
+        fc_, psi = profile_point(c, psi, which, free_other, i, prob, buf, atol)
+        if not (fc_ < 1e300):
+            return math.nan, BOUND_FAILED
+        fc = math.sqrt(max(fc_ - f_hat, 0.0)) - zt
+        if fc * fb < 0.0:
+            a, fa = b, fb
+        else:
+            fa *= 0.5  # Illinois: halve the retained end's value
+        b, fb = c, fc
+    return b, BOUND_FOUND
+
+
+@njit(cache=True, error_model="numpy")
+def interval_chart(i, U, A, delta, prob, free_u, free_a, u_max, a_max, ends, codes):  # pragma: no cover
+    """The four profile ends of chart i (see :func:`intervals_numba`) into ``ends[i]``,
+    ``codes[i]``."""
+    m, n = prob[10], prob[11]
+    q = prob[6].shape[1]
+    buf = make_buffers(q, m, n)
+    f, g1, g2, h11, h12, h22 = eval_chart(U[i], A[i], i, prob, buf, True)
+    for which in range(2):
+        free = free_u if which == 0 else free_a
+        other = free_a if which == 0 else free_u
+        th = U[i] if which == 0 else A[i]
+        ps = A[i] if which == 0 else U[i]
+        htt = h11 if which == 0 else h22
+        hpp = h22 if which == 0 else h11
+        heff = htt - (h12 * h12 / hpp if (other and hpp > 0.0) else 0.0)
+        cap = u_max if which == 0 else a_max
+        for k in range(2):
+            side = -1.0 if k == 0 else 1.0
+            col = 2 * which + k
+            if not free:
+                ends[i, col] = th
+                codes[i, col] = BOUND_FOUND
+                continue
+            b, c = profile_bound(th, ps, f, delta[i], heff, side, which, other, cap, i, prob, buf)
+            ends[i, col] = b
+            codes[i, col] = c
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
+def intervals_numba(U, A, delta, prob, free_u, free_a, u_max, a_max):  # pragma: no cover
+    """Profile-likelihood intervals of every chart at its optimum (U = C^e0, A), in parallel:
+    the ends where the profile objective has risen by ``delta`` -- (N, 4) ends (u_lo, u_hi,
+    a_lo, a_hi) -- and (N, 4) codes (BOUND_*)."""
+    N = U.shape[0]
+    ends = np.empty((N, 4))
+    codes = np.zeros((N, 4), dtype=np.int64)
+    for i in prange(N):
+        interval_chart(i, U, A, delta, prob, free_u, free_a, u_max, a_max, ends, codes)
+    return ends, codes
+
+
+@njit(cache=True, error_model="numpy")
+def intervals_serial(U, A, delta, prob, free_u, free_a, u_max, a_max):  # pragma: no cover
+    """:func:`intervals_numba` in one thread (single charts: no parallel runtime, so it is safe
+    in threads and in processes forked from a parent that ran the parallel kernels)."""
+    N = U.shape[0]
+    ends = np.empty((N, 4))
+    codes = np.zeros((N, 4), dtype=np.int64)
+    for i in range(N):
+        interval_chart(i, U, A, delta, prob, free_u, free_a, u_max, a_max, ends, codes)
+    return ends, codes

@@ -38,9 +38,15 @@ from forward.imaging import ChartSetup, length, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from ._batch_kernel import HAVE_NUMBA, evaluate_numpy
-if HAVE_NUMBA:
-    from ._batch_kernel import lm_numba
+from ._batch_kernel import (
+    BOUND_FAILED,
+    BOUND_OPEN,
+    HAVE_NUMBA,
+    evaluate_numpy,
+    intervals_numba,
+    lm_numba,
+)
+from .assess import CDOM_MAX, CHL_MAX, estimate_flags, goodness, input_flags, is_reliable, profile_delta
 from .estimate import EXACT_FIT, MAX_RGB
 from .model import WaterModel
 
@@ -71,15 +77,24 @@ STATUS = {
 
 @dataclass
 class BatchEstimate:
-    """Arrays (length N) of the fields of :class:`sca.Estimate`."""
+    """Arrays (length N) of the fields of :class:`sca.Estimate` (intervals (N, 2))."""
 
     chl: np.ndarray
     cdom: np.ndarray
+    chl_ci: np.ndarray  # (N, 2) 95 % profile-likelihood intervals, mg m^-3 (inf: open)
+    cdom_ci: np.ndarray  # (N, 2) m^-1
+    reliable: np.ndarray  # (N,) bool
+    flags: list  # N tuples of flag names (sca.assess)
+    fit_rms: np.ndarray  # ||M - G - s|| / ||M||
+    chi2_dof: np.ndarray  # reduced chi^2 (NaN where the noise is unknown)
+    chi2_p: np.ndarray
+    dof: np.ndarray
+    noise_known: bool
     w: np.ndarray  # (N, 1)
     backscatter: np.ndarray  # (N, m)
     attenuation: np.ndarray  # (N, q)
     wavelengths: np.ndarray
-    objective: np.ndarray
+    objective: np.ndarray  # chi^2 (noise known) or ||M - G - s||^2 in data units
     iterations: np.ndarray
     converged: np.ndarray
     status: np.ndarray  # strings
@@ -128,40 +143,71 @@ class BatchModel:
         return self.terms.coefficient(chl, cdom)
 
 
-def _initial(bm: BatchModel, M, L, fixed_s):
-    """Best point of the coarse (C, a_CDOM) grid for every chart (one matmul per unique L)."""
+def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs):
+    """Best point of the coarse (C, a_CDOM) grid for every chart (matrix products per unique L),
+    with the (weighted) closed-form s, in the charts' scaled units."""
     C, A = np.meshgrid(INIT_CHL, INIT_CDOM, indexing="ij")
     C, A = C.ravel(), A.ravel()
     cgrid = bm.coefficient(C, A)  # (P, q)
-    N = M.shape[0]
-    Mv = M.reshape(N, -1)
-    Mmean = M.mean(axis=-1)  # (N, m)
+    N, m, n = Ms.shape[0], bm.m, bm.n
     best = np.empty(N, dtype=int)
     uniq, inv = np.unique(L, return_inverse=True)
     for u_idx, Lu in enumerate(uniq):
         rows = np.flatnonzero(inv == u_idx)
-        G = np.exp(-Lu * cgrid) @ bm.Bt  # (P, m n)
-        Gmean = G.reshape(-1, bm.m, bm.n).mean(axis=-1)  # (P, m)
-        f = -2.0 * Mv[rows] @ G.T + np.einsum("pk,pk->p", G, G)[None, :]
-        if fixed_s is None:
-            d = np.maximum(Mmean[rows][:, None, :] - Gmean[None, :, :], 0.0)
-            f -= bm.n * np.einsum("ipc,ipc->ip", d, d)
-        else:
-            # ||M - G - s||^2 = ||M - G||^2 - 2 n s.(mean M - mean G) + n ||s||^2
-            f += -2 * bm.n * ((Mmean[rows] @ fixed_s)[:, None] - (Gmean @ fixed_s)[None, :])
+        Gs = np.exp(-Lu * cgrid) @ bm.Bt  # (P, m n), for scale 1
+        # f(chart, P) up to a constant: sum W2 (M - s - G)^2 with s closed form or fixed
+        W, M = W2[rows], Ms[rows]
+        f = np.zeros((rows.size, Gs.shape[0]))
+        for ch in range(m):
+            sl = slice(ch * n, (ch + 1) * n)
+            Gc = Gs[:, sl]  # (P, n)
+            Wc, Mc = W[:, sl], M[:, sl]
+            sw = Wc.sum(axis=1)[:, None]  # (R, 1)
+            wm = (Wc * Mc) @ Gc.T  # sum W M G
+            wgg = Wc @ (Gc * Gc).T  # sum W G^2
+            if has_fs:
+                sc = fs[rows, ch][:, None]
+                f += -2.0 * wm + wgg + 2.0 * sc * (Wc @ Gc.T)
+            else:
+                sr = (Wc * Mc).sum(axis=1)[:, None] - Wc @ Gc.T  # sum W (M - G)
+                s_c = np.maximum(sr / sw, 0.0)
+                f += -2.0 * wm + wgg - sw * s_c * s_c
         best[rows] = np.argmin(f, axis=1)
     return C[best].copy(), A[best].copy()
 
 
-def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
-                   reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
-                   path_model: str | None = None, cdom_slope: float | None = None, fix=None,
+def _sigma_stack(sigma, N, m, n):
+    """``sigma`` (scalar, (m, n) or (N, m, n), data units) as (N, m, n), or None."""
+    if sigma is None:
+        return None
+    arr = validate.array("sigma", sigma)
+    try:
+        arr = np.broadcast_to(arr, (N, m, n)) if arr.ndim in (0, 2, 3) else None
+    except ValueError:
+        arr = None
+    if arr is None:
+        raise ValueError(f"sigma: expected a scalar, (m, n) = ({m}, {n}) or (N, m, n) = "
+                         f"({N}, {m}, {n}) array, got shape {np.shape(sigma)}")
+    if np.any(arr <= 0):
+        raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+    return arr
+
+
+def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
+                   camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavelengths=None,
+                   basis=None, water: Water | None = None, path_model: str | None = None,
+                   cdom_slope: float | None = None, fix=None, intervals: bool = True,
                    max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE) -> BatchEstimate:
     """Estimate C, a_CDOM(440), w and s for a stack of charts ``rgb_stack`` (N, m, n).
 
-    ``depth`` and ``distance`` (m) are scalars or arrays of length N. Other arguments as in
-    :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
+    ``depth`` and ``distance`` (m) are scalars or arrays of length N. ``sigma``: the standard
+    deviation of each value (scalar, (m, n) or (N, m, n); data units): the fit is then weighted
+    least squares and its chi^2 tested; without it the noise is estimated from the residual and
+    no chart is called reliable (flag ``noise-unknown``). ``saturation``: the sensor's clip level
+    in data units (scalar or (N,)), for the ``saturated`` check. ``intervals``: compute the 95 %
+    profile-likelihood intervals (default; without them no chart is reliable). Other arguments
+    as in :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
     ``engine``: 'numba' (default: the iteration compiled per chart, on all cores) or 'numpy'
     (array code, the reference); both run the same iteration. Returns a :class:`BatchEstimate`.
     Safe to call from several threads.
@@ -182,6 +228,9 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
     scale = M.reshape(N, -1).max(axis=1)
     if np.any(scale <= 0):
         raise ValueError(f"rgb_stack: chart(s) {np.flatnonzero(scale <= 0)[:5].tolist()} are all zero")
+    sig = _sigma_stack(sigma, N, bm.m, bm.n)
+    sat = None if saturation is None else np.broadcast_to(
+        validate.array("saturation", saturation), (N,))
     L = np.broadcast_to(length("depth", depth) + length("distance", distance), (N,)).astype(float)
     if int(max_iter) != max_iter or max_iter < 1:
         raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
@@ -191,45 +240,99 @@ def estimate_batch(rgb_stack, *, depth, distance, camera=DEFAULT_CAMERA, illumin
         if set(fix) - {"backscatter"}:
             raise ValueError("fix: the batched solver can fix only 'backscatter'")
         fixed_s = validate.array("fix['backscatter']", np.broadcast_to(fix["backscatter"], (bm.m,)),
-                                  nonnegative=True)
-
+                                 nonnegative=True)
     if engine not in ENGINES:
         raise ValueError(f"engine: must be one of {ENGINES}, got {engine!r}")
-    starts = range(0, N, CHUNK)
-    args = [(bm, M[i:i + CHUNK], L[i:i + CHUNK], scale[i:i + CHUNK], fixed_s, max_iter, tol, engine)
-            for i in starts]
-    parts = [_solve_chunk(*a) for a in args]
-    chl, cdom, s_final, k_final, f_final, iters, code = (np.concatenate(x) for x in zip(*parts))
+    parts = []
+    for i in range(0, N, CHUNK):
+        sl = slice(i, i + CHUNK)
+        parts.append(_solve_chunk(bm, M[sl], None if sig is None else sig[sl], L[sl], scale[sl],
+                                  fixed_s, max_iter, tol, engine, bool(intervals)))
+    out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    code = out["code"]
     converged = code <= 2
+    chl, cdom = out["chl"], out["cdom"]
+    noise_known = sig is not None
+    flags, reliable = [], np.zeros(N, dtype=bool)
+    for j in range(N):
+        fl = input_flags(M[j], None if sig is None else sig[j], None if sat is None else sat[j])
+        fl += estimate_flags(converged=bool(converged[j]), noise_known=noise_known,
+                             p_value=out["chi2_p"][j], chl=chl[j], cdom=cdom[j],
+                             chl_ci=out["chl_ci"][j], cdom_ci=out["cdom_ci"][j],
+                             ci_codes=out["ci_codes"][j] if intervals else None)
+        flags.append(tuple(fl))
+        reliable[j] = is_reliable(fl)
     w = (water.phytoplankton_440(chl) / float(bm.mdl.t440[0]))[:, None]
+    objective = out["f"] * (1.0 if noise_known else scale**2)
     return BatchEstimate(
-        chl=chl, cdom=cdom, w=w, backscatter=s_final * scale[:, None], attenuation=k_final,
-        wavelengths=bm.wl, objective=f_final * scale**2, iterations=iters, converged=converged,
+        chl=chl, cdom=cdom, chl_ci=out["chl_ci"], cdom_ci=out["cdom_ci"], reliable=reliable,
+        flags=flags, fit_rms=out["fit_rms"], chi2_dof=out["chi2_dof"], chi2_p=out["chi2_p"],
+        dof=out["dof"], noise_known=noise_known, w=w,
+        backscatter=out["s"] * scale[:, None], attenuation=out["k"], wavelengths=bm.wl,
+        objective=objective, iterations=out["it"], converged=converged,
         status=np.array([STATUS[c] for c in code]), status_code=code,
         elapsed_s=time.perf_counter() - t0,
     )
 
 
-def _solve_chunk(bm: BatchModel, M, L, scale, fixed_s, max_iter, tol, engine):
-    """Levenberg-Marquardt on one chunk of charts; returns (C, a_CDOM, s, k, f, iterations,
-    status codes) with s and f in the chunk's scaled units."""
+def _solve_chunk(bm: BatchModel, M, sig, L, scale, fixed_s, max_iter, tol, engine, intervals):
+    """Levenberg-Marquardt (and the intervals) on one chunk of charts; results in a dict, s and
+    f in the chunk's scaled units."""
     N = M.shape[0]
-    Ms = (M / scale[:, None, None]).reshape(N, -1)  # every chart scaled to max 1
+    Ms = np.ascontiguousarray((M / scale[:, None, None]).reshape(N, -1))  # every chart max 1
+    W2 = np.ones_like(Ms) if sig is None else np.ascontiguousarray(
+        (scale[:, None] / sig.reshape(N, -1)) ** 2)
     has_fs = fixed_s is not None
-    fs = fixed_s[None, :] / scale[:, None] if has_fs else np.zeros((N, bm.m))
-    chl, cdom = _initial(bm, M, L, fixed_s)
-    f_exact = EXACT_FIT * np.einsum("ij,ij->i", Ms, Ms)
+    fs = np.ascontiguousarray(fixed_s[None, :] / scale[:, None] if has_fs else np.zeros((N, bm.m)))
+    L = np.ascontiguousarray(L)
+    scale = np.ascontiguousarray(scale)
+    prob = (L, scale, Ms, W2, fs, has_fs, bm.S, bm.base, bm.ecdom, bm.Bt, bm.m, bm.n, bm.table,
+            bm.e0)
+    chl0, cdom0 = _initial(bm, Ms, W2, L, fs, has_fs)
+    f_exact = EXACT_FIT * np.einsum("ij,ij->i", W2 * Ms, Ms)
     if engine == "numba":
         with _NUMBA_LOCK:
-            return lm_numba(chl, cdom, np.ascontiguousarray(L), np.ascontiguousarray(scale),
-                            np.ascontiguousarray(Ms), np.ascontiguousarray(fs), has_fs, bm.S,
-                            bm.base, bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0,
-                            int(max_iter), float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
+            chl, cdom, s, k, f, it, code = lm_numba(chl0, cdom0, prob, int(max_iter), float(tol),
+                                                    f_exact, LM_MU0, LM_DOWN, LM_UP)
+    else:
+        chl, cdom, s, k, f, it, code = _lm_numpy(bm, prob, chl0, cdom0, max_iter, tol, f_exact)
+    res = dict(chl=chl, cdom=cdom, s=s, k=k, f=f, it=it, code=code)
+    # goodness of fit
+    G = (k @ bm.Bt) / scale[:, None]
+    r = Ms - G - np.repeat(s, bm.n, axis=1)
+    res["fit_rms"] = np.sqrt(np.einsum("ij,ij->i", r, r) / np.einsum("ij,ij->i", Ms, Ms))
+    n_s = np.zeros(N, dtype=int) if has_fs else np.sum(s > 0, axis=1)
+    dof = bm.m * bm.n - 2 - n_s
+    res["dof"] = dof
+    res["chi2_dof"], res["chi2_p"] = goodness(f, dof, sig is not None)
+    chl_ci = np.full((N, 2), np.nan)
+    cdom_ci = np.full((N, 2), np.nan)
+    codes = np.full((N, 4), BOUND_FAILED)
+    if intervals:
+        delta = profile_delta(sig is not None, f, dof, np.einsum("ij,ij->i", W2 * Ms, Ms))
+        U = np.where(chl > 0, chl, 0.0) ** bm.e0
+        with _NUMBA_LOCK:
+            ends, codes = intervals_numba(U, cdom, np.ascontiguousarray(delta), prob, True, True,
+                                          CHL_MAX ** bm.e0, CDOM_MAX)
+        chl_ci = np.column_stack([ends[:, 0], ends[:, 1]]) ** (1.0 / bm.e0)
+        cdom_ci = ends[:, 2:].copy()
+        chl_ci[codes[:, 1] == BOUND_OPEN, 1] = np.inf
+        cdom_ci[codes[:, 3] == BOUND_OPEN, 1] = np.inf
+    res.update(chl_ci=chl_ci, cdom_ci=cdom_ci, ci_codes=codes)
+    return res
+
+
+def _lm_numpy(bm, prob, chl, cdom, max_iter, tol, f_exact):
+    """The numpy engine: the Levenberg-Marquardt iteration of :func:`sca._batch_kernel.lm_chart`
+    as array code over the active charts (the reference)."""
+    L, scale, Ms, W2, fs, has_fs = prob[:6]
+    N = Ms.shape[0]
+    chl, cdom = chl.copy(), cdom.copy()
 
     def evaluate(idx, C, A, grad):
         phi, dphi = bm.weights(C, derivative=True)
         return evaluate_numpy(phi, dphi, A, L[idx], bm.S, bm.base, bm.ecdom, bm.Bt, Ms[idx],
-                              scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
+                              W2[idx], scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
 
     iters = np.zeros(N, dtype=int)
     code = np.full(N, 3)

@@ -32,12 +32,24 @@ from dataclasses import dataclass, field
 
 import cvxpy as cp
 import numpy as np
+from scipy import stats
 
 from forward import validate
 from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
+from ._batch_kernel import BOUND_OPEN, intervals_serial
+from .assess import (
+    CDOM_MAX,
+    CHL_MAX,
+    CONFIDENCE,
+    estimate_flags,
+    goodness,
+    input_flags,
+    is_reliable,
+    profile_delta,
+)
 from .model import WaterModel
 from .subproblem import compiled_subproblem, equality_step, polish
 
@@ -107,12 +119,24 @@ class Estimate:
     #: too dark to measure); 0 for a fixed parameter or an exact (noise-free) fit
     chl_se: float
     cdom_se: float
+    #: 95 % profile-likelihood intervals (lower end 0 where the data allow 0, upper end inf
+    #: where they cannot bound the parameter); Wald intervals for z > 1 basis functions
+    chl_ci: tuple
+    cdom_ci: tuple
+    #: True only when nothing in ``flags`` blocks it (sca.assess.BLOCKING)
+    reliable: bool
+    flags: tuple
+    fit_rms: float  # ||M - G - s|| / ||M||
+    chi2_dof: float  # reduced chi^2 of the whitened residual (NaN: noise unknown)
+    chi2_p: float  # its p-value
+    dof: int
+    noise_known: bool
     w: np.ndarray
     backscatter: np.ndarray
     attenuation: np.ndarray
     attenuation_coefficient: np.ndarray
     wavelengths: np.ndarray
-    objective: float
+    objective: float  # chi^2 when the noise is known, else ||M - G - s||^2 (data units)
     iterations: int
     converged: bool
     status: str
@@ -214,15 +238,32 @@ class Estimator:
         r = mdl.residual(Mv, k, s)
         return float(r @ r), k
 
-    def prepare(self, rgb):
-        """Validate ``rgb`` and scale the problem: returns (vec(M) / max M, max M, the model
-        in those units, the fixed backscatter in those units or None)."""
+    def check_sigma(self, sigma):
+        """``sigma`` (None, a scalar or (m, n), data units) as a (m, n) array or None."""
+        if sigma is None:
+            return None
+        shape = (self.model.m, self.model.n)
+        arr = validate.array("sigma", sigma)
+        if arr.ndim == 0:
+            arr = np.full(shape, float(arr))
+        if arr.shape != shape:
+            raise ValueError(f"sigma: expected a scalar or shape {shape}, got {arr.shape}")
+        if np.any(arr <= 0):
+            raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+        return arr
+
+    def prepare(self, rgb, sigma=None):
+        """Validate ``rgb`` (and ``sigma``) and scale the problem: returns (vec(M) / max M,
+        max M, the model in those units -- whitened by ``sigma`` when given --, the fixed
+        backscatter in those units or None)."""
         M = self._check_rgb(rgb)
+        sig = self.check_sigma(sigma)
         scale = float(np.max(M))
         if scale <= 0:
             raise ValueError("rgb: all values are zero; nothing to fit")
         s_fixed = None if self.free_s else self.fixed["backscatter"] / scale
-        return M.ravel() / scale, scale, self.model.scaled(scale), s_fixed
+        mdl = self.model.scaled(scale, None if sig is None else sig.ravel())
+        return M.ravel() / scale, scale, mdl, s_fixed
 
     def initial_point(self, Mv, x0=None, mdl=None, s_fixed=None):
         """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
@@ -245,22 +286,30 @@ class Estimator:
         k = mdl.attenuation(C, A, W)
         G = mdl.signal(k)
         s = mdl.best_backscatter(Mv, G, s_fixed)
-        r = Mv - G - np.repeat(s, mdl.n, axis=-1)
+        r = mdl.wt * (Mv - G - np.repeat(s, mdl.n, axis=-1))
         f = np.einsum("ij,ij->i", r, r)
         j = int(np.argmin(f))
         return float(C[j]), float(A[j]), W[j].copy()
 
     # ----------------------------------------------------------------------------- the loop
-    def fit(self, rgb, *, mode: str = "safeguarded", max_iter: int = 100, tol: float = 1e-10,
-            x0=None) -> Estimate:
-        """Run the sequential convex loop on measured patch values ``rgb`` (m, n)."""
+    def fit(self, rgb, *, sigma=None, saturation=None, mode: str = "safeguarded",
+            max_iter: int = 100, tol: float = 1e-10, x0=None) -> Estimate:
+        """Run the sequential convex loop on measured patch values ``rgb`` (m, n), then assess
+        the fit (:mod:`sca.assess`); see :func:`sca.estimate`."""
         if mode not in MODES:
             raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
         if int(max_iter) != max_iter or max_iter < 1:
             raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
         tol = validate.scalar("tol", tol, positive=True)
-        Mv, scale, mdl, s_fixed = self.prepare(rgb)
-        return self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0)
+        if saturation is not None:
+            saturation = validate.scalar("saturation", saturation, positive=True)
+        Mv, scale, mdl, s_fixed = self.prepare(rgb, sigma)
+        est = self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0)
+        flags = input_flags(Mv.reshape(mdl.m, mdl.n) * scale,
+                            None if sigma is None else self.check_sigma(sigma), saturation)
+        est.flags = tuple(flags + list(est.flags))
+        est.reliable = is_reliable(est.flags)
+        return est
 
     def _loop(self, mdl, Mv, scale, s_fixed, mode, max_iter, tol, x0):
         """Linearise, solve the QP, judge the step with the true objective, repeat."""
@@ -268,7 +317,8 @@ class Estimator:
         sub = compiled_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
                                   mdl.wavelengths.size, mdl.m if self.free_s else 0, safeguarded,
                                   self.free_w)
-        st = _FitState(mdl=mdl, Mv=Mv, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mv @ Mv))
+        Mw = mdl.wt * Mv
+        st = _FitState(mdl=mdl, Mv=Mv, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw))
         chl, cdom, w = self.initial_point(Mv, x0, mdl, s_fixed)
         st.initial = {"chl": chl, "cdom": cdom}
         s = np.array(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(chl, cdom, w)), s_fixed),
@@ -314,10 +364,11 @@ class Estimator:
         D_w = np.maximum(np.abs(w), w_min)
         scales = np.array(([D_chl] if self.free_chl else []) + ([D_cdom] if self.free_cdom else [])
                           + (list(D_w) if self.free_w else []))
-        r0 = st.Mv - mdl.signal(k) - np.repeat(s, mdl.n)
+        r0 = mdl.residual(st.Mv, k, s)  # whitened when the noise is known
         AE = J[self.cols].T * scales
         if self.free_s:
             AE = np.hstack([AE, np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))])
+        AE = AE * mdl.wt[:, None]
         Q, Rm = np.linalg.qr(AE)
         b = Q.T @ r0
         unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
@@ -461,20 +512,69 @@ class Estimator:
         chl, cdom, w, s = st.x
         se_chl, se_cdom = mdl.standard_errors(st.Mv, chl, cdom, w, s,
                                               (self.free_chl, self.free_cdom), st.s_fixed)
-        s2 = scale * scale
+        unit = 1.0 if mdl.noise_known else scale * scale  # objective: chi^2 or data units
+        r = mdl.residual(st.Mv, mdl.attenuation(chl, cdom, w), s) / mdl.wt
+        n_s = 0 if not self.free_s else int(np.sum(np.asarray(s) > 0))
+        dof = mdl.m * mdl.n - int(self.free_chl) - int(self.free_cdom) - n_s \
+            - (mdl.z - 1 if self.free_w else 0)
+        chi2_dof, chi2_p = goodness(st.f, dof, mdl.noise_known)
+        chl_ci, cdom_ci, codes = self._intervals(st, se_chl, se_cdom, dof)
+        flags = estimate_flags(converged=st.converged, noise_known=mdl.noise_known,
+                               p_value=float(chi2_p), chl=chl, cdom=cdom, chl_ci=chl_ci,
+                               cdom_ci=cdom_ci, ci_codes=codes, free_chl=self.free_chl,
+                               free_cdom=self.free_cdom)
+        if codes is None and "no-interval" in flags:  # Wald intervals (z > 1)
+            flags[flags.index("no-interval")] = "interval-approximate"
         return Estimate(
             chl=float(chl), cdom=float(cdom), chl_se=se_chl, cdom_se=se_cdom,
+            chl_ci=chl_ci, cdom_ci=cdom_ci, reliable=is_reliable(flags), flags=tuple(flags),
+            fit_rms=float(np.linalg.norm(r) / np.linalg.norm(st.Mv)),
+            chi2_dof=float(chi2_dof), chi2_p=float(chi2_p), dof=int(dof),
+            noise_known=bool(mdl.noise_known),
             w=np.array(w, float), backscatter=s * scale,
             attenuation=mdl.attenuation(chl, cdom, w),
             attenuation_coefficient=mdl.coefficient(chl, cdom, w),
-            wavelengths=mdl.wavelengths, objective=st.f * s2, iterations=it,
+            wavelengths=mdl.wavelengths, objective=st.f * unit, iterations=it,
             converged=bool(st.converged), status=st.status,
-            history=[f * s2 for f in st.history], mode=mode, initial=st.initial,
+            history=[f * unit for f in st.history], mode=mode, initial=st.initial,
             fixed=dict(self.fixed), eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
             solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel, n_solves=st.n_solves,
-            polish_rescues=st.rescues, trials=[f * s2 for f in st.trials],
+            polish_rescues=st.rescues, trials=[f * unit for f in st.trials],
             path_model=self.water.path_model, step_history=st.steps,
         )
+
+    def _intervals(self, st, se_chl, se_cdom, dof):
+        """95 % intervals of C and a_CDOM: profile likelihood through the compiled profile of
+        :mod:`sca._batch_kernel` (z = 1, w on eq 17: the same reduced problem), else Wald
+        intervals from the standard errors (codes None)."""
+        mdl = st.mdl
+        chl, cdom, _, _ = st.x
+        if mdl.z != 1:
+            z95 = stats.norm.ppf(0.5 + CONFIDENCE / 2)
+            return ((max(chl - z95 * se_chl, 0.0), chl + z95 * se_chl),
+                    (max(cdom - z95 * se_cdom, 0.0), cdom + z95 * se_cdom), None)
+        terms, water = mdl.terms, mdl.water
+        has_fs = st.s_fixed is not None
+        prob = (np.array([float(mdl.L)]), np.ones(1), np.ascontiguousarray(st.Mv[None]),
+                np.ascontiguousarray((mdl.wt ** 2)[None]),
+                np.ascontiguousarray((st.s_fixed if has_fs else np.zeros(mdl.m))[None]), has_fs,
+                np.ascontiguousarray(terms.shapes), np.ascontiguousarray(terms.base),
+                np.ascontiguousarray(terms.cdom_shape), np.ascontiguousarray(mdl.B.T), mdl.m,
+                mdl.n, np.ascontiguousarray(water.chl_terms()), float(water.phyto_exponent))
+        e0 = float(water.phyto_exponent)
+        Mw = mdl.wt * st.Mv
+        delta = profile_delta(mdl.noise_known, np.array([st.f]), np.array([dof]),
+                              np.array([Mw @ Mw]))
+        ends, codes = intervals_serial(np.array([chl ** e0]), np.array([cdom]), delta, prob,
+                                      self.free_chl, self.free_cdom, CHL_MAX ** e0, CDOM_MAX)
+        ends, codes = ends[0], codes[0]
+        chl_ci = [ends[0] ** (1 / e0), ends[1] ** (1 / e0)]
+        cdom_ci = [ends[2], ends[3]]
+        if codes[1] == BOUND_OPEN:
+            chl_ci[1] = np.inf
+        if codes[3] == BOUND_OPEN:
+            cdom_ci[1] = np.inf
+        return tuple(map(float, chl_ci)), tuple(map(float, cdom_ci)), tuple(int(c) for c in codes)
 
 
 def _update_radius(radius, rho, step):
@@ -561,8 +661,9 @@ def _solve(problem) -> str:
     return "; ".join(reasons)
 
 
-def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,
-             wavelengths=None, basis=None, mode: str = "safeguarded", max_iter: int = 100,
+def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAULT_CAMERA,
+             illuminant=None, reflectances=None, wavelengths=None, basis=None,
+             mode: str = "safeguarded", max_iter: int = 100,
              tol: float = 1e-10, fix=None, x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
              setup: ChartSetup | None = None) -> Estimate:
@@ -573,6 +674,13 @@ def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, re
     rgb : (m, n) measured patch values in the model units of :func:`forward.simulate_chart`
         (exposure-normalised: a white reflector in air = 1 in the reference channel).
     depth, distance : m, the path of the measurement (known to the diver).
+    sigma : standard deviation of each value of ``rgb`` (scalar or (m, n), same units), e.g.
+        ``forward.simulate_chart(...).rgb_sigma``. The fit is then weighted least squares, its
+        chi^2 is tested and the intervals use the known noise. Without it the noise is
+        estimated from the residual, the fit cannot be tested, and the estimate is not
+        ``reliable`` (flag ``noise-unknown``).
+    saturation : the sensor's clip level in the units of ``rgb`` (``ChartSimulation.saturation``)
+        for the ``saturated`` check; without it two values tied at the maximum count as clipped.
     camera, illuminant, reflectances, wavelengths, basis : as in
         :func:`forward.simulate_chart`; must describe the same camera and chart as the data.
     water : :class:`forward.Water` (constants, tables, path model; default the paper's);
@@ -589,7 +697,8 @@ def estimate(rgb, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None, re
     est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
                     reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
                     path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup)
-    return est.fit(rgb, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
+    return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
+                   x0=x0)
 
 
 def rrmse(estimate, truth) -> float:

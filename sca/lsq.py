@@ -11,13 +11,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .estimate import Estimate, Estimator
+from .assess import input_flags, is_reliable
+from .estimate import Estimate, Estimator, _FitState
 from .model import WaterModel
 
 
 def residual_functions(mdl: WaterModel, Mv):
     """(fun, jac, unpack) of the reduced problem for the data ``Mv`` (vec of M, in the units of
-    ``mdl``): fun(x) = vec(M - G(x) - s 1^T), jac(x) = d fun / dx, unpack(x) = (C, a_CDOM, w, s)."""
+    ``mdl``): fun(x) = vec(M - G(x) - s 1^T) (whitened where ``mdl`` knows the noise),
+    jac(x) = d fun / dx, unpack(x) = (C, a_CDOM, w, s)."""
     if mdl.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
     B = mdl.B
@@ -30,26 +32,26 @@ def residual_functions(mdl: WaterModel, Mv):
 
     def fun(x):
         C, A, w, s = unpack(x)
-        return Mv - B @ mdl.attenuation(C, A, w) - E @ s
+        return mdl.residual(Mv, mdl.attenuation(C, A, w), s)
 
     def jac(x):
         C, A, w, s = unpack(x)
         _, dk = mdl.attenuation_jacobian(C, A, w)
         _, dalpha = mdl.phyto_scale(C, derivative=True)
         dk_dC = dk[:, 0] + dk[:, 2] * float(dalpha) / t440  # w follows C along eq 17
-        return -np.column_stack([B @ dk_dC, B @ dk[:, 1], E])
+        return -np.column_stack([B @ dk_dC, B @ dk[:, 1], E]) * mdl.wt[:, None]
 
     return fun, jac, unpack
 
 
-def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev: int = 500,
-                           **kwargs) -> Estimate:
+def estimate_least_squares(rgb, *, depth, distance, sigma=None, tol: float = 1e-12,
+                           max_nfev: int = 500, **kwargs) -> Estimate:
     """Fit one chart with scipy's bounded least squares; fields as :class:`sca.Estimate`.
     Keyword arguments as :func:`sca.estimate` (``water=``, ``camera=``, ...)."""
     est = Estimator(depth=depth, distance=distance, **kwargs)
     if est.model.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
-    Mv, scale, mdl, _ = est.prepare(rgb)
+    Mv, scale, mdl, _ = est.prepare(rgb, sigma)
     fun, jac, unpack = residual_functions(mdl, Mv)
     C0, A0, w0 = est.initial_point(Mv, mdl=mdl)
     s0 = np.asarray(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(C0, A0, w0))), float)
@@ -57,13 +59,14 @@ def estimate_least_squares(rgb, *, depth, distance, tol: float = 1e-12, max_nfev
     res = least_squares(fun, x0, jac=jac, bounds=(0.0, np.inf), method="trf", x_scale="jac",
                         ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
     C, A, w, s = unpack(res.x)
-    k = mdl.attenuation(C, A, w)
-    f = float(res.fun @ res.fun)
-    return Estimate(
-        chl=float(C), cdom=float(A), chl_se=float("nan"), cdom_se=float("nan"), w=w,
-        backscatter=s * scale, attenuation=k, attenuation_coefficient=mdl.coefficient(C, A, w),
-        wavelengths=mdl.wavelengths, objective=f * scale**2, iterations=int(res.nfev),
-        converged=bool(res.status > 0), status=f"scipy least_squares: {res.message}", history=[],
-        mode="scipy_least_squares", initial={"chl": C0, "cdom": A0}, fixed={},
-        eq17_residual=0.0, path_model=est.water.path_model,
-    )
+    # the same assessment as sca.estimate (goodness of fit, intervals, flags)
+    st = _FitState(mdl=mdl, Mv=Mv, s_fixed=None, f_exact=0.0, x=(float(C), float(A), w, s),
+                   f=float(res.fun @ res.fun), initial={"chl": C0, "cdom": A0},
+                   status=f"scipy least_squares: {res.message}", converged=bool(res.status > 0))
+    out = est._result(st, scale, "scipy_least_squares", int(res.nfev))
+    flags = input_flags(Mv.reshape(mdl.m, mdl.n) * scale,
+                        None if sigma is None else est.check_sigma(sigma), None)
+    out.flags = tuple(flags + list(out.flags))
+    out.reliable = is_reliable(out.flags)
+    out.eq17_residual = 0.0
+    return out

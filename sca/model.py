@@ -39,11 +39,19 @@ class WaterModel:
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
+        #: whitening weights 1 / sigma of vec(M) (ones: the paper's unweighted eq 15)
+        self.wt = np.ones(self.m * self.n)
+        self.noise_known = False
 
-    def scaled(self, factor: float) -> "WaterModel":
-        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest."""
+    def scaled(self, factor: float, sigma=None) -> "WaterModel":
+        """A copy whose signals are divided by ``factor`` (the data's scale) and, with ``sigma``
+        (vec, data units), whose residuals are whitened by it (weighted least squares: the
+        objective is then chi^2); shares the rest."""
         new = copy.copy(self)
         new.B = self.B / factor
+        if sigma is not None:
+            new.wt = factor / np.asarray(sigma, float)
+            new.noise_known = True
         return new
 
     # --- eq 17 -----------------------------------------------------------------------------
@@ -84,20 +92,22 @@ class WaterModel:
         return np.asarray(k) @ self.B.T
 
     def best_backscatter(self, M_vec, G_vec, fixed=None):
-        """Closed-form s >= 0 minimising ||M - G - s 1^T||_F for fixed G: per channel, the clipped
-        mean residual. ``fixed`` (m,) returns that instead. Broadcasts over leading axes."""
+        """Closed-form s >= 0 minimising ||W (M - G - s 1^T)||_F for fixed G: per channel, the
+        clipped (weighted) mean residual. ``fixed`` (m,) returns that instead. Broadcasts over leading axes."""
         if fixed is not None:
             return np.broadcast_to(fixed, G_vec.shape[:-1] + (self.m,))
+        w2 = (self.wt ** 2).reshape(self.m, self.n)
         resid = (M_vec - G_vec).reshape(G_vec.shape[:-1] + (self.m, self.n))
-        return np.maximum(resid.mean(axis=-1), 0.0)
+        return np.maximum((resid * w2).sum(axis=-1) / w2.sum(axis=-1), 0.0)
 
     def standard_errors(self, M_vec, chl, cdom, w, s, free=(True, True), fixed_s=None):
         """Standard errors (m^-1-scaled units of C and a_CDOM) from the Gauss-Newton covariance.
 
-        The backscatter is profiled out (its closed form: where s > 0 the channel mean is
-        projected out of the Jacobian), w follows C along eq 17 (its shape held), and
-        sigma^2 = ||r||^2 / (m n - p - number of free s > 0). Returns (se_chl, se_cdom); a
-        fixed parameter gets 0, an undetermined one inf.
+        The backscatter is profiled out (its closed form: where s > 0 the channel's weighted
+        mean is projected out of the Jacobian), w follows C along eq 17 (its shape held), the
+        Jacobian is whitened, and sigma^2 = 1 when the noise is known, else
+        ||r||^2 / (m n - p - number of free s > 0). Returns (se_chl, se_cdom); a fixed parameter
+        gets 0, an undetermined one inf.
         """
         _, dk = self.attenuation_jacobian(chl, cdom, w)
         alpha, dalpha = self.phyto_scale(chl, derivative=True)
@@ -106,17 +116,19 @@ class WaterModel:
         cols = [dk[:, 0] + dk[:, 2:] @ dw_dchl, dk[:, 1]]
         J = np.column_stack([self.signal(c) for c in cols]).reshape(self.m, self.n, 2)
         n_s = 0
+        w2 = (self.wt ** 2).reshape(self.m, self.n, 1)
         if fixed_s is None:
             active = np.asarray(s) > 0
-            J = J - active[:, None, None] * J.mean(axis=1, keepdims=True)
+            mean = (J * w2).sum(axis=1, keepdims=True) / w2.sum(axis=1, keepdims=True)
+            J = J - active[:, None, None] * mean
             n_s = int(active.sum())
-        J = J.reshape(self.m * self.n, 2)[:, list(np.flatnonzero(free))]
+        J = (J * np.sqrt(w2)).reshape(self.m * self.n, 2)[:, list(np.flatnonzero(free))]
         r = self.residual(M_vec, self.attenuation(chl, cdom, w), s)
         dof = self.m * self.n - J.shape[1] - n_s
         out = np.zeros(2)
         if J.shape[1] == 0 or dof <= 0:
             return tuple(np.where(np.asarray(free), np.inf, 0.0))
-        sigma2 = float(r @ r) / dof
+        sigma2 = 1.0 if self.noise_known else float(r @ r) / dof
         try:
             cov = sigma2 * np.linalg.inv(J.T @ J)
             se = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -126,5 +138,5 @@ class WaterModel:
         return float(out[0]), float(out[1])
 
     def residual(self, M_vec, k, s):
-        """vec(M - G(k) - s 1^T)."""
-        return M_vec - self.signal(k) - np.repeat(np.asarray(s), self.n, axis=-1)
+        """vec(M - G(k) - s 1^T), whitened: divided by sigma where the noise is known."""
+        return self.wt * (M_vec - self.signal(k) - np.repeat(np.asarray(s), self.n, axis=-1))

@@ -116,62 +116,63 @@ def _signal(water, chl, cdom, L):
     return forward.camera_response(SETUP.sensitivities, SETUP.illuminant, k, SETUP.reflectances)
 
 
-def _projected_residual(water, M, scale, chl, cdom, L):
-    """r = M - G - s (s the clipped channel mean), from forward, in units of scale."""
+def _projected_residual(water, M, w2, scale, chl, cdom, L):
+    """r = sqrt(w2) (M - G - s), s the clipped w2-weighted channel mean, from forward, in units
+    of scale (w2 = weights in those units, (3, 24))."""
     R0 = (M - _signal(water, chl, cdom, L)) / scale
-    s = np.maximum(R0.mean(axis=1), 0.0)
-    return (R0 - s[:, None]).ravel(), s
+    s = np.maximum((w2 * R0).sum(axis=1) / w2.sum(axis=1), 0.0)
+    return (np.sqrt(w2) * (R0 - s[:, None])).ravel(), s
 
 
-def _projected_jacobian(water, scale, s, fn, x, h):
-    """d r / dx = -(dG/dx - channel mean where s > 0) / scale, with dG/dx by central differences
-    of forward's G (differencing G itself: r = M - G loses digits where G << M)."""
+def _projected_jacobian(water, w2, scale, s, fn, x, h):
+    """d r / dx = -sqrt(w2) (dG/dx - its w2-weighted channel mean where s > 0) / scale, with
+    dG/dx by central differences of forward's G (differencing G itself: r = M - G loses digits
+    where G << M)."""
     dG = central(fn, x, h) / scale
-    dG = dG - (s > 0)[:, None] * dG.mean(axis=1, keepdims=True)
-    return -dG.ravel()
+    mean = (w2 * dG).sum(axis=1, keepdims=True) / w2.sum(axis=1, keepdims=True)
+    return -(np.sqrt(w2) * (dG - (s > 0)[:, None] * mean)).ravel()
 
 
-def _engines(bm, M, scale, chl, cdom, L):
-    """(f, s, g, H) from the numpy engine and, when numba is there, the numba engine."""
+def _engines(bm, M, w2, scale, chl, cdom, L):
+    """(f, s, g, H) from the numpy evaluation and the compiled (or plain) kernel."""
+    from sca._batch_kernel import eval_chart, make_buffers
+
     Ms = (M / scale).reshape(1, -1)
+    W2 = w2.reshape(1, -1)
     phi, dphi = bm.weights(np.array([chl]), derivative=True)
     f, s, g, H = sca_batch.evaluate_numpy(phi, dphi, np.array([cdom]), np.array([L]), bm.S,
-                                          bm.base, bm.ecdom, bm.Bt, Ms, np.array([scale]),
+                                          bm.base, bm.ecdom, bm.Bt, Ms, W2, np.array([scale]),
                                           np.zeros((1, 3)), False, bm.m, bm.n, True)
     out = {"numpy": (f[0], s[0], g[0], H[0])}
-    if sca_batch.HAVE_NUMBA:
-        from sca._batch_kernel import _eval_one
-
-        q, mn = bm.S.shape[1], bm.m * bm.n
-        s_out = np.empty(3)
-        bufs = [np.empty(q) for _ in range(3)] + [np.empty(mn) for _ in range(3)] + \
-            [np.empty(4), np.empty(4)]
-        res = _eval_one(chl ** bm.e0, cdom, 0, np.array([L]), np.array([scale]), Ms,
-                        np.zeros((1, 3)), False, bm.S, bm.base, bm.ecdom, bm.Bt, bm.m, bm.n,
-                        bm.table, bm.e0, True, s_out, *bufs)
-        f1, g1, g2, h11, h12, h22 = res
-        out["numba"] = (f1, s_out.copy(), np.array([g1, g2]), np.array([h11, h12, h22]))
+    prob = (np.array([L]), np.array([scale]), Ms, W2, np.zeros((1, 3)), False, bm.S, bm.base,
+            bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0)
+    buf = make_buffers(bm.S.shape[1], bm.m, bm.n)
+    f1, g1, g2, h11, h12, h22 = eval_chart(chl ** bm.e0, cdom, 0, prob, buf, True)
+    out["kernel"] = (f1, buf[0].copy(), np.array([g1, g2]), np.array([h11, h12, h22]))
     return out
 
 
+@pytest.mark.parametrize("weighted", [False, True])
 @pytest.mark.parametrize("name", sorted(WATERS))
 @given(**conditions())
-def test_batch_engines_equal_forward(name, chl, cdom, depth, distance):
+def test_batch_engines_equal_forward(name, weighted, chl, cdom, depth, distance):
     water = WATERS[name]
     L = depth + distance
     sim = forward.simulate_chart(1.0, 0.1, depth, distance, seed=2, water=water)
     M = sim.rgb
     scale = float(M.max())
+    w2 = (scale / sim.rgb_sigma) ** 2 if weighted else np.ones_like(M)
     bm = sca_batch.BatchModel(SETUP, water=water)
-    r, s = _projected_residual(water, M, scale, chl, cdom, L)
+    r, s = _projected_residual(water, M, w2, scale, chl, cdom, L)
     e0 = water.phyto_exponent
     u = chl ** e0
     # the projected Jacobian J = dr/d(u, a_CDOM) by finite differences of forward
     hu, ha = 1e-6 * u, 1e-6
     a = max(cdom, ha)
-    Ju = _projected_jacobian(water, scale, s, lambda x: _signal(water, x ** (1 / e0), cdom, L), u, hu)
-    Ja = _projected_jacobian(water, scale, s, lambda x: _signal(water, chl, x, L), a, ha)
-    for engine, (f, s_e, g, H) in _engines(bm, M, scale, chl, cdom, L).items():
+    Ju = _projected_jacobian(water, w2, scale, s, lambda x: _signal(water, x ** (1 / e0), cdom, L),
+                             u, hu)
+    Ja = _projected_jacobian(water, w2, scale, s, lambda x: _signal(water, chl, x, L), a, ha)
+    for engine, (f, s_e, g, H) in _engines(bm, M, w2, scale, chl, cdom, L).items():
         assert f == pytest.approx(float(r @ r), rel=1e-9), engine
         np.testing.assert_allclose(s_e, s, rtol=1e-9, atol=1e-15, err_msg=engine)
         tol = 1e-5 * (np.linalg.norm(Ju) * np.linalg.norm(r) + 1e-300)

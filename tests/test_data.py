@@ -28,7 +28,7 @@ def test_pure_water_absorption_on_model_grid():
 def test_phytoplankton_basis_normalised_at_440_and_shape():
     T, t440 = forward.phytoplankton_basis()
     wl = forward.wavelength_grid()
-    assert T.shape == (31, 1)
+    assert T.shape == (301, 1)
     assert T[wl == 440, 0][0] == pytest.approx(1.0)
     assert t440 == pytest.approx([1.0])
     # published relative values 0.0184 at 440, 0.0114 at 670, 0.0016 at 700
@@ -59,7 +59,7 @@ def test_colour_science_spectra():
     R = forward.chart_reflectances()
     P = forward.camera_sensitivities()
     i = forward.illuminant_spd()
-    assert R.shape == (31, 24) and P.shape == (31, 3) and i.shape == (31,)
+    assert R.shape == (301, 24) and P.shape == (301, 3) and i.shape == (301,)
     assert np.all((R > 0) & (R < 1))
     np.testing.assert_allclose(P.max(axis=0), 1.0)
     assert i.max() == pytest.approx(1.0)

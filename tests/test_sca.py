@@ -23,7 +23,7 @@ def rel(a, b):
 @pytest.mark.parametrize("trust_region", [True, False])
 def test_subproblem_is_dpp_and_compiled_once(trust_region):
     # the structures the estimator uses: z = 1 (T w >= 0 as the bound w >= 0) and z = 2
-    for args in ((3, 3, None, 31, 3, trust_region, True), (4, 2, (2, 4), 31, 3, trust_region, True)):
+    for args in ((3, 3, None, 301, 3, trust_region, True), (4, 2, (2, 4), 301, 3, trust_region, True)):
         sub = build_subproblem(*args)
         assert sub.problem.is_dpp() and sub.problem.is_dcp(dpp=True)
     sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.0, noise=False)
@@ -152,7 +152,7 @@ def test_fixing_at_truth_gives_same_answer():
 
 def test_two_basis_functions():
     T1, _ = forward.phytoplankton_basis()
-    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 31)])
+    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 301)])
     sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], noise=False)
     est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T)
     assert est.w.shape == (2,)

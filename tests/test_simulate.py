@@ -35,7 +35,7 @@ def test_noise_free_rgb_equals_matrix_formula():
     P, i, k, R, s = sim.camera, sim.illuminant, sim.attenuation, sim.reflectances, sim.backscatter
     expected = P.T @ np.diag(i) @ np.diag(k) @ R + s[:, None]
     np.testing.assert_allclose(sim.rgb, expected, rtol=1e-13, atol=0)
-    assert sim.rgb.shape == (3, 24) and k.shape == (31,) and s.shape == (3,)
+    assert sim.rgb.shape == (3, 24) and k.shape == (301,) and s.shape == (3,)
     assert np.all(s > 0)
     # backscatter is P^T of the veiling light, and vanishes at zero distance
     sim0 = forward.simulate_chart(2.0, 0.2, 8.0, 0.0, noise=False)
@@ -44,7 +44,7 @@ def test_noise_free_rgb_equals_matrix_formula():
 
 def test_units_white_in_air_is_one():
     sim = forward.simulate_chart(0.0, 0.0, 0.0, 0.0, noise=False, backscatter=False,
-                                 reflectances=np.ones((31, 1)))
+                                 reflectances=np.ones((301, 1)))
     assert sim.rgb.max() == pytest.approx(1.0)
 
 
@@ -121,7 +121,7 @@ def test_other_cameras_grids_and_custom_arrays(tmp_path):
 
 def test_z2_basis():
     T1, _ = forward.phytoplankton_basis()
-    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 31)])
+    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 301)])
     a = forward.phytoplankton_absorption(WL, 2.0, basis=T, weights=[1.0, 0.5])
     assert a[WL == 440][0] == pytest.approx(0.0378 * 2**0.627)
     sim = forward.simulate_chart(2.0, 0.1, 5, 1, basis=T, weights=[1.0, 0.5], noise=False)

@@ -36,9 +36,9 @@ def test_wrong_shapes():
     with pytest.raises(ValueError, match="^camera:"):
         forward.simulate_chart(1, 0.1, 5, 1, camera=np.ones((30, 3)))
     with pytest.raises(ValueError, match="^reflectances:"):
-        forward.simulate_chart(1, 0.1, 5, 1, reflectances=np.ones((24, 31)))
+        forward.simulate_chart(1, 0.1, 5, 1, reflectances=np.ones((24, 301)))
     with pytest.raises(ValueError, match="^reflectances:"):
-        forward.simulate_chart(1, 0.1, 5, 1, reflectances=-np.ones((31, 24)))
+        forward.simulate_chart(1, 0.1, 5, 1, reflectances=-np.ones((301, 24)))
     with pytest.raises(ValueError, match="^illuminant:"):
         forward.simulate_chart(1, 0.1, 5, 1, illuminant=np.ones(5))
     with pytest.raises(ValueError, match="^basis:"):
