@@ -1,14 +1,16 @@
 """The ``uw3p`` command: simulate a chart, estimate the water, regenerate figures, benchmark.
 
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S]
     uw3p estimate --batch charts.csv --distance 5 [--json]
     uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
     uw3p bench [--quick]                               (what `make bench` runs)
     uw3p --version
 
-Exit status: 0 success (``estimate``: every fit converged), 1 a fit did not converge (its
-status says why), 2 bad input (the message names the argument or file), 130 interrupted.
+Exit status: 0 success (``estimate``: every estimate is reliable), 1 an estimate is not
+reliable or did not converge (its flags say why), 2 bad input (the message names the argument
+or file), 130 interrupted. ``estimate`` needs the noise (``red_sd,green_sd,blue_sd`` columns, as
+``simulate`` writes them) to call an estimate reliable.
 Output cut short by its reader (``uw3p estimate ... | head``) ends quietly with the status the
 command would have had.
 """
@@ -28,7 +30,7 @@ import numpy as np
 from . import __version__
 from .patchfile import patch_csv, read_batch_csv, read_patch_csv
 
-EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_NOT_RELIABLE, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 # --------------------------------------------------------------------------- shared options
@@ -91,10 +93,10 @@ def _simulate(args, out, err):
                                  noise=not args.no_noise, seed=args.seed, wavelengths=_grid(args),
                                  water=_water(args))
     if args.out is None:
-        out.write(patch_csv(sim.rgb))
+        out.write(patch_csv(sim.rgb, sim.rgb_sigma))
     else:
         _write_file(args.out, sim.to_json() if args.out.lower().endswith(".json")
-                    else patch_csv(sim.rgb), err)
+                    else patch_csv(sim.rgb, sim.rgb_sigma), err)
     return EXIT_OK
 
 
@@ -102,6 +104,31 @@ def _simulate(args, out, err):
 def _setup_kwargs(args):
     return dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
                 wavelengths=_grid(args), water=_water(args))
+
+
+def _ci(ci):
+    return [float(ci[0]), float(ci[1])]
+
+
+def _json(obj) -> str:
+    """Strict JSON: an open interval end (inf) is written "inf", an untested value (NaN) null."""
+    def clean(x):
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [clean(v) for v in x]
+        if isinstance(x, (float, np.floating)):
+            x = float(x)
+            if np.isnan(x):
+                return None
+            if np.isinf(x):
+                return "inf" if x > 0 else "-inf"
+        if isinstance(x, np.integer):
+            return int(x)
+        if isinstance(x, np.bool_):
+            return bool(x)
+        return x
+    return json.dumps(clean(obj), indent=1, allow_nan=False) + "\n"
 
 
 def _estimate_batch(args, out, err):
@@ -112,36 +139,50 @@ def _estimate_batch(args, out, err):
                          "projection + Levenberg-Marquardt); omit --mode")
     if args.fix_cdom is not None:
         raise ValueError("--fix-cdom: not available with --batch")
-    charts, M, depth, distance = read_batch_csv(args.batch)
+    charts, M, sigma, depth, distance = read_batch_csv(args.batch)
     for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
         if np.isnan(arr).any():
             if opt is None:
                 raise ValueError(f"--{name}: required unless the batch file has a {name}_m column")
             arr[np.isnan(arr)] = opt
     fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
-    res = estimate_batch(M, depth=depth, distance=distance, fix=fix, max_iter=args.max_iter,
-                         **_setup_kwargs(args))
+    res = estimate_batch(M, depth=depth, distance=distance, sigma=sigma, saturation=args.saturation,
+                         fix=fix, max_iter=args.max_iter, **_setup_kwargs(args))
     if args.json:
         records = [dict(chart=c, chl=float(res.chl[j]), cdom=float(res.cdom[j]),
+                        chl_ci=_ci(res.chl_ci[j]), cdom_ci=_ci(res.cdom_ci[j]),
+                        reliable=bool(res.reliable[j]), flags=list(res.flags[j]),
+                        fit_rms=float(res.fit_rms[j]), chi2_dof=float(res.chi2_dof[j]),
+                        chi2_p=float(res.chi2_p[j]), dof=int(res.dof[j]),
                         backscatter=res.backscatter[j].tolist(),
                         attenuation=res.attenuation[j].tolist(),
                         objective=float(res.objective[j]), converged=bool(res.converged[j]),
                         iterations=int(res.iterations[j]), status=str(res.status[j]),
                         depth=float(depth[j]), distance=float(distance[j]))
                    for j, c in enumerate(charts)]
-        out.write(json.dumps(dict(wavelengths=res.wavelengths.tolist(), charts=records),
-                             indent=1) + "\n")
+        out.write(_json(dict(wavelengths=res.wavelengths.tolist(), noise_known=res.noise_known,
+                             charts=records)))
     else:
         m = M.shape[1]
-        out.write("chart,chl,cdom," + ",".join(f"backscatter_{j}" for j in range(m))
+        out.write("chart,chl,chl_lo,chl_hi,cdom,cdom_lo,cdom_hi,reliable,flags,fit_rms,chi2_dof,"
+                  + ",".join(f"backscatter_{j}" for j in range(m))
                   + ",objective,converged,iterations,status\n")
         for j, c in enumerate(charts):
-            out.write(f"{c},{res.chl[j]!r},{res.cdom[j]!r},"
+            out.write(f"{c},{res.chl[j]!r},{res.chl_ci[j, 0]!r},{res.chl_ci[j, 1]!r},"
+                      f"{res.cdom[j]!r},{res.cdom_ci[j, 0]!r},{res.cdom_ci[j, 1]!r},"
+                      f"{bool(res.reliable[j])},{' '.join(res.flags[j])},{res.fit_rms[j]!r},"
+                      f"{res.chi2_dof[j]!r},"
                       + ",".join(repr(float(v)) for v in res.backscatter[j])
                       + f",{res.objective[j]!r},{bool(res.converged[j])},{res.iterations[j]},"
                         f"{res.status[j]}\n")
-    err.write(f"{len(charts)} charts, {int(res.converged.sum())} converged, {res.elapsed_s:.3f} s\n")
-    return EXIT_OK if res.converged.all() else EXIT_NOT_CONVERGED
+    err.write(f"{len(charts)} charts, {int(res.converged.sum())} converged, "
+              f"{int(res.reliable.sum())} reliable, {res.elapsed_s:.3f} s\n")
+    return EXIT_OK if res.reliable.all() else EXIT_NOT_RELIABLE
+
+
+def _interval_text(ci, unit):
+    hi = "inf" if not np.isfinite(ci[1]) else f"{ci[1]:.4g}"
+    return f"95 % interval [{ci[0]:.4g}, {hi}] {unit}"
 
 
 def _estimate(args, out, err):
@@ -153,33 +194,39 @@ def _estimate(args, out, err):
         return _estimate_batch(args, out, err)
     if args.depth is None or args.distance is None:
         raise ValueError("--depth, --distance: both are required")
-    M = read_patch_csv(args.measurements)
+    M, sigma = read_patch_csv(args.measurements)
     fix = {}
     if args.fix_backscatter is not None:
         fix["backscatter"] = args.fix_backscatter
     if args.fix_cdom is not None:
         fix["cdom"] = args.fix_cdom
     try:
-        res = estimate(M, depth=args.depth, distance=args.distance, mode=args.mode or "safeguarded",
+        res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
+                       saturation=args.saturation, mode=args.mode or "safeguarded",
                        fix=fix or None, max_iter=args.max_iter, **_setup_kwargs(args))
     except ValueError as exc:
         msg = str(exc)
-        if msg.startswith("rgb:"):  # name the file, in its orientation (rows = patches)
+        if msg.startswith(("rgb:", "sigma:")):  # name the file, in its orientation (rows = patches)
             raise ValueError(f"measurements: {args.measurements}: one row per patch and one column "
-                             f"per channel expected; {msg[4:].strip()} (channels x patches)") from None
+                             f"per channel expected; {msg} (channels x patches)") from None
         raise
     if args.json:
-        out.write(json.dumps(res.to_dict(), indent=1) + "\n")
+        out.write(_json(res.to_dict()))
     else:
-        out.write(f"chl (C)          {res.chl:.6g} mg m^-3 (standard error {res.chl_se:.2g})\n")
-        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1 (standard error {res.cdom_se:.2g})\n")
+        out.write(f"chl (C)          {res.chl:.6g} mg m^-3, {_interval_text(res.chl_ci, 'mg m^-3')}\n")
+        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1, {_interval_text(res.cdom_ci, 'm^-1')}\n")
         out.write("backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter) + "\n")
+        chi2 = (f"chi2/dof {res.chi2_dof:.3g} (p = {res.chi2_p:.3g}, dof {res.dof})"
+                if res.noise_known else "chi2 not tested: the noise is unknown")
+        out.write(f"fit              fit_rms {res.fit_rms:.3g}, {chi2}\n")
+        out.write(f"reliable         {res.reliable}" + (f" (flags: {', '.join(res.flags)})"
+                                                       if res.flags else "") + "\n")
         out.write(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
                   f"mode {res.mode}, path model {res.path_model})\n")
         out.write("wavelength_nm,attenuation_k\n")
         for wl, k in zip(res.wavelengths, res.attenuation):
             out.write(f"{wl:g},{k:.8g}\n")
-    return EXIT_OK if res.converged else EXIT_NOT_CONVERGED
+    return EXIT_OK if res.reliable else EXIT_NOT_RELIABLE
 
 
 # --------------------------------------------------------------------------- figures, bench
@@ -229,7 +276,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("estimate", help="estimate C, CDOM and attenuation from patch values")
     p.add_argument("measurements", nargs="?", default=None,
-                   help="CSV with a header patch,red,green,blue (one row per patch)")
+                   help="CSV with a header patch,red,green,blue[,red_sd,green_sd,blue_sd] "
+                        "(one row per patch)")
     p.add_argument("--batch", default=None, metavar="FILE",
                    help="many charts at once (sca.estimate_batch): CSV with columns chart, patch, "
                         "red, green, blue [, depth_m, distance_m]; one output row per chart")
@@ -240,6 +288,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-iter", type=int, default=100)
     p.add_argument("--fix-backscatter", type=float, default=None, help="hold s fixed (e.g. 0)")
     p.add_argument("--fix-cdom", type=float, default=None, help="hold a_CDOM(440) fixed, m^-1")
+    p.add_argument("--saturation", type=float, default=None,
+                   help="the sensor's clip level in the data's units (values there are flagged)")
     p.add_argument("--json", action="store_true", help="print the whole result as JSON")
     _add_setup(p)
     p.set_defaults(func=_estimate)

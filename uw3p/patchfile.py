@@ -1,9 +1,10 @@
 """Patch-value CSV files: read by column name, written as ``uw3p simulate`` writes them.
 
 A single chart: one row per patch, a header ``patch,red,green,blue`` (columns in any order;
-other channel names are taken in file order). Without a header the first column numbers the
-patches and the others are the channels in order. A batch: a header
-``chart,patch,<channels>[,depth_m,distance_m]``; chart ids are any text.
+other channel names are taken in file order), optionally ``red_sd,green_sd,blue_sd``: the
+standard deviation of each value (the estimator's ``sigma``). Without a header the first column
+numbers the patches and the others are the channels in order. A batch: a header
+``chart,patch,<channels>[,<channel>_sd...][,depth_m,distance_m]``; chart ids are any text.
 
 Every problem raises ``ValueError`` naming the file (the CLI prints it and exits 2).
 """
@@ -50,13 +51,23 @@ def _numbers(rows, p, name):
 
 
 def _channels(header, skip):
-    """Indices and names of the channel columns: red, green, blue by name when all three are
-    there, else every column not in ``skip``, in file order."""
+    """Indices and names of the channel columns -- red, green, blue by name when all three are
+    there, else every column not in ``skip`` and not ending in ``_sd``, in file order -- and the
+    indices of their ``<name>_sd`` columns (None when the file has none)."""
     low = [h.lower() for h in header]
     if all(c in low for c in RGB):
-        return [low.index(c) for c in RGB], list(RGB)
-    idx = [j for j, h in enumerate(low) if h not in skip]
-    return idx, [header[j] for j in idx]
+        names = list(RGB)
+    else:
+        names = [h for h in low if h not in skip and not h.endswith("_sd")]
+    idx = [low.index(c) for c in names]
+    sd = [f"{c}_sd" for c in names]
+    if not any(c in low for c in sd):
+        return idx, names, None
+    missing = [c for c in sd if c not in low]
+    if missing:
+        raise ValueError(f"columns {missing} are missing: give a standard deviation for every "
+                         "channel or for none")
+    return idx, names, [low.index(c) for c in sd]
 
 
 def _patch_order(patch, p, name, where=""):
@@ -67,8 +78,9 @@ def _patch_order(patch, p, name, where=""):
     return np.argsort(patch)
 
 
-def read_patch_csv(path, *, name: str = "measurements") -> np.ndarray:
-    """Patch values (m, n) of one chart from a CSV file (see the module docstring)."""
+def read_patch_csv(path, *, name: str = "measurements"):
+    """Patch values (m, n) of one chart from a CSV file and their standard deviations (m, n),
+    or None when the file has no ``_sd`` columns (see the module docstring)."""
     p, rows = _rows(path, name)
     header = None
     try:
@@ -81,6 +93,7 @@ def read_patch_csv(path, *, name: str = "measurements") -> np.ndarray:
         raise ValueError(f"{name}: every row of {p} needs "
                          f"{len(header) if header else len(rows[0])} values")
     arr = _numbers(rows, p, name)
+    sd_idx = None
     if header is None:
         patch_col, ch_idx = 0, list(range(1, arr.shape[1]))
     else:
@@ -88,16 +101,20 @@ def read_patch_csv(path, *, name: str = "measurements") -> np.ndarray:
         if "patch" not in low:
             raise ValueError(f"{name}: {p} has a header without a 'patch' column")
         patch_col = low.index("patch")
-        ch_idx, _ = _channels(header, {"patch"})
+        try:
+            ch_idx, _, sd_idx = _channels(header, {"patch"})
+        except ValueError as exc:
+            raise ValueError(f"{name}: {p}: {exc}") from None
     if not ch_idx:
         raise ValueError(f"{name}: {p} needs a patch column and one column per channel")
     order = _patch_order(arr[:, patch_col], p, name)
-    return arr[order][:, ch_idx].T
+    sigma = None if sd_idx is None else arr[order][:, sd_idx].T
+    return arr[order][:, ch_idx].T, sigma
 
 
 def read_batch_csv(path, *, name: str = "--batch"):
-    """A batch of charts: (chart ids (list of str), M (N, m, n), depth (N,), distance (N,)),
-    depth/distance NaN where the file has no such column."""
+    """A batch of charts: (chart ids (list of str), M (N, m, n), sigma (N, m, n) or None,
+    depth (N,), distance (N,)), depth/distance NaN where the file has no such column."""
     p, rows = _rows(path, name)
     header = rows[0]
     low = [h.lower() for h in header]
@@ -112,11 +129,15 @@ def read_batch_csv(path, *, name: str = "--batch"):
     ids = [r[0] for r in body]
     arr = _numbers([r[1:] for r in body], p, name)  # patch, channels, extras
     cols = header[1:]
-    ch_idx, _ = _channels(cols, {"patch", *BATCH_EXTRA})
+    try:
+        ch_idx, _, sd_idx = _channels(cols, {"patch", *BATCH_EXTRA})
+    except ValueError as exc:
+        raise ValueError(f"{name}: {p}: {exc}") from None
     charts = list(dict.fromkeys(ids))
     ids = np.array(ids, dtype=object)
     n = int(np.sum(ids == charts[0]))
     M = np.empty((len(charts), len(ch_idx), n))
+    sigma = None if sd_idx is None else np.empty_like(M)
     extra = {k: np.full(len(charts), np.nan) for k in BATCH_EXTRA}
     for j, c in enumerate(charts):
         sel = arr[ids == c]
@@ -125,22 +146,29 @@ def read_batch_csv(path, *, name: str = "--batch"):
                              f"{charts[0]!r} has {n}")
         sel = sel[_patch_order(sel[:, 0], p, name, f" (chart {c!r})")]
         M[j] = sel[:, ch_idx].T
+        if sigma is not None:
+            sigma[j] = sel[:, sd_idx].T
         for k in BATCH_EXTRA:
             if k in cols:
                 vals = sel[:, cols.index(k)]
                 if np.ptp(vals) > 0:
                     raise ValueError(f"{name}: chart {c!r} has more than one {k} in {p}")
                 extra[k][j] = vals[0]
-    return charts, M, extra["depth_m"], extra["distance_m"]
+    return charts, M, sigma, extra["depth_m"], extra["distance_m"]
 
 
-def patch_csv(rgb) -> str:
-    """Patch values (m, n) as CSV text: a header, one row per patch, one column per channel."""
+def patch_csv(rgb, sigma=None) -> str:
+    """Patch values (m, n) as CSV text: a header, one row per patch, one column per channel,
+    then one ``<channel>_sd`` column per channel when ``sigma`` (m, n) is given."""
     rgb = np.asarray(rgb)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     names = list(RGB) if rgb.shape[0] == 3 else [f"ch{j}" for j in range(rgb.shape[0])]
-    w.writerow(["patch"] + names)
+    sd = [] if sigma is None else [f"{c}_sd" for c in names]
+    w.writerow(["patch"] + names + sd)
     for p in range(rgb.shape[1]):
-        w.writerow([p + 1] + [repr(float(v)) for v in rgb[:, p]])
+        row = [repr(float(v)) for v in rgb[:, p]]
+        if sigma is not None:
+            row += [repr(float(v)) for v in np.asarray(sigma)[:, p]]
+        w.writerow([p + 1] + row)
     return buf.getvalue()

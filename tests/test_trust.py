@@ -1,0 +1,207 @@
+"""Never a confident wrong answer: each way the data can be wrong is refused or flagged.
+
+Every chart here is simulated on the 1 nm grid (the default: a world as fine as the data
+support) and fitted with the estimators' defaults, with the sensor's noise model as ``sigma``.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import forward
+import sca
+
+TRUTH = dict(chl=1.0, cdom=0.1, depth=10.0, distance=5.0)
+
+
+def sim(seed=0, **kw):
+    args = dict(TRUTH)
+    args.update(kw)
+    return forward.simulate_chart(args["chl"], args["cdom"], args["depth"], args["distance"],
+                                  seed=seed, **{k: v for k, v in kw.items() if k not in TRUTH})
+
+
+def fit(s, **kw):
+    args = dict(depth=s.depth, distance=s.distance, sigma=s.rgb_sigma, saturation=s.saturation)
+    args.update(kw)
+    rgb = args.pop("rgb", s.rgb)
+    return sca.estimate(rgb, **args)
+
+
+def covers(est, chl, cdom):
+    return est.chl_ci[0] <= chl <= est.chl_ci[1] and est.cdom_ci[0] <= cdom <= est.cdom_ci[1]
+
+
+def never_confidently_wrong(est, chl, cdom):
+    assert not (est.reliable and not covers(est, chl, cdom)), (est.chl, est.chl_ci, est.cdom,
+                                                                est.cdom_ci, est.flags)
+
+
+def test_a_1nm_world_chart_fits_within_its_noise():
+    covered = 0
+    for seed in range(20):
+        s = sim(seed)
+        est = fit(s)
+        assert est.converged and est.noise_known
+        assert est.chi2_p > 1e-3 and 0.6 < est.chi2_dof < 1.5, est.chi2_dof
+        assert est.reliable and est.flags == (), est.flags
+        # intervals are honest about their size: a few per cent here
+        assert 0.001 < (est.chl_ci[1] - est.chl_ci[0]) / est.chl < 0.2
+        covered += covers(est, 1.0, 0.1)
+    # both 95 % intervals cover the truth on most charts (fewer than 15 of 20: p < 1.1 %)
+    assert covered >= 15, covered
+
+
+@pytest.mark.parametrize("factor", [2.0, 0.5])
+def test_data_off_by_a_scale_factor_is_a_misfit(factor):
+    s = sim()
+    est = fit(s, rgb=s.rgb * factor, sigma=s.rgb_sigma * factor)
+    assert not est.reliable and "misfit" in est.flags
+    assert est.fit_rms > 0.01
+
+
+def test_channels_in_another_order_are_refused_or_flagged():
+    s = sim()
+    est = fit(s, rgb=s.rgb[::-1], sigma=s.rgb_sigma[::-1])
+    assert not est.reliable and {"misfit", "patch-order"} & set(est.flags)
+
+
+def test_wrong_illuminant_depth_distance_and_path_model_are_misfits():
+    s = sim(illuminant="D50")
+    assert "misfit" in fit(s).flags  # fitted as D65
+    s = sim()
+    for kw in (dict(depth=5.0), dict(distance=2.0), dict(path_model="absorption")):
+        est = fit(s, **kw)
+        assert not est.reliable and "misfit" in est.flags, kw
+
+
+def test_patches_in_another_order_are_flagged():
+    s = sim()
+    order = np.arange(24)[::-1]  # the chart read from the black patch: a 180-degree rotation
+    est = fit(s, rgb=s.rgb[:, order], sigma=s.rgb_sigma[:, order])
+    assert not est.reliable and "patch-order" in est.flags
+
+
+def test_dark_chart_is_never_confidently_wrong():
+    # C = 100, a_CDOM 1, 20 m + 5 m: the chart is buried in the noise
+    s = forward.simulate_chart(100.0, 1.0, 20.0, 5.0, seed=1)
+    single = fit(s)
+    batch = sca.estimate_batch(s.rgb[None], depth=20.0, distance=5.0, sigma=s.rgb_sigma[None],
+                               saturation=s.saturation)
+    for chl, ci, rel, flags in ((single.chl, single.chl_ci, single.reliable, single.flags),
+                                (batch.chl[0], batch.chl_ci[0], batch.reliable[0], batch.flags[0])):
+        assert not rel and ("dark" in flags or "unbounded-chl" in flags), flags
+        assert ci[0] <= 100.0 <= ci[1] or not np.isfinite(ci[1])
+    assert np.isfinite(batch.chl[0]) and batch.chl[0] < 1e4  # no 1e6-1e10 answers
+
+
+def test_saturated_and_absurd_values():
+    s = sim(depth=1.0, distance=0.5)
+    clipped = np.minimum(s.rgb * 3.0, s.saturation)
+    est = fit(s, rgb=clipped)
+    assert not est.reliable and "saturated" in est.flags
+    b = sca.estimate_batch(clipped[None], depth=1.0, distance=0.5, sigma=s.rgb_sigma[None])
+    assert not b.reliable[0] and "saturated" in b.flags[0]  # no level given: ties at the top
+    with pytest.raises(ValueError, match="^rgb_stack:"):
+        sca.estimate_batch(np.full((1, 3, 24), 1e300), depth=1, distance=1)
+    with pytest.raises(ValueError, match="^rgb:"):
+        sca.estimate(np.full((3, 24), 1e300), depth=1, distance=1)
+
+
+def test_unknown_noise_is_never_reliable():
+    s = sim()
+    est = sca.estimate(s.rgb, depth=10.0, distance=5.0)
+    assert not est.noise_known and not est.reliable and "noise-unknown" in est.flags
+    assert np.isnan(est.chi2_dof) and np.all(np.isfinite(est.chl_ci))
+    b = sca.estimate_batch(s.rgb[None], depth=10.0, distance=5.0)
+    assert "noise-unknown" in b.flags[0] and not b.reliable[0]
+
+
+def test_interval_reaches_zero_where_the_data_allow_zero():
+    s = forward.simulate_chart(0.0, 0.1, 5.0, 1.0, seed=2)
+    est = fit(s)
+    assert est.chl_ci[0] == 0.0 and 0.0 < est.chl_ci[1] < 0.1
+    assert est.reliable  # a bound at zero is information, not a failure
+
+
+def test_bad_sigma_is_refused():
+    s = sim()
+    with pytest.raises(ValueError, match="^sigma:"):
+        sca.estimate(s.rgb, depth=10, distance=5, sigma=-1.0)
+    with pytest.raises(ValueError, match="^sigma:"):
+        sca.estimate(s.rgb, depth=10, distance=5, sigma=np.ones((24, 3)))
+    with pytest.raises(ValueError, match="^sigma:"):
+        sca.estimate_batch(s.rgb[None], depth=10, distance=5, sigma=np.ones((2, 3, 24)))
+
+
+@pytest.fixture(scope="module")
+def grid_charts():
+    """Noisy 1 nm-world charts over a small grid, at the default sensor and at 200 lx."""
+    out = []
+    rng = np.random.default_rng(5)
+    for lux in (20000.0, 200.0):
+        sensor = forward.SensorSettings(illuminance_lux=lux)
+        for i in range(60):
+            c = float(rng.choice([0.1, 0.5, 1.0, 5.0, 10.0]))
+            a = float(rng.choice([0.01, 0.05, 0.1, 0.5]))
+            d = float(rng.choice([1.0, 5.0, 10.0, 20.0]))
+            r = float(rng.choice([0.5, 1.0, 5.0]))
+            out.append((c, a, forward.simulate_chart(c, a, d, r, seed=1000 + i, sensor=sensor)))
+    return out
+
+
+def test_interval_coverage_on_a_small_grid(grid_charts):
+    M = np.array([s.rgb for _, _, s in grid_charts])
+    S = np.array([s.rgb_sigma for _, _, s in grid_charts])
+    D = np.array([s.depth for _, _, s in grid_charts])
+    R = np.array([s.distance for _, _, s in grid_charts])
+    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S)
+    chl = np.array([c for c, _, _ in grid_charts])
+    cdom = np.array([a for _, a, _ in grid_charts])
+    cov_c = (b.chl_ci[:, 0] <= chl) & (chl <= b.chl_ci[:, 1])
+    cov_a = (b.cdom_ci[:, 0] <= cdom) & (cdom <= b.cdom_ci[:, 1])
+    # 120 charts at 95 %: below 87 % has probability < 0.1 %; above 99.5 % the intervals
+    # would be far too wide
+    assert 0.87 <= cov_c.mean() <= 0.995, cov_c.mean()
+    assert 0.87 <= cov_a.mean() <= 0.995, cov_a.mean()
+    # the goodness of fit passes about as often as it should
+    assert np.mean(b.chi2_p < 1e-3) <= 0.03
+    # no reliable chart with the truth outside its intervals beyond the 5 % the level allows
+    wrong = b.reliable & ~(cov_c & cov_a)
+    assert wrong.mean() <= 0.1
+
+
+def test_batch_and_single_agree(grid_charts):
+    charts = grid_charts[::8]
+    M = np.array([s.rgb for _, _, s in charts])
+    S = np.array([s.rgb_sigma for _, _, s in charts])
+    D = np.array([s.depth for _, _, s in charts])
+    R = np.array([s.distance for _, _, s in charts])
+    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S)
+    for j, (_, _, s) in enumerate(charts):
+        e = fit(s, saturation=None)
+        assert e.reliable == b.reliable[j], (e.flags, b.flags[j])
+        if e.reliable:
+            np.testing.assert_allclose(b.chl_ci[j], e.chl_ci, rtol=1e-3)
+            np.testing.assert_allclose(b.cdom_ci[j], e.cdom_ci, rtol=1e-3)
+
+
+def test_gn_and_profile_agree_where_the_problem_is_nearly_linear():
+    s = sim(depth=5.0, distance=1.0)
+    est = fit(s)
+    half = (est.chl_ci[1] - est.chl_ci[0]) / 2
+    assert abs(half / (1.96 * est.chl_se) - 1) < 0.1
+
+
+def test_z2_basis_intervals_are_marked_approximate():
+    T1 = forward.phytoplankton_basis()[0][:, 0]
+    T = np.column_stack([T1, np.linspace(1.0, 0.2, T1.size)])
+    s = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], seed=1)
+    est = sca.estimate(s.rgb, depth=5.0, distance=1.0, basis=T, sigma=s.rgb_sigma)
+    assert "interval-approximate" in est.flags and not est.reliable
+
+
+def test_water_mismatch_is_a_misfit():
+    s = sim(water=dataclasses.replace(forward.PAPER_WATER, cdom_slope=0.019))
+    assert "misfit" in fit(s).flags
