@@ -167,10 +167,11 @@ def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
             sc = sr / sw if sr > 0.0 else 0.0
             act = 1.0 if sr > 0.0 else 0.0
         s_out[ch] = sc
-        for p in range(n):
-            r = M[i, o + p] - G[o + p] - sc
-            f += W2[i, o + p] * r * r
-        if grad:
+        if not grad:
+            for p in range(n):
+                r = M[i, o + p] - G[o + p] - sc
+                f += W2[i, o + p] * r * r
+        else:
             gc = 0.0
             ga = 0.0
             cc = 0.0
@@ -183,6 +184,7 @@ def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
                 r = M[i, o + p] - G[o + p] - sc
                 x = GC[o + p]
                 y = GA[o + p]
+                f += w * r * r
                 gc += w * x * r
                 ga += w * y * r
                 cc += w * x * x

@@ -70,63 +70,88 @@ def goodness(chi2, dof, noise_known: bool):
     return chi2 / dof, stats.chi2.sf(chi2, dof)
 
 
-def input_flags(M, sigma=None, saturation=None) -> list:
-    """Sanity flags of one chart's values ``M`` (m, n) with noise ``sigma`` (m, n) or None and
-    the sensor's clip level ``saturation`` (data units) or None."""
+def input_flag_table(M, sigma=None, saturation=None) -> dict:
+    """Sanity checks of N charts at once: {flag: (N,) bool} for ``M`` (N, m, n), ``sigma``
+    (N, m, n) or None, and the clip level ``saturation`` (N,) in data units or None."""
     M = np.asarray(M, float)
-    flags = []
+    N = M.shape[0]
+    flat = M.reshape(N, -1)
+    top = flat.max(axis=1)
     if saturation is not None:
-        if np.any(M >= saturation * (1 - 1e-9)):
-            flags.append("saturated")
-    else:  # clipping leaves patches tied at the chart's maximum (the brightest channel clips
+        saturated = np.any(flat >= (np.asarray(saturation, float) * (1 - 1e-9))[:, None], axis=1)
+    else:  # clipping leaves values tied at the chart's maximum (the brightest channel clips
         # first; ties within a dark channel are quantisation, not clipping)
-        top = M.max()
-        if top > 0 and np.sum(M == top) >= 2:
-            flags.append("saturated")
-    if M.shape[1] == 24:
-        grey = M[:, GREY_ROW]
-        steps = np.diff(grey, axis=1)  # falls from white to black: steps < 0
+        saturated = (top > 0) & (np.sum(flat == top[:, None], axis=1) >= 2)
+    dark = np.zeros(N, dtype=bool)
+    order = np.zeros(N, dtype=bool)
+    if M.shape[2] == 24:
+        grey = M[:, :, GREY_ROW]
+        steps = np.diff(grey, axis=2)  # falls from white to black: steps < 0
         if sigma is not None:
-            sg = np.asarray(sigma, float)[:, GREY_ROW]
-            noise = np.sqrt(sg[:, 1:] ** 2 + sg[:, :-1] ** 2)
-            contrast = (grey[:, 0] - grey[:, -1]) / np.sqrt(sg[:, 0] ** 2 + sg[:, -1] ** 2)
-            if np.max(contrast) < DARK_SNR:
-                flags.append("dark")
+            sg = np.asarray(sigma, float)[:, :, GREY_ROW]
+            noise = np.sqrt(sg[:, :, 1:] ** 2 + sg[:, :, :-1] ** 2)
+            contrast = (grey[:, :, 0] - grey[:, :, -1]) / np.sqrt(sg[:, :, 0] ** 2 + sg[:, :, -1] ** 2)
+            dark = contrast.max(axis=1) < DARK_SNR
         else:
-            noise = 1e-2 * np.abs(grey[:, :1]) / ORDER_SIGMAS + 1e-300  # 1 % of white
-        if np.any(steps > ORDER_SIGMAS * noise) and "dark" not in flags:
-            flags.append("patch-order")
-    return flags
+            noise = 1e-2 * np.abs(grey[:, :, :1]) / ORDER_SIGMAS + 1e-300  # 1 % of white
+        order = np.any(steps > ORDER_SIGMAS * noise, axis=(1, 2)) & ~dark
+    return {"saturated": saturated, "dark": dark, "patch-order": order}
 
 
-def estimate_flags(*, converged, noise_known, p_value, chl, cdom, chl_ci, cdom_ci, ci_codes,
-                   free_chl=True, free_cdom=True) -> list:
-    """The flags of a fit (besides :func:`input_flags`); ``ci_codes`` are the four
-    ``BOUND_*`` codes of (chl low, chl high, cdom low, cdom high) or None (no intervals)."""
+def input_flags(M, sigma=None, saturation=None) -> list:
+    """The sanity flags of one chart ``M`` (m, n) (see :func:`input_flag_table`)."""
+    table = input_flag_table(np.asarray(M, float)[None], None if sigma is None else
+                             np.asarray(sigma, float)[None],
+                             None if saturation is None else np.array([saturation], float))
+    return [k for k, v in table.items() if v[0]]
+
+
+def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, cdom_ci,
+                        ci_codes, free_chl=True, free_cdom=True) -> dict:
+    """The flags of N fits at once (besides :func:`input_flag_table`): {flag: (N,) bool}.
+    ``ci_codes`` (N, 4) are the ``BOUND_*`` codes of (chl low, chl high, cdom low, cdom high),
+    or None (no intervals computed)."""
     from ._batch_kernel import BOUND_FAILED, BOUND_OPEN
 
-    flags = []
-    if not converged:
-        flags.append("not-converged")
-    if not noise_known:
-        flags.append("noise-unknown")
-    elif not p_value >= MISFIT_P:
-        flags.append("misfit")
+    converged = np.asarray(converged, bool).reshape(-1)
+    N = converged.size
+    chl_ci, cdom_ci = np.asarray(chl_ci, float).reshape(N, 2), np.asarray(cdom_ci, float).reshape(N, 2)
+    out = {"not-converged": ~converged,
+           "noise-unknown": np.full(N, not noise_known),
+           "misfit": (~(np.asarray(p_value, float).reshape(N) >= MISFIT_P)) if noise_known
+           else np.zeros(N, bool)}
     if ci_codes is None:
-        flags.append("no-interval")
+        out["no-interval"] = np.ones(N, bool)
     else:
-        if any(c == BOUND_FAILED for c in ci_codes) or not np.all(np.isfinite(
-                [chl_ci[0], cdom_ci[0]])):
-            flags.append("interval-failed")
-        if free_chl and (ci_codes[1] == BOUND_OPEN or not np.isfinite(chl_ci[1])):
-            flags.append("unbounded-chl")
-        if free_cdom and (ci_codes[3] == BOUND_OPEN or not np.isfinite(cdom_ci[1])):
-            flags.append("unbounded-cdom")
-    if free_chl and chl <= 0.0:
-        flags.append("at-bound-chl")
-    if free_cdom and cdom <= 0.0:
-        flags.append("at-bound-cdom")
-    return flags
+        codes = np.asarray(ci_codes).reshape(N, 4)
+        out["interval-failed"] = (np.any(codes == BOUND_FAILED, axis=1)
+                                  | ~np.isfinite(chl_ci[:, 0]) | ~np.isfinite(cdom_ci[:, 0]))
+        out["unbounded-chl"] = free_chl & ((codes[:, 1] == BOUND_OPEN) | ~np.isfinite(chl_ci[:, 1]))
+        out["unbounded-cdom"] = free_cdom & ((codes[:, 3] == BOUND_OPEN)
+                                             | ~np.isfinite(cdom_ci[:, 1]))
+    out["at-bound-chl"] = free_chl & (np.asarray(chl, float).reshape(N) <= 0.0)
+    out["at-bound-cdom"] = free_cdom & (np.asarray(cdom, float).reshape(N) <= 0.0)
+    return out
+
+
+def estimate_flags(**kw) -> list:
+    """The flags of one fit (see :func:`estimate_flag_table`; scalars and one chart's ends)."""
+    codes = kw.pop("ci_codes")
+    table = estimate_flag_table(ci_codes=None if codes is None else np.array(codes)[None], **kw)
+    return [k for k, v in table.items() if v[0]]
+
+
+def flag_tuples(*tables) -> tuple:
+    """Per-chart flag tuples and the (N,) reliable verdict from flag tables."""
+    names = [k for t in tables for k in t]
+    F = np.column_stack([np.asarray(t[k], bool) for t in tables for k in t])
+    blocking = np.array([k in BLOCKING for k in names])
+    reliable = ~np.any(F[:, blocking], axis=1)
+    # one tuple per distinct combination (charts share them): fast for large batches
+    bits = F.astype(np.int64) @ (np.int64(1) << np.arange(len(names), dtype=np.int64))
+    uniq, inv = np.unique(bits, return_inverse=True)
+    combos = [tuple(n for j, n in enumerate(names) if (u >> j) & 1) for u in uniq.tolist()]
+    return [combos[i] for i in inv.tolist()], reliable
 
 
 def is_reliable(flags) -> bool:

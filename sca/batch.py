@@ -46,7 +46,15 @@ from ._batch_kernel import (
     intervals_numba,
     lm_numba,
 )
-from .assess import CDOM_MAX, CHL_MAX, estimate_flags, goodness, input_flags, is_reliable, profile_delta
+from .assess import (
+    CDOM_MAX,
+    CHL_MAX,
+    estimate_flag_table,
+    flag_tuples,
+    goodness,
+    input_flag_table,
+    profile_delta,
+)
 from .estimate import EXACT_FIT, MAX_RGB
 from .model import WaterModel
 
@@ -144,34 +152,32 @@ class BatchModel:
 
 
 def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs):
-    """Best point of the coarse (C, a_CDOM) grid for every chart (matrix products per unique L),
-    with the (weighted) closed-form s, in the charts' scaled units."""
+    """Best point of the coarse (C, a_CDOM) grid for every chart (one matrix product per unique
+    L), with the closed-form s, in the charts' scaled units. The grid search weights each
+    channel by its mean weight (a start needs no more; the fit itself uses every weight)."""
     C, A = np.meshgrid(INIT_CHL, INIT_CDOM, indexing="ij")
     C, A = C.ravel(), A.ravel()
     cgrid = bm.coefficient(C, A)  # (P, q)
     N, m, n = Ms.shape[0], bm.m, bm.n
+    wc = W2.reshape(N, m, n).mean(axis=2)  # (N, m)
+    Msum = Ms.reshape(N, m, n).sum(axis=2)  # (N, m)
+    WM = (Ms.reshape(N, m, n) * wc[:, :, None]).reshape(N, m * n)
     best = np.empty(N, dtype=int)
     uniq, inv = np.unique(L, return_inverse=True)
     for u_idx, Lu in enumerate(uniq):
         rows = np.flatnonzero(inv == u_idx)
-        Gs = np.exp(-Lu * cgrid) @ bm.Bt  # (P, m n), for scale 1
-        # f(chart, P) up to a constant: sum W2 (M - s - G)^2 with s closed form or fixed
-        W, M = W2[rows], Ms[rows]
-        f = np.zeros((rows.size, Gs.shape[0]))
-        for ch in range(m):
-            sl = slice(ch * n, (ch + 1) * n)
-            Gc = Gs[:, sl]  # (P, n)
-            Wc, Mc = W[:, sl], M[:, sl]
-            sw = Wc.sum(axis=1)[:, None]  # (R, 1)
-            wm = (Wc * Mc) @ Gc.T  # sum W M G
-            wgg = Wc @ (Gc * Gc).T  # sum W G^2
-            if has_fs:
-                sc = fs[rows, ch][:, None]
-                f += -2.0 * wm + wgg + 2.0 * sc * (Wc @ Gc.T)
-            else:
-                sr = (Wc * Mc).sum(axis=1)[:, None] - Wc @ Gc.T  # sum W (M - G)
-                s_c = np.maximum(sr / sw, 0.0)
-                f += -2.0 * wm + wgg - sw * s_c * s_c
+        G = np.exp(-Lu * cgrid) @ bm.Bt  # (P, m n), for scale 1
+        G3 = G.reshape(-1, m, n)
+        Gsum, GG = G3.sum(axis=2), np.einsum("pcj,pcj->pc", G3, G3)  # (P, m)
+        w = wc[rows]
+        # sum_c w_c ||M_c - G_c - s_c||^2 up to a constant in G
+        f = -2.0 * WM[rows] @ G.T + w @ GG.T
+        if has_fs:
+            f += 2.0 * (w * fs[rows]) @ Gsum.T
+        else:
+            for ch in range(m):  # the closed-form s_c removes n w_c s_c^2
+                s_c = np.maximum((Msum[rows, ch][:, None] - Gsum[None, :, ch]) / n, 0.0)
+                f -= (n * w[:, ch:ch + 1]) * (s_c * s_c)
         best[rows] = np.argmin(f, axis=1)
     return C[best].copy(), A[best].copy()
 
@@ -253,15 +259,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     converged = code <= 2
     chl, cdom = out["chl"], out["cdom"]
     noise_known = sig is not None
-    flags, reliable = [], np.zeros(N, dtype=bool)
-    for j in range(N):
-        fl = input_flags(M[j], None if sig is None else sig[j], None if sat is None else sat[j])
-        fl += estimate_flags(converged=bool(converged[j]), noise_known=noise_known,
-                             p_value=out["chi2_p"][j], chl=chl[j], cdom=cdom[j],
-                             chl_ci=out["chl_ci"][j], cdom_ci=out["cdom_ci"][j],
-                             ci_codes=out["ci_codes"][j] if intervals else None)
-        flags.append(tuple(fl))
-        reliable[j] = is_reliable(fl)
+    flags, reliable = flag_tuples(
+        input_flag_table(M, sig, sat),
+        estimate_flag_table(converged=converged, noise_known=noise_known, p_value=out["chi2_p"],
+                            chl=chl, cdom=cdom, chl_ci=out["chl_ci"], cdom_ci=out["cdom_ci"],
+                            ci_codes=out["ci_codes"] if intervals else None))
     w = (water.phytoplankton_440(chl) / float(bm.mdl.t440[0]))[:, None]
     objective = out["f"] * (1.0 if noise_known else scale**2)
     return BatchEstimate(
