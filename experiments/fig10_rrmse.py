@@ -32,7 +32,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
                     yerr=[x["se"] for x in sel], marker="o", ms=3, capsize=2,
                     label=f"distance {r:g} m")
     ax.set_xlabel("depth (m)")
-    ax.set_ylabel("RRMSE of k (eq 19)")
+    ax.set_ylabel("RRMSE of k (eq 19, 31 bands)")
     ax.set_yscale("log")
     ax.legend(fontsize=7)
     ax.set_title(f"mean over {len(g['fig10_chl'])} C x {len(g['fig10_cdom'])} CDOM x "
@@ -44,7 +44,9 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
               [[x["depth"], x["distance"], f"{x['mean']:.6g}", f"{x['se']:.3g}", x["n"],
                 x["converged"]] for x in rows],
               comment=f"Fig 10 ({g['name']} grid): C {g['fig10_chl']}, CDOM {g['fig10_cdom']}, "
-                      f"{g['fig10_seeds']} seeds per condition, default sensor")
+                      f"{g['fig10_seeds']} seeds per condition, default sensor; charts in the 1 nm "
+                      "world, fitted at the estimator's default (1 nm); RRMSE (eq 19) on the 31 "
+                      "bands of 10 nm (experiments.sweep.RRMSE_BANDS_NM)")
     write_csv(figures_dir(outdir) / "fig10_fits.csv", fit_header(), [fit_row(x) for x in results],
               comment="every fit behind Fig 10")
     return rows
