@@ -17,7 +17,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 reproduce-figures: $(STAMP)
-	$(VENV)/bin/uw3p figures --out figures
+	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
 
 # one BLAS thread: every fit is tiny, and idle BLAS threads spinning after numpy's small
 # matrix calls steal the second core from the batched solver's numba threads

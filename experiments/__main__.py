@@ -1,5 +1,7 @@
-"""``python -m experiments [--out DIR] [--grid paper|reduced] [--cache DIR] [names...]``:
-regenerate the figures (PNG + PDF + the CSV behind each) into ``figures/``."""
+"""``python -m experiments [--out DIR] [--grid paper|reduced] [--setting NAME] [names...]``:
+regenerate the figures (PNG + PDF + the CSV behind each) at each sensor setting of
+:data:`experiments.grids.SETTINGS` into ``DIR/<setting>/``, the paper-like search into ``DIR/``,
+and the generated tables of REPRODUCTION.md (``--report``)."""
 
 from __future__ import annotations
 
@@ -8,8 +10,11 @@ import importlib
 import inspect
 import sys
 import time
+from pathlib import Path
 
-#: Figure scripts, in order.
+from .grids import SETTINGS
+
+#: Figure scripts, in order (made at every setting).
 FIGURES = [
     "fig05_06_appearance_sites",
     "fig07_depth_distance",
@@ -19,30 +24,54 @@ FIGURES = [
     "fig11_colour_correction",
     "fig12_chlorophyll_estimates",
     "fig13_cdom_estimates",
-    "noise_study",
 ]
+#: Studies made once (into DIR itself).
+STUDIES = ["paper_like"]
+
+
+def _call(name, outdir, args, setting=None):
+    fn = importlib.import_module(f"experiments.{name}").main
+    params = inspect.signature(fn).parameters
+    kw = {}
+    if "grid_name" in params:
+        kw.update(grid_name=args.grid, cache_dir=args.cache, workers=args.workers)
+    if "setting" in params and setting is not None:
+        kw["setting"] = setting
+    return fn(str(outdir), **kw)
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m experiments", description=__doc__)
-    parser.add_argument("names", nargs="*", help=f"subset of {FIGURES}")
-    parser.add_argument("--out", default=None, help="output folder (default figures/)")
+    parser.add_argument("names", nargs="*", help=f"a subset of {FIGURES + STUDIES}")
+    parser.add_argument("--out", default="figures", help="output folder (default figures/)")
     parser.add_argument("--grid", default=None, help="sweep grid: paper (default) or reduced")
     parser.add_argument("--cache", default=None, help="result cache folder (default cache/)")
     parser.add_argument("--workers", type=int, default=None, help="processes (default 2)")
+    parser.add_argument("--setting", default=None, choices=sorted(SETTINGS),
+                        help="one sensor setting (default: all)")
+    parser.add_argument("--report", default=None, metavar="FILE",
+                        help="rewrite the generated tables of FILE (REPRODUCTION.md)")
     args = parser.parse_args(argv)
-    names = args.names or FIGURES
+    names = args.names or FIGURES + STUDIES
+    for name in names:
+        if name not in FIGURES + STUDIES:
+            parser.error(f"unknown figure {name!r}; choose from {FIGURES + STUDIES}")
+    settings = [args.setting] if args.setting else list(SETTINGS)
+    out = Path(args.out)
     t_all = time.perf_counter()
     for name in names:
-        if name not in FIGURES:
-            parser.error(f"unknown figure {name!r}; choose from {FIGURES}")
         t0 = time.perf_counter()
-        fn = importlib.import_module(f"experiments.{name}").main
-        if "grid_name" in inspect.signature(fn).parameters:
-            fn(args.out, grid_name=args.grid, cache_dir=args.cache, workers=args.workers)
+        if name in STUDIES:
+            _call(name, out, args)
         else:
-            fn(args.out)
+            for s in settings:
+                _call(name, out / s, args, s)
         print(f"{name}: {time.perf_counter() - t0:.1f} s", flush=True)
+    if args.report:
+        from .report import write_report
+
+        write_report(out, args.report)
+        print(f"wrote the generated tables of {args.report}")
     print(f"all: {time.perf_counter() - t_all:.1f} s")
 
 

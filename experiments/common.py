@@ -17,13 +17,28 @@ def figures_dir(outdir=None) -> Path:
     return path
 
 
+#: PNG resolution: figures are drawn 4.5-7.5 in wide, so PNGs are >= 1350 px wide.
+DPI = 300
+#: Smallest font size at print size (pt).
+MIN_FONT_PT = 8
+
+
+def style():
+    """Matplotlib settings of every figure: fonts >= 8 pt at print size."""
+    import matplotlib as mpl
+
+    mpl.rcParams.update({"font.size": 9, "axes.titlesize": 9, "axes.labelsize": 9,
+                         "xtick.labelsize": 8, "ytick.labelsize": 8, "legend.fontsize": 8,
+                         "figure.titlesize": 10})
+
+
 def save_figure(fig, name: str, outdir=None) -> list[Path]:
-    """Save ``fig`` as ``name``.png and ``name``.pdf; returns the paths."""
+    """Save ``fig`` as ``name``.png (``DPI``) and ``name``.pdf; returns the paths."""
     out = figures_dir(outdir)
     paths = [out / f"{name}.png", out / f"{name}.pdf"]
     for p in paths:
         tmp = p.with_name(p.stem + ".tmp" + p.suffix)
-        fig.savefig(tmp, dpi=150, bbox_inches="tight", metadata=_metadata(p.suffix))
+        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", metadata=_metadata(p.suffix))
         os.replace(tmp, p)
     return paths
 

@@ -9,14 +9,16 @@ reproducible here.
 from .appearance import render_conditions
 
 SITES = [
-    dict(chl=1.0, cdom=0.05, depth=5.0, distance=1.0, label="Fig 5: Fanning Island\nC=1, CDOM=0.05"),
-    dict(chl=5.0, cdom=0.1, depth=5.0, distance=1.0, label="Fig 6: Monterey Bay\nC=5, CDOM=0.1"),
+    dict(chl=1.0, cdom=0.05, depth=5.0, distance=1.0,
+         label="Fig 5: Fanning Island\nC = 1 mg m$^{-3}$, a$_{CDOM}$ = 0.05 m$^{-1}$"),
+    dict(chl=5.0, cdom=0.1, depth=5.0, distance=1.0,
+         label="Fig 6: Monterey Bay\nC = 5 mg m$^{-3}$, a$_{CDOM}$ = 0.1 m$^{-1}$"),
 ]
 
 
-def main(outdir=None):
+def main(outdir=None, setting=None):
     return render_conditions(SITES, "fig05_06_sites", "Simulated chart, depth 5 m, distance 1 m",
-                             outdir)
+                             outdir, setting_name=setting)
 
 
 if __name__ == "__main__":

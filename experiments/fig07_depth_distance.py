@@ -11,10 +11,11 @@ def conditions():
             for d in DEPTHS_M for r in DISTANCES_M]
 
 
-def main(outdir=None):
+def main(outdir=None, setting=None):
     return render_conditions(conditions(), "fig07_depth_distance",
-                             "C = 1 mg m^-3, a_CDOM(440) = 0.1 m^-1 (rows: depth, columns: distance)",
-                             outdir, ncols=len(DISTANCES_M))
+                             "C = 1 mg m$^{-3}$, a$_{CDOM}$(440) = 0.1 m$^{-1}$ "
+                             "(rows: depth, columns: distance)",
+                             outdir, ncols=len(DISTANCES_M), setting_name=setting)
 
 
 if __name__ == "__main__":

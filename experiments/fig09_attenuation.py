@@ -1,34 +1,48 @@
 """Fig 9: estimated vs true attenuation k(lambda) at depth 10 m, distance 5 m, C = 1, CDOM 0.1,
-with sensor noise (one fixed seed)."""
+with sensor noise (one fixed seed) -- the chart of Fig 11's first row (the paper: "The
+attenuation curve in Fig. 9 was derived from the top left image in Fig. 11")."""
 
 from __future__ import annotations
 
 import matplotlib.pyplot as plt
+import numpy as np
 
 from . import sweep
-from .common import figures_dir, save_figure, write_csv
+from .common import figures_dir, save_figure, style, write_csv
 from .grids import FIG9
+from .grids import setting as get_setting
 
 
-def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
-    cond = sweep.condition(FIG9["chl"], FIG9["cdom"], FIG9["depth"], FIG9["distance"], 0)
+def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
+    s = get_setting(setting)
+    style()
+    cond = sweep.condition(FIG9["chl"], FIG9["cdom"], FIG9["depth"], FIG9["distance"], 0,
+                           illuminance_lux=s["illuminance_lux"], exposure=s["exposure"])
     (res,), _ = sweep.run([cond], cache_dir=cache_dir, workers=1, progress=False, desc="fig09")
-    wl, k, k_hat = res["wavelengths"], res["attenuation"], res["attenuation_hat"]
-    fig, ax = plt.subplots(figsize=(4.5, 3.2))
+    wl, k, k_hat = (np.asarray(res[key]) for key in ("wavelengths", "attenuation", "attenuation_hat"))
+    factor = np.sqrt(sweep.RRMSE_BANDS_NM.size) if s["rrmse_reading"] != "eq19" else 1.0
+    rr = res["rrmse_k"] * factor
+    fig, ax = plt.subplots(figsize=(4.5, 3.2), constrained_layout=True)
     ax.plot(wl, k, "k-", lw=2, label="ground truth")
-    ax.plot(wl, k_hat, "o", ms=4, mfc="none", color="tab:red", label="estimate")
+    bands = np.isin(wl, sweep.RRMSE_BANDS_NM)
+    ax.plot(wl[bands], k_hat[bands], "o", ms=4, mfc="none", color="tab:red",
+            label="estimate (every 10 nm)")
     ax.set_xlabel("wavelength (nm)")
-    ax.set_ylabel("attenuation k")
-    ax.set_title(f"depth 10 m, distance 5 m, C = 1, CDOM = 0.1\nRRMSE = {res['rrmse_k']:.2e}",
-                 fontsize=8)
-    ax.legend(fontsize=8)
+    ax.set_ylabel("attenuation k = exp(−c L)  (dimensionless)")
+    reading = "eq 19" if factor == 1.0 else "eq 19 without √q"
+    ax.set_title(f"depth 10 m, distance 5 m, C = 1 mg m$^{{-3}}$, a$_{{CDOM}}$ = 0.1 m$^{{-1}}$\n"
+                 f"RRMSE ({reading}) = {rr:.2e}; {s['illuminance_lux']:g} lx")
+    ax.set_xlim(400, 700)
+    ax.legend()
     save_figure(fig, "fig09_attenuation", outdir)
     plt.close(fig)
     write_csv(figures_dir(outdir) / "fig09_attenuation.csv", ["wavelength_nm", "k_true", "k_est"],
-              [[w, f"{a:.10g}", f"{b:.10g}"] for w, a, b in zip(wl, k, k_hat)],
-              comment=(f"Fig 9: seed {res['seed']}, C_hat {res['chl_hat']:.6g}, "
-                       f"CDOM_hat {res['cdom_hat']:.6g}, RRMSE (eq 19) {res['rrmse_k']:.6g}, "
-                       f"converged {res['converged']} ({res['status']})"))
+              [[f"{w:g}", f"{a:.10g}", f"{b:.10g}"] for w, a, b in zip(wl, k, k_hat)],
+              comment=(f"Fig 9 ({s['name']}: {s['illuminance_lux']:g} lx, {s['exposure']} exposure): "
+                       f"seed {res['seed']}, C_hat {res['chl_hat']:.6g}, CDOM_hat "
+                       f"{res['cdom_hat']:.6g}, RRMSE (eq 19, 31 bands) {res['rrmse_k']:.6g}, "
+                       f"without sqrt(q) {res['rrmse_k'] * np.sqrt(31):.6g}, converged "
+                       f"{res['converged']} ({res['status']})"))
     return res
 
 

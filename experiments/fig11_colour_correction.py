@@ -1,12 +1,15 @@
-"""Fig 11: von Kries colour correction with the *estimated* attenuation, distance 5 m, two depths.
+"""Fig 11: von Kries colour correction with the *estimated* attenuation, distance 5 m, depths
+10 m (the chart of Fig 9, the paper's "top left image") and 20 m, against two honest baselines.
 
-For each depth: the captured chart (camera values -> XYZ with the camera's 3x3 matrix), and the
-corrected chart: estimated backscatter s_hat removed, then a von Kries adaptation
+For each depth: the captured chart (camera values -> XYZ with the camera's 3x3 matrix); the
+paper's correction: estimated backscatter s_hat removed, then a von Kries adaptation
 (colour-science, 'Von Kries' cone space) from the effective illuminant i * k_hat to the surface
-illuminant i (whites as the camera sees them). Both images are normalised so that the white
-patch has the luminance of the reference (the paper normalises its images too). The number:
-mean CIEDE2000 of the 24 patches against the chart under the surface illuminant (CIE 1931 XYZ
-of R under D65), before and after; the camera-in-air value is the floor set by the 3x3 matrix.
+illuminant i; and two corrections that need no model: grey-world (channel gains that give the
+chart's mean the colour of the chart's mean in air) and white-patch (gains that make the white
+patch the white of air), both on the captured values. All images are normalised so that the
+white patch has the luminance of the reference (the paper normalises its images too). The
+number: mean CIEDE2000 of the 24 patches against the chart under the surface illuminant (CIE
+1931 XYZ of R under D65); the camera-in-air value is the floor set by the 3x3 matrix.
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ import numpy as np
 import forward
 
 from . import sweep
-from .common import figures_dir, save_figure, write_csv
+from .common import figures_dir, save_figure, style, write_csv
 from .grids import FIG11
+from .grids import setting as get_setting
 
 WHITE = 18  # index of the white patch of the ColorChecker
+METHODS = ("captured", "von Kries (estimated k)", "grey-world", "white-patch")
 
 
 def _normalise(xyz, ref):
@@ -46,41 +51,63 @@ def correct(rgb, k_hat, s_hat, setup):
                                                           transform="Von Kries")
 
 
-def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
+def baseline(rgb, setup, method):
+    """XYZ (n, 3) of the captured camera values with grey-world or white-patch channel gains."""
+    rgb = np.asarray(rgb)
+    air = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)
+    if method == "grey-world":
+        gains = air.mean(axis=1) / rgb.mean(axis=1)
+    else:
+        gains = air[:, WHITE] / rgb[:, WHITE]
+    return (forward.camera_to_xyz_matrix(setup) @ (gains[:, None] * rgb)).T
+
+
+def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
     import colour
 
+    s = get_setting(setting)
+    style()
     setup = forward.chart_setup()
     M = forward.camera_to_xyz_matrix(setup)
     ref = forward.chart_xyz(setup)
     white = ref[WHITE] / ref[WHITE, 1]
     air = _normalise((M @ (setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances))).T, ref)
     floor = float(np.mean(delta_e(air, ref, white)))
-    conds = [sweep.condition(FIG11["chl"], FIG11["cdom"], d, FIG11["distance"], 0)
+    conds = [sweep.condition(FIG11["chl"], FIG11["cdom"], d, FIG11["distance"], 0,
+                             illuminance_lux=s["illuminance_lux"], exposure=s["exposure"])
              for d in FIG11["depths"]]
     results, _ = sweep.run(conds, cache_dir=cache_dir, workers=1, progress=False, desc="fig11")
-    fig, axes = plt.subplots(len(conds), 2, figsize=(6, 2.3 * len(conds)), squeeze=False)
+    fig, axes = plt.subplots(len(conds), len(METHODS), figsize=(7.2, 1.9 * len(conds) + 0.4),
+                             squeeze=False, constrained_layout=True)
     rows = []
-    for (ax0, ax1), res in zip(axes, results):
+    for axrow, res in zip(axes, results):
         rgb = np.array(res["rgb"])
-        before = _normalise((M @ rgb).T, ref)
-        after = _normalise(correct(rgb, res["attenuation_hat"], res["backscatter_hat"], setup), ref)
-        de_before = float(np.mean(delta_e(before, ref, white)))
-        de_after = float(np.mean(delta_e(after, ref, white)))
-        rows.append([res["depth"], res["distance"], f"{de_before:.3f}", f"{de_after:.3f}",
-                     f"{floor:.3f}", res["seed"], res["converged"]])
-        for ax, xyz, title in ((ax0, before, "captured"), (ax1, after, "corrected")):
-            srgb = np.clip(colour.XYZ_to_sRGB(xyz), 0, 1)
+        images = {
+            "captured": _normalise((M @ rgb).T, ref),
+            "von Kries (estimated k)": _normalise(correct(rgb, res["attenuation_hat"],
+                                                          res["backscatter_hat"], setup), ref),
+            "grey-world": _normalise(baseline(rgb, setup, "grey-world"), ref),
+            "white-patch": _normalise(baseline(rgb, setup, "white-patch"), ref),
+        }
+        de = {k: float(np.mean(delta_e(v, ref, white))) for k, v in images.items()}
+        rows.append([res["depth"], res["distance"]] + [f"{de[k]:.3f}" for k in METHODS]
+                    + [f"{floor:.3f}", res["seed"], res["converged"]])
+        for ax, method in zip(axrow, METHODS):
+            srgb = np.clip(colour.XYZ_to_sRGB(images[method]), 0, 1)
             ax.imshow(forward.patches_image(srgb))
-            de = de_before if title == "captured" else de_after
-            ax.set_title(f"depth {res['depth']:g} m, {title}: mean dE00 {de:.1f}", fontsize=8)
+            ax.set_title(f"{res['depth']:g} m, {method}\nmean ΔE$_{{00}}$ {de[method]:.1f}",
+                         fontsize=8)
             ax.set_axis_off()
-    fig.suptitle("von Kries correction with the estimated attenuation (distance 5 m)", fontsize=9)
+    fig.suptitle(f"Colour correction, distance 5 m ({s['illuminance_lux']:g} lx)")
     save_figure(fig, "fig11_colour_correction", outdir)
     plt.close(fig)
     write_csv(figures_dir(outdir) / "fig11_colour_correction.csv",
-              ["depth_m", "distance_m", "mean_de2000_captured", "mean_de2000_corrected",
-               "mean_de2000_camera_in_air", "seed", "converged"], rows,
-              comment="Fig 11: mean CIEDE2000 of the 24 patches vs the chart under D65 (CIE 1931)")
+              ["depth_m", "distance_m", "mean_de2000_captured", "mean_de2000_von_kries",
+               "mean_de2000_grey_world", "mean_de2000_white_patch", "mean_de2000_camera_in_air",
+               "seed", "converged"], rows,
+              comment="Fig 11: mean CIEDE2000 of the 24 patches vs the chart under D65 (CIE 1931); "
+                      "von Kries with the estimated attenuation (the paper's method) and two "
+                      "model-free baselines on the same captured values")
     return rows
 
 

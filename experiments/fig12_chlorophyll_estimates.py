@@ -3,8 +3,9 @@
 from .fig12_13_common import make
 
 
-def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
-    return make("chl", "fig12_chlorophyll", "cdom", outdir, grid_name, cache_dir, workers)
+def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
+    return make("chl", "fig12_chlorophyll", "cdom", outdir, grid_name, cache_dir, workers,
+                setting)
 
 
 if __name__ == "__main__":

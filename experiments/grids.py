@@ -1,7 +1,8 @@
 """The sweep grids of Figs 9-13 and of the noise study, in one place.
 
 ``paper`` (default) is the full-size grid used for the published figures; ``reduced`` is a
-small grid with the same structure, used by the test suite (seconds). Choose with
+small grid with the same structure, used by the test suite (seconds). ``search_lux`` are the
+light levels of the paper-like search (:mod:`experiments.paper_like`). Choose with
 ``python -m experiments --grid reduced`` or the environment variable ``UW3P_GRID``.
 """
 
@@ -23,13 +24,7 @@ GRIDS = {
         "fig12_chl": (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0),
         "fig12_cdom": (0.01, 0.02, 0.05, 0.1, 0.2, 0.5),
         "fig12_seeds": 3,
-        # noise study: the two headline numbers vs surface illuminance
-        "noise_lux": (20000.0, 2000.0, 200.0, 20.0, 5.0),
-        "noise_depths_m": (5.0, 10.0, 20.0),
-        "noise_distances_m": (1.0, 5.0),
-        "noise_chl": (0.1, 1.0, 5.0, 10.0),
-        "noise_cdom": (0.01, 0.1, 0.5),
-        "noise_seeds": 2,
+        "search_lux": (20.0, 50.0, 100.0, 150.0, 200.0, 300.0, 500.0, 1000.0, 2000.0, 20000.0),
     },
     "reduced": {
         "fig10_depths_m": (5.0, 20.0),
@@ -42,18 +37,32 @@ GRIDS = {
         "fig12_chl": (0.1, 1.0, 10.0),
         "fig12_cdom": (0.02, 0.2),
         "fig12_seeds": 1,
-        "noise_lux": (20000.0, 20.0),
-        "noise_depths_m": (5.0, 20.0),
-        "noise_distances_m": (1.0,),
-        "noise_chl": (0.5, 5.0),
-        "noise_cdom": (0.05,),
-        "noise_seeds": 1,
+        "search_lux": (100.0, 20000.0),
     },
 }
 
-#: Fixed conditions of the single-chart figures.
+#: Fixed conditions of the single-chart figures. The paper: "The attenuation curve in Fig. 9 was
+#: derived from the top left image in Fig. 11" (distance 5 m), so Fig 11's first row is Fig 9's
+#: chart (10 m), beside a deeper one.
 FIG9 = dict(chl=1.0, cdom=0.1, depth=10.0, distance=5.0)
-FIG11 = dict(chl=1.0, cdom=0.1, depths=(5.0, 20.0), distance=5.0)
+FIG11 = dict(chl=1.0, cdom=0.1, depths=(10.0, 20.0), distance=5.0)
+
+#: The two sensor settings every figure is made at (``figures/<name>/``): our default camera
+#: on a bright day, and the setting that comes closest to the paper's numbers in the documented
+#: search of :mod:`experiments.paper_like` (surface light 100 lx, capped exposure; eq 19 read
+#: without its 1/sqrt(q)). ``rrmse_reading`` is the reading of eq 19 each set plots.
+SETTINGS = {
+    "default": dict(illuminance_lux=20000.0, exposure="capped", rrmse_reading="eq19"),
+    "paper-like": dict(illuminance_lux=100.0, exposure="capped",
+                       rrmse_reading="eq19_without_sqrt_q"),
+}
+
+
+def setting(name=None) -> dict:
+    name = name or "default"
+    if name not in SETTINGS:
+        raise ValueError(f"setting: unknown setting {name!r}; choose from {sorted(SETTINGS)}")
+    return dict(SETTINGS[name], name=name)
 #: Base of every noise seed (the seed of a condition is derived from it and the condition).
 BASE_SEED = 2016
 

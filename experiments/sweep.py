@@ -43,10 +43,11 @@ FINGERPRINT = _code_fingerprint()
 
 
 def condition(chl, cdom, depth, distance, replicate=0, *, illuminance_lux=20000.0,
-              mode="safeguarded") -> dict:
+              exposure="capped", mode="safeguarded") -> dict:
     """A condition dict with its noise seed derived from the condition and the replicate."""
     c = dict(chl=float(chl), cdom=float(cdom), depth=float(depth), distance=float(distance),
-             illuminance_lux=float(illuminance_lux), mode=mode, replicate=int(replicate))
+             illuminance_lux=float(illuminance_lux), exposure=exposure, mode=mode,
+             replicate=int(replicate))
     tag = json.dumps([c[k] for k in ("chl", "cdom", "depth", "distance", "illuminance_lux",
                                      "replicate")])
     c["seed"] = int(BASE_SEED * 100003 + zlib.crc32(tag.encode())) % (2**31)
@@ -77,7 +78,8 @@ def fit_condition(cond: dict) -> dict:
     import forward
     import sca
 
-    sensor = forward.SensorSettings(illuminance_lux=cond["illuminance_lux"])
+    sensor = forward.SensorSettings(illuminance_lux=cond["illuminance_lux"],
+                                    exposure_mode=cond.get("exposure", "capped"))
     sim = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], cond["distance"],
                                  seed=cond["seed"], sensor=sensor)
     est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"])

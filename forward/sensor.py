@@ -10,7 +10,10 @@ reflector in air gives 1 in the most sensitive channel):
 1. surface illuminance ``illuminance_lux`` -> absolute spectral irradiance -> sensor-plane
    irradiance of a white Lambertian patch through an f/N lens (E T / 4N^2) -> electrons per
    second per pixel in the reference channel: the gain ``G`` (e-/s per model unit);
-2. auto-exposure: t = min(max_exposure_s, target_fraction * full_well / (G max m));
+2. auto-exposure: t = min(max_exposure_s, target_fraction * full_well / (G max m))
+   (``exposure_mode='capped'``, the default: deeper scenes get darker and noisier), or, as ISET's
+   auto-exposure does (``exposure_mode='iset'``), t = 0.95 full_well / (G max m) with no cap:
+   every image then has the same photon budget whatever the light;
 3. each of ``pixels_per_patch`` pixels: Poisson(G t m) electrons + Normal(0, read_noise) ->
    clipped to [0, full_well] -> ``adc_bits`` quantisation (round to nearest code);
 4. the patch value is the mean code over its pixels, exposure-normalised back to model units:
@@ -30,6 +33,10 @@ from .spectra import cie_1931_cmfs, quadrature_weights
 PLANCK_H = 6.62607015e-34  # J s
 SPEED_OF_LIGHT = 2.99792458e8  # m s^-1
 LUMINOUS_EFFICACY = 683.0  # lm W^-1
+#: Exposure modes: 'capped' (target_fraction, at most max_exposure_s) and 'iset' (the brightest
+#: value at ISET_EXPOSURE_FRACTION of full well, no time limit; Farrell et al. 2012, ref. [13]).
+EXPOSURE_MODES = ("capped", "iset")
+ISET_EXPOSURE_FRACTION = 0.95
 
 
 @dataclass(frozen=True)
@@ -47,8 +54,11 @@ class SensorSettings:
     target_fraction: float = 0.8  # auto-exposure: brightest value to this fraction of full well
     max_exposure_s: float = 1.0 / 30.0
     pixels_per_patch: int = 100  # a 10 x 10 pixel window read at each patch centre
+    exposure_mode: str = "capped"  # or 'iset' (see EXPOSURE_MODES)
 
     def __post_init__(self):
+        if self.exposure_mode not in EXPOSURE_MODES:
+            raise ValueError(f"exposure_mode: must be one of {EXPOSURE_MODES}, got {self.exposure_mode!r}")
         for name in ("illuminance_lux", "f_number", "optics_transmittance", "pixel_pitch_um",
                      "peak_quantum_efficiency", "full_well_e", "target_fraction", "max_exposure_s"):
             validate.scalar(name, getattr(self, name), positive=True)
@@ -94,8 +104,11 @@ def electrons_per_second(setup, settings: SensorSettings) -> float:
 
 
 def auto_exposure(expected, gain: float, settings: SensorSettings) -> float:
-    """Exposure time in s: brightest expected value to ``target_fraction`` of full well, capped."""
+    """Exposure time in s: brightest expected value to ``target_fraction`` of full well, capped
+    at ``max_exposure_s`` ('capped'); or to 95 % of full well with no cap ('iset')."""
     peak = float(np.max(expected)) * gain
+    if settings.exposure_mode == "iset":
+        return ISET_EXPOSURE_FRACTION * settings.full_well_e / peak if peak > 0 else 1.0
     if peak <= 0:
         return settings.max_exposure_s
     return min(settings.max_exposure_s, settings.target_fraction * settings.full_well_e / peak)

@@ -15,7 +15,8 @@ from experiments.__main__ import main as run_all
 
 ROOT = Path(__file__).resolve().parents[1]
 ESTIMATION_FIGURES = ["fig09_attenuation", "fig10_rrmse", "fig11_colour_correction",
-                      "fig12_chlorophyll", "fig13_cdom", "noise_study"]
+                      "fig12_chlorophyll", "fig13_cdom"]
+SETTINGS = ("default", "paper-like")
 
 
 def read_csv(path):
@@ -33,11 +34,16 @@ def reduced_run(tmp_path_factory):
 
 
 def test_files_written_and_csvs_parse(reduced_run):
+    from PIL import Image
+
     out, _ = reduced_run
-    for name in ESTIMATION_FIGURES:
+    paths = [out / s / name for s in SETTINGS for name in ESTIMATION_FIGURES]
+    paths += [out / "paper_like_search"]
+    for base in paths:
         for ext in ("png", "pdf", "csv"):
-            assert (out / f"{name}.{ext}").stat().st_size > 100, f"{name}.{ext}"
-        header, rows = read_csv(out / f"{name}.csv")
+            assert base.with_suffix("." + ext).stat().st_size > 100, f"{base}.{ext}"
+        assert Image.open(base.with_suffix(".png")).size[0] >= 1200  # fit to print
+        header, rows = read_csv(base.with_suffix(".csv"))
         assert rows and all(len(r) == len(header) for r in rows)
         for r in rows:  # every numeric cell is finite
             for cell in r:
@@ -56,24 +62,45 @@ def test_cached_rerun_recomputes_nothing(reduced_run):
 
 def test_trends_on_reduced_sweep(reduced_run):
     out, _ = reduced_run
-    _, rows = read_csv(out / "fig10_rrmse.csv")
+    _, rows = read_csv(out / "default" / "fig10_rrmse.csv")
     by_depth = {}
     for depth, _dist, mean, *_ in rows:
         by_depth.setdefault(float(depth), []).append(float(mean))
     assert np.mean(by_depth[20.0]) > np.mean(by_depth[5.0])
-    _, rows = read_csv(out / "noise_study.csv")
-    rrmse = {float(r[0]): float(r[1]) for r in rows}
-    assert rrmse[20.0] > 5 * rrmse[20000.0]  # less light, more noise, larger error
-    _, rows = read_csv(out / "fig11_colour_correction.csv")
-    for r in rows:  # colour correction reduces the colour error
-        assert float(r[3]) < 0.5 * float(r[2])
+    header, rows = read_csv(out / "paper_like_search.csv")
+    rec = [dict(zip(header, r)) for r in rows]
+    level = {(float(r["illuminance_lux"]), r["exposure"]): float(r["cell_mean"])
+             for r in rec if r["reading"] == "eq19"}
+    assert level[(100.0, "capped")] > 5 * level[(20000.0, "capped")]  # less light, more noise
+    # ISET's exposure fixes the photon budget: no worse at 100 lx than in daylight
+    assert level[(100.0, "iset")] < 2 * level[(20000.0, "iset")]
+    for s in SETTINGS:
+        header, rows = read_csv(out / s / "fig11_colour_correction.csv")
+        for r in rows:  # the correction reduces the colour error
+            row = dict(zip(header, r))
+            assert float(row["mean_de2000_von_kries"]) < 0.5 * float(row["mean_de2000_captured"])
+
+
+def test_generated_report(reduced_run, tmp_path):
+    from experiments.report import BEGIN, END, write_report
+
+    out, _ = reduced_run
+    doc = tmp_path / "R.md"
+    doc.write_text(f"intro\n{BEGIN}\nold\n{END}\nafter\n")
+    write_report(out, doc)
+    text = doc.read_text()
+    assert text.startswith("intro") and text.rstrip().endswith("after") and "old" not in text
+    for claim in ("Fig 5/6", "Fig 7", "Fig 10 (level)", "Fig 12 (groups)", "Fig 13 (r²)"):
+        assert f"| {claim} |" in text
+    assert text.count("| yes") + text.count("| no") + text.count("| partly") >= 10
 
 
 def test_figures_reproducible_bit_for_bit(reduced_run, tmp_path):
     out, _ = reduced_run
     run_all(["fig09_attenuation", "--grid", "reduced", "--out", str(tmp_path),
-             "--cache", str(tmp_path / "cache")])
-    assert (tmp_path / "fig09_attenuation.csv").read_bytes() == (out / "fig09_attenuation.csv").read_bytes()
+             "--cache", str(tmp_path / "cache"), "--setting", "default"])
+    new = (tmp_path / "default" / "fig09_attenuation.csv").read_bytes()
+    assert new == (out / "default" / "fig09_attenuation.csv").read_bytes()
 
 
 def test_killed_run_resumes(tmp_path):

@@ -234,7 +234,7 @@ def _figures(args, out, err):
     from experiments.__main__ import main as figures_main
 
     argv = list(args.names) + ["--out", args.out]
-    for opt in ("grid", "cache", "workers"):
+    for opt in ("grid", "cache", "workers", "setting", "report"):
         if getattr(args, opt) is not None:
             argv += [f"--{opt}", str(getattr(args, opt))]
     figures_main(argv)
@@ -300,6 +300,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--grid", default=None, choices=["paper", "reduced"], help="sweep grid (default paper)")
     p.add_argument("--cache", default=None, help="result cache folder (default cache/)")
     p.add_argument("--workers", type=int, default=None, help="processes (default 2)")
+    p.add_argument("--setting", default=None, choices=["default", "paper-like"],
+                   help="one sensor setting (default: both, into OUT/<setting>/)")
+    p.add_argument("--report", default=None, metavar="FILE",
+                   help="rewrite the generated tables of FILE (REPRODUCTION.md)")
     p.set_defaults(func=_figures)
 
     p = sub.add_parser("bench", help="speed against error of every estimator (make bench)")
