@@ -63,13 +63,40 @@ def _fit(cells, sensor, seed0):
     return sims, b
 
 
+#: Illuminance x pixels per patch held fixed (2000 lx-pixels): if the noise were shot-noise
+#: limited, these would give the same RRMSE.
+PHOTON_BUDGET = ((2000.0, 1), (20.0, 100), (2.0, 1000))
+
+
+def _fig10_errors(sensor, g):
+    f10, _ = _charts(g)
+    sims, b = _fit(f10, sensor, SEED)
+    return f10, np.array([rrmse_bands(s.wavelengths, b.attenuation[j], s.attenuation)
+                          for j, s in enumerate(sims)])
+
+
+def photon_budget(outdir=None, grid_name=None):
+    """Mean Fig 10 RRMSE (eq 19) for the :data:`PHOTON_BUDGET` splits of one photon budget;
+    writes ``photon_budget.csv``."""
+    g = get_grid(grid_name or "paper")
+    rows = []
+    for lux, px in PHOTON_BUDGET:
+        sensor = forward.SensorSettings(illuminance_lux=lux, pixels_per_patch=px)
+        _, err = _fig10_errors(sensor, g)
+        rows.append(dict(illuminance_lux=lux, pixels_per_patch=px, rrmse_mean=float(err.mean())))
+    write_csv(figures_dir(outdir) / "photon_budget.csv",
+              ["illuminance_lux", "pixels_per_patch", "rrmse_mean"],
+              [[f"{r['illuminance_lux']:g}", r["pixels_per_patch"], f"{r['rrmse_mean']:.6g}"]
+               for r in rows],
+              comment="illuminance x pixels per patch fixed at 2000; mean RRMSE (eq 19, 31 bands) "
+                      f"over the Fig 10 {g['name']} grid, capped exposure, batch fit")
+    return rows
+
+
 def evaluate(lux, exposure, g):
     """Metrics of one sensor setting (both readings of eq 19)."""
     sensor = forward.SensorSettings(illuminance_lux=lux, exposure_mode=exposure)
-    f10, f12 = _charts(g)
-    sims, b = _fit(f10, sensor, SEED)
-    err = np.array([rrmse_bands(s.wavelengths, b.attenuation[j], s.attenuation)
-                    for j, s in enumerate(sims)])
+    f10, err = _fig10_errors(sensor, g)
     depth = np.array([c[2] for c in f10])
     dist = np.array([c[3] for c in f10])
     cells = {(d, r): err[(depth == d) & (dist == r)].mean() for d in g["fig10_depths_m"]
@@ -173,6 +200,7 @@ def best(rows):
 
 def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
     rows = search(outdir, grid_name)
+    photon_budget(outdir, grid_name)
     b = best(rows)
     print(f"paper-like (score {b['score']}/4): {b['illuminance_lux']:g} lx, exposure "
           f"{b['exposure']}, {b['reading']}")

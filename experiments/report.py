@@ -270,6 +270,13 @@ def markdown(figdir="figures") -> str:
         lines.append(f"- {n}: Fig 10 by depth ({', '.join(f'{d:g}' for d in f10['depths'])} m): "
                      + ", ".join(_pct(v) for v in f10["by_depth"])
                      + f"; {f10['converged']}/{f10['n']} fits converged.")
+    pb = _read(figdir / "photon_budget.csv") if (figdir / "photon_budget.csv").exists() else []
+    if pb:
+        lines += ["", "One photon budget, split three ways (illuminance × pixels per patch = 2000; "
+                  "`figures/photon_budget.csv`): mean Fig 10 RRMSE (eq 19) "
+                  + ", ".join(f"{float(r['illuminance_lux']):g} lx × {r['pixels_per_patch']} px: "
+                              f"{100 * float(r['rrmse_mean']):.2g} %" for r in pb)
+                  + " — equal only if the noise were shot-noise limited."]
     lines += ["", "The paper-like search (`figures/paper_like_search.csv`, "
               "`figures/paper_like_search.png`; `python -m experiments.paper_like`):", ""]
     lines += search_table(figdir)
