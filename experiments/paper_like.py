@@ -97,6 +97,7 @@ def evaluate(lux, exposure, g):
     """Metrics of one sensor setting (both readings of eq 19)."""
     sensor = forward.SensorSettings(illuminance_lux=lux, exposure_mode=exposure)
     f10, err = _fig10_errors(sensor, g)
+    _, f12 = _charts(g)
     depth = np.array([c[2] for c in f10])
     dist = np.array([c[3] for c in f10])
     cells = {(d, r): err[(depth == d) & (dist == r)].mean() for d in g["fig10_depths_m"]
