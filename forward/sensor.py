@@ -103,15 +103,20 @@ def electrons_per_second(setup, settings: SensorSettings) -> float:
     return float(rate / setup.white_response[ref])
 
 
-def auto_exposure(expected, gain: float, settings: SensorSettings) -> float:
+def auto_exposure(expected, gain: float, settings: SensorSettings):
     """Exposure time in s: brightest expected value to ``target_fraction`` of full well, capped
-    at ``max_exposure_s`` ('capped'); or to 95 % of full well with no cap ('iset')."""
-    peak = float(np.max(expected)) * gain
-    if settings.exposure_mode == "iset":
-        return ISET_EXPOSURE_FRACTION * settings.full_well_e / peak if peak > 0 else 1.0
-    if peak <= 0:
-        return settings.max_exposure_s
-    return min(settings.max_exposure_s, settings.target_fraction * settings.full_well_e / peak)
+    at ``max_exposure_s`` ('capped'); or to 95 % of full well with no cap ('iset').
+
+    ``expected`` (m, n) gives a float; a stack (..., m, n) gives one time per chart (...)."""
+    peak = np.max(np.asarray(expected, float), axis=(-2, -1)) * gain
+    with np.errstate(divide="ignore"):
+        if settings.exposure_mode == "iset":
+            t = np.where(peak > 0, ISET_EXPOSURE_FRACTION * settings.full_well_e / peak, 1.0)
+        else:
+            t = np.where(peak > 0, np.minimum(settings.max_exposure_s,
+                                              settings.target_fraction * settings.full_well_e / peak),
+                         settings.max_exposure_s)
+    return float(t) if t.ndim == 0 else t
 
 
 def sensor_noise(expected_e, settings: SensorSettings, rng: np.random.Generator) -> np.ndarray:
@@ -136,6 +141,21 @@ def pixel_variance_e2(expected_e, settings: SensorSettings) -> np.ndarray:
             + settings.lsb_e ** 2 / 12.0)
 
 
+def noise_model(expected, setup, settings: SensorSettings):
+    """The sensor's noise on model signals ``expected`` ((m, n) or a stack (..., m, n)):
+    (sigma, saturation, exposure_s, gain_e_per_s) -- the standard deviation of each patch value
+    (:func:`pixel_variance_e2` over ``pixels_per_patch`` pixels, model units), the model-unit
+    value of a full well, the exposure time(s) and the gain. Used by :func:`capture` and by the
+    precision bound (``sca.precision``)."""
+    gain = electrons_per_second(setup, settings)
+    t = np.asarray(auto_exposure(expected, gain, settings))
+    gt = (gain * t)[..., None, None]
+    expected_e = np.asarray(expected, dtype=float) * gt
+    sigma = np.sqrt(pixel_variance_e2(expected_e, settings) / settings.pixels_per_patch) / gt
+    saturation = settings.full_well_e / (gain * t)
+    return sigma, saturation, t, gain
+
+
 def capture(expected, setup, settings: SensorSettings, *, noise: bool = True, rng=None) -> dict:
     """Expose and read out model signals ``expected`` (m, n).
 
@@ -146,11 +166,9 @@ def capture(expected, setup, settings: SensorSettings, *, noise: bool = True, rn
     ``gain_e_per_s`` and ``expected_e`` (expected electrons per pixel). With ``noise=False``
     ``rgb`` is ``expected`` itself and ``codes`` its noise-free code value; ``sigma`` is the same.
     """
-    gain = electrons_per_second(setup, settings)
-    t = auto_exposure(expected, gain, settings)
+    sigma, saturation, t, gain = noise_model(expected, setup, settings)
+    t = float(t)
     expected_e = np.asarray(expected, dtype=float) * gain * t
-    sigma = np.sqrt(pixel_variance_e2(expected_e, settings) / settings.pixels_per_patch) / (gain * t)
-    saturation = settings.full_well_e / (gain * t)
     if noise:
         if rng is None:
             rng = np.random.default_rng()
