@@ -238,3 +238,15 @@ def test_ctrl_c_stops_sweep_quickly_without_traceback(tmp_path):
     assert proc.returncode == 130 and "Traceback" not in err, err
     assert "interrupted" in err
     assert not any(_alive(k) for k in kids)
+
+
+def test_design_says_what_a_field_scientist_can_act_on():
+    code, out, err = run(["design", "--depth", "5", "--distance", "1", "--chl", "1", "--cdom", "0.1",
+                          "--gain", "known"])
+    assert code == 0, err
+    assert "verdict" in out and "a reliable measurement is possible" in out
+    code, out, _ = run(["design", "--depth", "30", "--distance", "5", "--chl", "1", "--cdom", "0.1",
+                        "--lux", "20"])
+    assert code == 1 and ("cannot be measured" in out or "coarsely" in out or "fix a_CDOM" in out)
+    code, _, err = run(["design", "--depth", "-5", "--distance", "1", "--chl", "1", "--cdom", "0.1"])
+    assert code == 2 and "depth" in err

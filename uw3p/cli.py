@@ -3,12 +3,14 @@
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
     uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S]
     uw3p estimate --batch charts.csv --distance 5 [--json]
+    uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
     uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
     uw3p bench [--quick]                               (what `make bench` runs)
     uw3p --version
 
-Exit status: 0 success (``estimate``: every estimate is reliable), 1 an estimate is not
-reliable or did not converge (its flags say why), 2 bad input (the message names the argument
+Exit status: 0 success (``estimate``: every estimate is reliable; ``design``: C measurable to
+±30 % at 95 %), 1 an estimate is not reliable or did not converge (its flags say why; ``design``:
+C not measurable to ±30 %), 2 bad input (the message names the argument
 or file), 130 interrupted. ``estimate`` needs the noise (``red_sd,green_sd,blue_sd`` columns, as
 ``simulate`` writes them) to call an estimate reliable.
 Output cut short by its reader (``uw3p estimate ... | head``) ends quietly with the status the
@@ -229,6 +231,62 @@ def _estimate(args, out, err):
     return EXIT_OK if res.reliable else EXIT_NOT_RELIABLE
 
 
+# --------------------------------------------------------------------------- design
+#: A measurement is "reliable" to the design tool when the 95 % half-width of C is at most
+#: this fraction of C, and "coarse" up to COARSE.
+DESIGN_GOOD, DESIGN_COARSE = 0.30, 1.00
+
+
+def _pm(rel):
+    return "not bounded" if not np.isfinite(rel) else f"±{100 * rel:.0f} %"
+
+
+def _design(args, out, err):
+    import forward
+    from sca import precision
+
+    sensor = forward.SensorSettings(illuminance_lux=args.lux, exposure_mode=args.exposure)
+    kw = dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
+              wavelengths=_grid(args), water=_water(args), sensor=sensor)
+    cond = (args.chl, args.cdom, args.depth, args.distance)
+    p = precision(*cond, gain=args.gain, **kw)
+    fixed = precision(*cond, gain=args.gain, fix={"cdom"}, **kw)
+    known = precision(*cond, gain="known", **kw) if args.gain != "known" else p
+    rel, rel_fix = float(p.chl_rel95[0]), float(fixed.chl_rel95[0])
+    gains = {"known": "exposure known (data in model units)",
+             "free": "exposure unknown, camera's channel balance calibrated",
+             "channels": "exposure and channel balance unknown (uncalibrated camera)"}
+    lines = [f"camera {args.camera}, {args.lux:g} lx at the surface, chart at {args.depth:g} m "
+             f"seen from {args.distance:g} m; C = {args.chl:g} mg m^-3, a_CDOM(440) = "
+             f"{args.cdom:g} m^-1; {gains[args.gain]}",
+             f"C                {_pm(rel)} (95 %; sd {p.chl_sd[0]:.3g} mg m^-3)",
+             f"a_CDOM(440)      {_pm(float(p.cdom_rel95[0]))} (95 %; sd {p.cdom_sd[0]:.3g} m^-1)",
+             f"attenuation k    expected RRMSE (eq 19) {p.rrmse[0]:.2g}"]
+    corr = float(p.correlation[0])
+    if abs(corr) > 0.95:
+        lines.append(f"C and a_CDOM are hard to separate here (correlation {corr:+.2f}): the "
+                     "chart fixes a combination of them better than either.")
+    lines.append(f"with a_CDOM measured separately, C to {_pm(rel_fix)}")
+    if args.gain != "known":
+        lines.append(f"with the exposure known, C to {_pm(float(known.chl_rel95[0]))}")
+    if p.flags[0]:
+        lines.append("caveats: " + ", ".join(p.flags[0]) + " (the bound may not be attained)")
+    at = f"at {args.depth:g} m with this camera"
+    if rel <= DESIGN_GOOD:
+        verdict = f"{at}, C is measurable to {_pm(rel)}: a reliable measurement is possible."
+    elif rel_fix <= DESIGN_GOOD:
+        verdict = (f"{at}, C is measurable to {_pm(rel)}; fix a_CDOM (measure it separately) to "
+                   f"reach {_pm(rel_fix)}.")
+    elif rel <= DESIGN_COARSE:
+        verdict = (f"{at}, C is measurable only coarsely ({_pm(rel)}); move closer, shoot "
+                   "shallower or in brighter light.")
+    else:
+        verdict = f"{at}, C cannot be measured ({_pm(rel)}): the chart does not constrain it."
+    lines.append("verdict          " + verdict)
+    out.write("\n".join(lines) + "\n")
+    return EXIT_OK if rel <= DESIGN_GOOD else EXIT_NOT_RELIABLE
+
+
 # --------------------------------------------------------------------------- figures, bench
 def _figures(args, out, err):
     from experiments.__main__ import main as figures_main
@@ -294,6 +352,21 @@ def build_parser() -> argparse.ArgumentParser:
     _add_setup(p)
     p.set_defaults(func=_estimate)
 
+    p = sub.add_parser("design", help="how precisely can this camera measure C and CDOM here? "
+                                      "(the Cramer-Rao bound, sca.precision)")
+    p.add_argument("--chl", type=float, required=True, help="expected chlorophyll C, mg m^-3")
+    p.add_argument("--cdom", type=float, required=True, help="expected a_CDOM(440), m^-1")
+    p.add_argument("--depth", type=float, required=True, help="chart depth, m")
+    p.add_argument("--distance", type=float, required=True, help="camera-to-chart distance, m")
+    p.add_argument("--lux", type=float, default=20000.0, help="surface illuminance, lx (default 20000)")
+    p.add_argument("--exposure", default="capped", choices=["capped", "iset"],
+                   help="auto-exposure model (default capped at 1/30 s)")
+    p.add_argument("--gain", default="free", choices=["known", "free", "channels"],
+                   help="exposure known, unknown (default: a photograph), or unknown per channel "
+                        "(uncalibrated camera)")
+    _add_setup(p)
+    p.set_defaults(func=_design)
+
     p = sub.add_parser("figures", help="regenerate Figs 5-13 and the noise study (make reproduce-figures)")
     p.add_argument("names", nargs="*", help="a subset of the figure scripts (default all)")
     p.add_argument("--out", default="figures", help="output folder (default figures/)")
@@ -328,7 +401,7 @@ def main(argv=None, out=None, err=None) -> int:
     out = sys.stdout if out is None else out
     err = sys.stderr if err is None else err
     args = build_parser().parse_args(argv)  # usage errors: argparse prints them and exits 2
-    buf = io.StringIO() if args.command in ("simulate", "estimate") else out
+    buf = io.StringIO() if args.command in ("simulate", "estimate", "design") else out
     try:
         code = int(args.func(args, buf, err) or 0)
     except ValueError as exc:
