@@ -1,7 +1,7 @@
 """``python -m experiments [--out DIR] [--grid paper|reduced] [--setting NAME] [names...]``:
 regenerate the figures (PNG + PDF + the CSV behind each) at each sensor setting of
 :data:`experiments.grids.SETTINGS` into ``DIR/<setting>/``, the paper-like search into ``DIR/``,
-and the generated tables of REPRODUCTION.md (``--report``)."""
+and the generated tables of REPRODUCTION.md and INSTRUMENT.md (``--report``)."""
 
 from __future__ import annotations
 
@@ -25,14 +25,16 @@ FIGURES = [
     "fig12_chlorophyll_estimates",
     "fig13_cdom_estimates",
 ]
-#: Studies made once (into DIR itself).
-STUDIES = ["paper_like"]
+#: Studies made once (into DIR itself), after the figures (instrument reads Fig 12's CSV).
+STUDIES = ["paper_like", "instrument"]
 
 
 def _call(name, outdir, args, setting=None):
     fn = importlib.import_module(f"experiments.{name}").main
     params = inspect.signature(fn).parameters
     kw = {}
+    if "doc_path" in params and args.report:  # INSTRUMENT.md beside REPRODUCTION.md
+        kw["doc_path"] = str(Path(args.report).with_name("INSTRUMENT.md"))
     if "grid_name" in params:
         kw.update(grid_name=args.grid, cache_dir=args.cache, workers=args.workers)
     if "setting" in params and setting is not None:

@@ -39,6 +39,8 @@ def test_files_written_and_csvs_parse(reduced_run):
     out, _ = reduced_run
     paths = [out / s / name for s in SETTINGS for name in ESTIMATION_FIGURES]
     paths += [out / "paper_like_search"]
+    for ext in ("png", "pdf"):
+        assert (out / f"instrument.{ext}").stat().st_size > 100
     for base in paths:
         for ext in ("png", "pdf", "csv"):
             assert base.with_suffix("." + ext).stat().st_size > 100, f"{base}.{ext}"
@@ -79,6 +81,23 @@ def test_trends_on_reduced_sweep(reduced_run):
         for r in rows:  # the correction reduces the colour error
             row = dict(zip(header, r))
             assert float(row["mean_de2000_von_kries"]) < 0.5 * float(row["mean_de2000_captured"])
+
+
+def test_instrument_study(reduced_run, tmp_path):
+    from experiments import instrument
+
+    out, _ = reduced_run
+    header, rows = read_csv(out / "instrument_precision.csv")
+    rec = [dict(zip(header, r)) for r in rows]
+    assert {r["camera"] for r in rec} == {"Nikon 5100", "Sigma SDMerill", "6-band (20 nm)"}
+    for r in rec:  # an unknown exposure never helps, an uncalibrated balance never helps more
+        if r["chl_rel95_known"] != "inf":
+            assert float(r["chl_rel95_known"]) <= float(r["chl_rel95_free"]) * (1 + 1e-9)
+            assert float(r["chl_rel95_free"]) <= float(r["chl_rel95_channels"]) * (1 + 1e-9)
+    doc = tmp_path / "I.md"
+    instrument.main(str(tmp_path), "reduced", doc_path=str(doc))
+    text = doc.read_text()
+    assert "Down to which depth" in text and "Does the bound explain" in text
 
 
 def test_generated_report(reduced_run, tmp_path):
