@@ -22,7 +22,6 @@ import forward
 
 from .appearance import chromaticity_spread
 from .fig07_depth_distance import DEPTHS_M, DISTANCES_M
-from .fig08_chlorophyll import CHL_MG_M3
 from .grids import SETTINGS
 
 BEGIN, END = "<!-- generated:begin -->", "<!-- generated:end -->"

@@ -20,7 +20,7 @@ from .spectra import (
     quadrature_weights,
     wavelength_grid,
 )
-from .water import PATH_MODELS, Water, resolve_water
+from .water import PATH_MODELS, Water, resolve_water  # noqa: F401  (PATH_MODELS: re-exported)
 
 
 def length(name: str, value) -> np.ndarray:

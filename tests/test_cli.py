@@ -3,7 +3,6 @@
 import csv
 import io
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -116,7 +115,7 @@ def test_estimate_path_model_and_water_options(tmp_path):
     ("patch,red,green,blue\n1,0.1,0.2\n", "measurements"),
     ("patch,red,green,blue\n" + "".join(f"{p},1e300,1e300,1e300\n" for p in range(1, 25)), "measurements"),
     ("patch,red,green,blue\n" + "".join(f"{p},0.1,x,0.1\n" for p in range(1, 25)), "measurements"),
-    ("patch,red,green,blue\n" + "".join(f"1,0.1,0.1,0.1\n" for p in range(1, 25)), "measurements"),
+    ("patch,red,green,blue\n" + "".join("1,0.1,0.1,0.1\n" for p in range(1, 25)), "measurements"),
     ("\x00\x01binary", "measurements"),
 ])
 def test_estimate_bad_files_exit_2(tmp_path, content, word):

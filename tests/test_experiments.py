@@ -50,7 +50,7 @@ def test_files_written_and_csvs_parse(reduced_run):
         for r in rows:  # every numeric cell is finite
             for cell in r:
                 try:
-                    assert np.isfinite(float(cell)), (name, r)
+                    assert np.isfinite(float(cell)), (base, r)
                 except ValueError:
                     pass
 
