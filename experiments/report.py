@@ -26,7 +26,6 @@ from .grids import SETTINGS
 
 BEGIN, END = "<!-- generated:begin -->", "<!-- generated:end -->"
 WHITE = 18
-SQRT_Q = float(np.sqrt(31))
 
 
 def _read(path):

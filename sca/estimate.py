@@ -304,14 +304,9 @@ class Estimator:
         if saturation is not None:
             saturation = validate.scalar("saturation", saturation, positive=True)
         Mv, scale, mdl, s_fixed = self.prepare(rgb, sigma)
-        est = self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0)
-        flags = input_flags(Mv.reshape(mdl.m, mdl.n) * scale,
-                            None if sigma is None else self.check_sigma(sigma), saturation)
-        est.flags = tuple(flags + list(est.flags))
-        est.reliable = is_reliable(est.flags)
-        return est
+        return self._loop(mdl, Mv, scale, s_fixed, mode, int(max_iter), tol, x0, saturation)
 
-    def _loop(self, mdl, Mv, scale, s_fixed, mode, max_iter, tol, x0):
+    def _loop(self, mdl, Mv, scale, s_fixed, mode, max_iter, tol, x0, saturation=None):
         """Linearise, solve the QP, judge the step with the true objective, repeat."""
         safeguarded = mode == "safeguarded"
         sub = compiled_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
@@ -350,7 +345,7 @@ class Estimator:
             st.stop("maximum number of iterations reached", False)
         if st.f <= st.f_exact and not st.converged:
             st.stop("exact fit (objective at rounding level)", True)
-        return self._result(st, scale, mode, it)
+        return self._result(st, scale, mode, it, saturation)
 
     def _linearise(self, st) -> "_Linearisation":
         """The QP data at the current point: scaled Jacobian [A E] = Q R and the residual."""
@@ -367,7 +362,7 @@ class Estimator:
         r0 = mdl.residual(st.Mv, k, s)  # whitened when the noise is known
         AE = J[self.cols].T * scales
         if self.free_s:
-            AE = np.hstack([AE, np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))])
+            AE = np.hstack([AE, mdl.E])
         AE = AE * mdl.wt[:, None]
         Q, Rm = np.linalg.qr(AE)
         b = Q.T @ r0
@@ -507,7 +502,9 @@ class Estimator:
             return st.stop("trust region collapsed without reaching a stationary point", False)
         return False
 
-    def _result(self, st, scale, mode, it) -> Estimate:
+    def _result(self, st, scale, mode, it, saturation=None) -> Estimate:
+        """The Estimate of a finished fit, assessed (sca.assess): input sanity of the data,
+        goodness of fit, intervals, flags and the verdict."""
         mdl = st.mdl
         chl, cdom, w, s = st.x
         se_chl, se_cdom = mdl.standard_errors(st.Mv, chl, cdom, w, s,
@@ -525,6 +522,8 @@ class Estimator:
                                free_cdom=self.free_cdom)
         if codes is None and "no-interval" in flags:  # Wald intervals (z > 1)
             flags[flags.index("no-interval")] = "interval-approximate"
+        sigma = (scale / mdl.wt).reshape(mdl.m, mdl.n) if mdl.noise_known else None
+        flags = input_flags(st.Mv.reshape(mdl.m, mdl.n) * scale, sigma, saturation) + flags
         return Estimate(
             chl=float(chl), cdom=float(cdom), chl_se=se_chl, cdom_se=se_cdom,
             chl_ci=chl_ci, cdom_ci=cdom_ci, reliable=is_reliable(flags), flags=tuple(flags),
@@ -699,6 +698,17 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
                     path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup)
     return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
                    x0=x0)
+
+
+#: The paper's q = 31 bands (every 10 nm, 400-700 nm): eq 19 divides by sqrt(q), so its value
+#: depends on the grid; the figures, the benchmark and sca.precision evaluate it on these.
+RRMSE_BANDS_NM = np.arange(400.0, 701.0, 10.0)
+
+
+def rrmse_bands(wavelengths, estimate, truth) -> float:
+    """Eq 19 on the :data:`RRMSE_BANDS_NM` samples of two spectra on ``wavelengths``."""
+    sel = np.isin(np.asarray(wavelengths), RRMSE_BANDS_NM)
+    return rrmse(np.asarray(estimate)[sel], np.asarray(truth)[sel])
 
 
 def rrmse(estimate, truth) -> float:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .assess import input_flags, is_reliable
 from .estimate import Estimate, Estimator, _FitState
 from .model import WaterModel
 
@@ -24,7 +23,7 @@ def residual_functions(mdl: WaterModel, Mv):
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
     B = mdl.B
     t440 = float(mdl.t440[0])
-    E = np.kron(np.eye(mdl.m), np.ones((mdl.n, 1)))
+    E = mdl.E
 
     def unpack(x):
         C, A = x[0], x[1]
@@ -64,9 +63,5 @@ def estimate_least_squares(rgb, *, depth, distance, sigma=None, tol: float = 1e-
                    f=float(res.fun @ res.fun), initial={"chl": C0, "cdom": A0},
                    status=f"scipy least_squares: {res.message}", converged=bool(res.status > 0))
     out = est._result(st, scale, "scipy_least_squares", int(res.nfev))
-    flags = input_flags(Mv.reshape(mdl.m, mdl.n) * scale,
-                        None if sigma is None else est.check_sigma(sigma), None)
-    out.flags = tuple(flags + list(out.flags))
-    out.reliable = is_reliable(out.flags)
     out.eq17_residual = 0.0
     return out

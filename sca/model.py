@@ -40,6 +40,8 @@ class WaterModel:
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
         #: whitening weights 1 / sigma of vec(M) (ones: the paper's unweighted eq 15)
+        #: E maps s (m,) to every patch of its channel: vec(s 1^T) = E s
+        self.E = np.kron(np.eye(self.m), np.ones((self.n, 1)))
         self.wt = np.ones(self.m * self.n)
         self.noise_known = False
 

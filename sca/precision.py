@@ -33,13 +33,12 @@ from forward.sensor import SensorSettings, noise_model
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from .assess import input_flag_table
+from .assess import flag_tuples, input_flag_table
+from .estimate import RRMSE_BANDS_NM
 from .model import CHL_DERIVATIVE_FLOOR, WaterModel
 
 GAINS = ("known", "free", "channels")
 FIXABLE = ("cdom", "backscatter")
-#: Eq 19 is evaluated on these bands (nm), as in the figures.
-BANDS_NM = np.arange(400.0, 701.0, 10.0)
 Z95 = 1.959963984540054
 
 
@@ -147,7 +146,7 @@ def precision(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, illuminant=N
         corr = np.full(N, np.nan)
         cov_x = cov[:, :1, :1]
         dkx = dk[:, :, :1]
-    bands = np.isin(setup.wavelengths, BANDS_NM)
+    bands = np.isin(setup.wavelengths, RRMSE_BANDS_NM)
     var_k = np.einsum("nlp,npq,nlq->nl", dkx[:, bands], cov_x, dkx[:, bands])
     rrmse = np.sqrt(var_k.sum(axis=1)) / (np.sqrt(bands.sum()) * np.linalg.norm(k[:, bands], axis=1))
     flags, attained = _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, "cdom" in names)
@@ -170,7 +169,5 @@ def _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, cdom_free):
     table = {k: table[k] for k in ("dark", "saturated")}
     table["near-bound-chl"] = Z95 * chl_sd >= chl
     table["near-bound-cdom"] = cdom_free & (Z95 * cdom_sd >= cdom)
-    names = list(table)
-    F = np.column_stack([table[k] for k in names])
-    flags = [tuple(names[j] for j in np.flatnonzero(row)) for row in F]
-    return flags, ~F.any(axis=1)
+    flags, _ = flag_tuples(table)
+    return flags, ~np.column_stack(list(table.values())).any(axis=1)
