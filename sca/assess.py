@@ -90,7 +90,9 @@ def input_flag_table(M, sigma=None, saturation=None) -> dict:
         if sigma is not None:
             sg = np.asarray(sigma, float)[:, :, GREY_ROW]
             noise = np.sqrt(sg[:, :, 1:] ** 2 + sg[:, :, :-1] ** 2)
-            contrast = (grey[:, :, 0] - grey[:, :, -1]) / np.sqrt(sg[:, :, 0] ** 2 + sg[:, :, -1] ** 2)
+            # a magnitude: a chart read in reverse is not dark, its order is wrong (below)
+            contrast = np.abs(grey[:, :, 0] - grey[:, :, -1]) / np.sqrt(sg[:, :, 0] ** 2
+                                                                       + sg[:, :, -1] ** 2)
             dark = contrast.max(axis=1) < DARK_SNR
         else:
             noise = 1e-2 * np.abs(grey[:, :, :1]) / ORDER_SIGMAS + 1e-300  # 1 % of white
