@@ -254,7 +254,8 @@ def lm_chart(u, A, i, prob, buf, max_iter, tol, f_exact, mu0, down, up):  # prag
 
 @njit(parallel=True, cache=True, fastmath=True, error_model="numpy")
 def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover
-    """:func:`lm_chart` over all charts (in parallel): (C, A, s, k, f, iterations, codes)."""
+    """:func:`lm_chart` over all charts (in parallel): (C, A, s, k, f, iterations, codes, ssr),
+    ssr the unweighted ||M - G - s||^2 at the returned point (for fit_rms)."""
     L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0 = prob
     N = C0.shape[0]
     q = S.shape[1]
@@ -265,6 +266,7 @@ def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no
     k_out = np.empty((N, q))
     it_out = np.zeros(N, dtype=np.int64)
     code_out = np.full(N, 3, dtype=np.int64)
+    ssr_out = np.empty(N)
     for i in prange(N):
         buf = make_buffers(q, m, n)
         u, A, f, it, code = lm_chart(C0[i] ** e0, A0[i], i, prob, buf, max_iter, tol,
@@ -278,9 +280,15 @@ def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no
             s_out[i, ch] = buf[0][ch]
         for l in range(q):
             k_out[i, l] = buf[1][l]
+        ssr = 0.0  # the final evaluation's G and s are still in the buffers
+        for ch in range(m):
+            for p in range(n):
+                r = M[i, ch * n + p] - buf[4][ch * n + p] - buf[0][ch]
+                ssr += r * r
+        ssr_out[i] = ssr
         it_out[i] = it
         code_out[i] = code
-    return C_out, A_out, s_out, k_out, f_out, it_out, code_out
+    return C_out, A_out, s_out, k_out, f_out, it_out, code_out, ssr_out
 
 
 # --------------------------------------------------------------------------- profile likelihood

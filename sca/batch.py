@@ -294,15 +294,15 @@ def _solve_chunk(bm: BatchModel, M, sig, L, scale, fixed_s, max_iter, tol, engin
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", W2 * Ms, Ms)
     if engine == "numba":
         with _NUMBA_LOCK:
-            chl, cdom, s, k, f, it, code = lm_numba(chl0, cdom0, prob, int(max_iter), float(tol),
-                                                    f_exact, LM_MU0, LM_DOWN, LM_UP)
+            chl, cdom, s, k, f, it, code, ssr = lm_numba(chl0, cdom0, prob, int(max_iter),
+                                                         float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
     else:
         chl, cdom, s, k, f, it, code = _lm_numpy(bm, prob, chl0, cdom0, max_iter, tol, f_exact)
+        r = Ms - (k @ bm.Bt) / scale[:, None] - np.repeat(s, bm.n, axis=1)
+        ssr = np.einsum("ij,ij->i", r, r)
     res = dict(chl=chl, cdom=cdom, s=s, k=k, f=f, it=it, code=code)
-    # goodness of fit
-    G = (k @ bm.Bt) / scale[:, None]
-    r = Ms - G - np.repeat(s, bm.n, axis=1)
-    res["fit_rms"] = np.sqrt(np.einsum("ij,ij->i", r, r) / np.einsum("ij,ij->i", Ms, Ms))
+    # goodness of fit (ssr: the unweighted ||M - G - s||^2, scaled units)
+    res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", Ms, Ms))
     n_s = np.zeros(N, dtype=int) if has_fs else np.sum(s > 0, axis=1)
     dof = bm.m * bm.n - 2 - n_s
     res["dof"] = dof
