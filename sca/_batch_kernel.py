@@ -12,9 +12,16 @@ For every chart i, with weights w2 = 1 / sigma^2 (ones where the noise is unknow
     (or fixed),  r = sqrt(w2) (M - G - s 1^T),  J = dr/d(u, a_CDOM) (s profiled out),
     f = ||r||^2,  g = J^T r,  H = J^T J  (3 entries: h11, h12, h22).
 
+With a free gain (``free_g``: a photograph's unknown exposure) the model is M = gain G + s 1^T:
+gain >= 0 and s >= 0 are both linear, so both are profiled out in closed form (a least-squares
+problem in m + 1 unknowns, solved by an active set over the channels' s, :func:`linear_part`),
+and J's columns are gain dG/d(u, a_CDOM) projected off span{active channel indicators, G}
+(Kaufman's variable-projection Jacobian; the gradient J^T r is exact because r is orthogonal
+to that span).
+
 A problem is passed as one tuple ``prob = (L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m,
-n, tab, e0)`` and work arrays as ``buf = (s, k, kc, ka, G, GC, GA, phi, dphi)`` (see
-:func:`make_buffers`). Everything here is plain scalar code: numba compiles it (parallel over
+n, tab, e0, free_g)`` and work arrays as ``buf = (s, k, kc, ka, G, GC, GA, phi, dphi, gain)``
+(see :func:`make_buffers`; ``gain[0]`` is the chart's gain, 1 where it is known). Everything here is plain scalar code: numba compiles it (parallel over
 charts) when it is installed, and it runs as ordinary Python otherwise. It contains no physics:
 every constant and spectrum arrives as an argument, so numba's on-disk cache (keyed on this
 file) cannot hold numbers that a change of ``forward.Water`` made stale.
@@ -55,48 +62,117 @@ _TINY = np.finfo(np.float64).tiny
 BOUND_FOUND, BOUND_ZERO, BOUND_OPEN, BOUND_FAILED = 0, 1, 2, 3
 
 
-def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, W2, scale, fs, has_fs, m, n, grad):
-    """f, s, g, H (see the module docstring) for charts with weights ``phi`` (N, 4), their
+def linear_part_numpy(M3, G3, w2, fs=None):
+    """Array form of :func:`linear_part`: gain (N,) >= 0 and s (N, m) >= 0 minimising
+    sum w2 (M - gain G - s 1^T)^2 for charts M3, G3 (N, m, n) with weights w2 (N or 1, m, n);
+    ``fs`` (N, m) fixes s. Returns (gain, s, act), act (N, m) True where s is free and > 0."""
+    N, m, _ = G3.shape
+    w2 = np.broadcast_to(w2, G3.shape)
+    sw, sM, sG = w2.sum(-1), (w2 * M3).sum(-1), (w2 * G3).sum(-1)
+    sGG, sGM = (w2 * G3 * G3).sum(-1), (w2 * G3 * M3).sum(-1)
+    act = np.full((N, m), fs is None)
+    s0 = np.zeros((N, m)) if fs is None else np.broadcast_to(fs, (N, m))
+    gain = np.zeros(N)
+    for _ in range(m + 1):
+        num = np.where(act, sGM - sG * sM / sw, sGM - s0 * sG).sum(-1)
+        den = np.where(act, sGG - sG * sG / sw, sGG).sum(-1)
+        ok = (den > 0) & (num > 0)
+        gain = np.where(ok, num / np.where(ok, den, 1.0), 0.0)
+        s = np.where(act, (sM - gain[:, None] * sG) / sw, s0)
+        neg = act & (s <= 0)
+        if not neg.any():
+            break
+        act = act & ~neg
+    return gain, np.where(act, s, s0), act
+
+
+def evaluate_numpy(phi, dphi, A, L, S, base, ecdom, Bt, M, W2, scale, fs, has_fs, m, n, grad,
+                   free_g=False):
+    """f, s, g, H, gain (see the module docstring) for charts with weights ``phi`` (N, 4), their
     derivatives d phi / du ``dphi``, a_CDOM ``A`` (N,) and noise weights ``W2`` (N, m n)."""
     N = phi.shape[0]
     k = np.exp(-L[:, None] * (phi @ S + np.multiply.outer(A, ecdom) + base))
     G = (k @ Bt) / scale[:, None]
     w2 = W2.reshape(N, m, n)
-    R0 = M.reshape(N, m, n) - G.reshape(N, m, n)
-    s = fs.copy() if has_fs else np.maximum((w2 * R0).sum(-1) / w2.sum(-1), 0.0)
-    r = R0 - s[..., None]
+    G3 = G.reshape(N, m, n)
+    M3 = M.reshape(N, m, n)
+    if free_g:
+        gain, s, act = linear_part_numpy(M3, G3, w2, fs if has_fs else None)
+    else:
+        gain = np.ones(N)
+        R0 = M3 - G3
+        s = fs.copy() if has_fs else np.maximum((w2 * R0).sum(-1) / w2.sum(-1), 0.0)
+        act = np.broadcast_to(s > 0, (N, m)) if not has_fs else np.zeros((N, m), bool)
+    r = M3 - gain[:, None, None] * G3 - s[..., None]
     f = np.einsum("ijk,ijk->i", w2 * r, r)
     g = np.zeros((N, 2))
     H = np.zeros((N, 3))
     if grad:
         lk = -L[:, None] * k
-        JC = -(((lk * (dphi @ S)) @ Bt) / scale[:, None]).reshape(N, m, n)
-        JA = -(((lk * ecdom) @ Bt) / scale[:, None]).reshape(N, m, n)
-        if not has_fs:
-            act = (s > 0)[..., None]
-            JC = JC - act * (w2 * JC).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
-            JA = JA - act * (w2 * JA).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
+        JC = -(((lk * (dphi @ S)) @ Bt) / scale[:, None]).reshape(N, m, n) * gain[:, None, None]
+        JA = -(((lk * ecdom) @ Bt) / scale[:, None]).reshape(N, m, n) * gain[:, None, None]
+        a = act[..., None]
+
+        def centred(X):
+            return X - a * (w2 * X).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
+
+        JC, JA = centred(JC), centred(JA)
+        if free_g:  # project off the centred G (the gain's column)
+            Gc = centred(G3)
+            gg = np.einsum("ijk,ijk->i", w2 * Gc, Gc)
+            live = ((gain > 0) & (gg > 0))[:, None, None]
+            gg = np.where(gg > 0, gg, 1.0)[:, None, None]
+            JC = JC - live * Gc * np.einsum("ijk,ijk->i", w2 * Gc, JC)[:, None, None] / gg
+            JA = JA - live * Gc * np.einsum("ijk,ijk->i", w2 * Gc, JA)[:, None, None] / gg
         g[:, 0] = np.einsum("ijk,ijk->i", w2 * JC, r)
         g[:, 1] = np.einsum("ijk,ijk->i", w2 * JA, r)
         H[:, 0] = np.einsum("ijk,ijk->i", w2 * JC, JC)
         H[:, 1] = np.einsum("ijk,ijk->i", w2 * JC, JA)
         H[:, 2] = np.einsum("ijk,ijk->i", w2 * JA, JA)
-    return f, s, g, H
+    return f, s, g, H, gain
+
+
+def gain_variance(phi, dphi, A, L, S, base, ecdom, Bt, M, W2, scale, fs, has_fs, m, n, gain, s):
+    """Gauss-Newton variance of the gain (in units where the noise variance is 1) at charts'
+    optima: the (u, a_CDOM, gain) block of (J^T W J)^-1 with the free s projected out, from the
+    same derivatives as :func:`evaluate_numpy`. inf where the information is singular."""
+    N = phi.shape[0]
+    k = np.exp(-L[:, None] * (phi @ S + np.multiply.outer(A, ecdom) + base))
+    lk = -L[:, None] * k
+    w2 = W2.reshape(N, m, n)
+    act = (s > 0)[..., None] if not has_fs else np.zeros((N, m, 1), bool)
+    cols = [((k @ Bt) / scale[:, None]).reshape(N, m, n),
+            (((lk * (dphi @ S)) @ Bt) / scale[:, None]).reshape(N, m, n) * gain[:, None, None],
+            (((lk * ecdom) @ Bt) / scale[:, None]).reshape(N, m, n) * gain[:, None, None]]
+    cols = [X - act * (w2 * X).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True) for X in cols]
+    F = np.empty((N, 3, 3))
+    for a in range(3):
+        for b in range(3):
+            F[:, a, b] = np.einsum("ijk,ijk->i", w2 * cols[a], cols[b])
+    out = np.full(N, np.inf)
+    for i in range(N):
+        try:
+            inv = np.linalg.inv(F[i])
+        except np.linalg.LinAlgError:
+            continue
+        if np.isfinite(inv[0, 0]) and inv[0, 0] > 0:
+            out[i] = inv[0, 0]
+    return out
 
 
 @njit(cache=True)
 def make_buffers(q, m, n):
-    """Work arrays of one chart: (s, k, kc, ka, G, GC, GA, phi, dphi)."""
+    """Work arrays of one chart: (s, k, kc, ka, G, GC, GA, phi, dphi, gain)."""
     mn = m * n
     return (np.empty(m), np.empty(q), np.empty(q), np.empty(q), np.empty(mn), np.empty(mn),
-            np.empty(mn), np.empty(4), np.empty(4))
+            np.empty(mn), np.empty(4), np.empty(4), np.ones(1))
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
 def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
     """Objective, gradient and Gauss-Newton matrix of chart i at (u = C^e0, a_CDOM)."""
-    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0 = prob
-    s_out, k, kc, ka, G, GC, GA, phi, dphi = buf
+    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0, free_g = prob
+    s_out, k, kc, ka, G, GC, GA, phi, dphi, gbuf = buf
     q = S.shape[1]
     nt = S.shape[0]
     mn = m * n
@@ -142,6 +218,9 @@ def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
             a0 = k[l] * inv
             for j in range(mn):
                 G[j] += Bt[l, j] * a0
+    if free_g:
+        return _free_gain_terms(i, M, W2, fs, has_fs, m, n, G, GC, GA, s_out, gbuf, grad)
+    gbuf[0] = 1.0
     # Per channel: s from the weighted mean residual, then f, g = J^T r and H = J^T J. Where s
     # is free (active), J's columns are -dG minus their weighted mean; the weighted residual
     # then sums to zero over the channel, so g needs no centring, and H's centring is a
@@ -201,6 +280,122 @@ def eval_chart(u, A, i, prob, buf, grad):  # pragma: no cover - compiled
 
 
 @njit(cache=True, fastmath=True, error_model="numpy")
+def linear_part(sw, sM, sG, sGG, sGM, fs_i, has_fs, act, s_out):  # pragma: no cover
+    """gain >= 0 and s >= 0 minimising sum_ch sum_p w (M - gain G - s_ch)^2, from the channel
+    sums (sw = sum w, sM = sum w M, sG, sGG = sum w G^2, sGM): an active set over the channels'
+    s (a channel whose s would be negative is held at 0 and the gain refitted; at most m + 1
+    passes). With ``has_fs`` s is the fixed ``fs_i``. Fills ``s_out`` and ``act`` (1 where s is
+    free and positive); returns the gain."""
+    m = sw.shape[0]
+    for ch in range(m):
+        act[ch] = 0.0 if has_fs else 1.0
+    gain = 0.0
+    for _ in range(m + 1):
+        num = 0.0
+        den = 0.0
+        for ch in range(m):
+            if act[ch] > 0.0:
+                num += sGM[ch] - sG[ch] * sM[ch] / sw[ch]
+                den += sGG[ch] - sG[ch] * sG[ch] / sw[ch]
+            else:
+                sc = fs_i[ch] if has_fs else 0.0
+                num += sGM[ch] - sc * sG[ch]
+                den += sGG[ch]
+        gain = num / den if (den > 0.0 and num > 0.0) else 0.0
+        again = False
+        for ch in range(m):
+            if act[ch] > 0.0:
+                sc = (sM[ch] - gain * sG[ch]) / sw[ch]
+                if sc <= 0.0:
+                    act[ch] = 0.0
+                    sc = 0.0
+                    again = True
+                s_out[ch] = sc
+            else:
+                s_out[ch] = fs_i[ch] if has_fs else 0.0
+        if not again:
+            break
+    return gain
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
+def _free_gain_terms(i, M, W2, fs, has_fs, m, n, G, GC, GA, s_out, gbuf, grad):  # pragma: no cover
+    """f, g, H of :func:`eval_chart` for the model M = gain G + s 1^T with gain and s profiled
+    out (see the module docstring); G, GC, GA are those of unit gain."""
+    sw = np.zeros(m)
+    sM = np.zeros(m)
+    sG = np.zeros(m)
+    sGG = np.zeros(m)
+    sGM = np.zeros(m)
+    act = np.zeros(m)
+    for ch in range(m):
+        o = ch * n
+        for p in range(n):
+            w = W2[i, o + p]
+            x = G[o + p]
+            y = M[i, o + p]
+            sw[ch] += w
+            sM[ch] += w * y
+            sG[ch] += w * x
+            sGG[ch] += w * x * x
+            sGM[ch] += w * x * y
+    gain = linear_part(sw, sM, sG, sGG, sGM, fs[i], has_fs, act, s_out)
+    gbuf[0] = gain
+    f = 0.0
+    g1 = 0.0
+    g2 = 0.0
+    xx = 0.0
+    xy = 0.0
+    yy = 0.0
+    gx = 0.0
+    gy = 0.0
+    gg = 0.0
+    for ch in range(m):
+        o = ch * n
+        sc = s_out[ch]
+        rx = 0.0
+        ry = 0.0
+        cxx = 0.0
+        cxy = 0.0
+        cyy = 0.0
+        sx = 0.0
+        sy = 0.0
+        cgx = 0.0
+        cgy = 0.0
+        for p in range(n):
+            w = W2[i, o + p]
+            r = M[i, o + p] - gain * G[o + p] - sc
+            f += w * r * r
+            if grad:
+                x = gain * GC[o + p]
+                y = gain * GA[o + p]
+                rx += w * x * r
+                ry += w * y * r
+                cxx += w * x * x
+                cxy += w * x * y
+                cyy += w * y * y
+                sx += w * x
+                sy += w * y
+                cgx += w * G[o + p] * x
+                cgy += w * G[o + p] * y
+        if grad:
+            a = act[ch] / sw[ch]
+            g1 -= rx
+            g2 -= ry
+            xx += cxx - a * sx * sx
+            xy += cxy - a * sx * sy
+            yy += cyy - a * sy * sy
+            gx += cgx - a * sG[ch] * sx
+            gy += cgy - a * sG[ch] * sy
+            gg += sGG[ch] - a * sG[ch] * sG[ch]
+    if grad and gain > 0.0 and gg > 0.0:  # project the columns off the (centred) G
+        xx -= gx * gx / gg
+        xy -= gx * gy / gg
+        yy -= gy * gy / gg
+    return f, g1, g2, xx, xy, yy
+
+
+@njit(cache=True, fastmath=True, error_model="numpy")
 def lm_chart(u, A, i, prob, buf, max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover
     """Levenberg-Marquardt of chart i from (u, A): returns (u, A, f, iterations, code); the
     codes are those of :data:`sca.batch.STATUS`."""
@@ -254,9 +449,9 @@ def lm_chart(u, A, i, prob, buf, max_iter, tol, f_exact, mu0, down, up):  # prag
 
 @njit(parallel=True, cache=True, fastmath=True, error_model="numpy")
 def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no cover
-    """:func:`lm_chart` over all charts (in parallel): (C, A, s, k, f, iterations, codes, ssr),
-    ssr the unweighted ||M - G - s||^2 at the returned point (for fit_rms)."""
-    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0 = prob
+    """:func:`lm_chart` over all charts (in parallel): (C, A, s, k, f, iterations, codes, ssr,
+    gain), ssr the unweighted ||M - gain G - s||^2 at the returned point (for fit_rms)."""
+    L, scale, M, W2, fs, has_fs, S, base, ecdom, Bt, m, n, tab, e0, free_g = prob
     N = C0.shape[0]
     q = S.shape[1]
     C_out = np.empty(N)
@@ -267,6 +462,7 @@ def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no
     it_out = np.zeros(N, dtype=np.int64)
     code_out = np.full(N, 3, dtype=np.int64)
     ssr_out = np.empty(N)
+    gain_out = np.empty(N)
     for i in prange(N):
         buf = make_buffers(q, m, n)
         u, A, f, it, code = lm_chart(C0[i] ** e0, A0[i], i, prob, buf, max_iter, tol,
@@ -280,15 +476,17 @@ def lm_numba(C0, A0, prob, max_iter, tol, f_exact, mu0, down, up):  # pragma: no
             s_out[i, ch] = buf[0][ch]
         for l in range(q):
             k_out[i, l] = buf[1][l]
-        ssr = 0.0  # the final evaluation's G and s are still in the buffers
+        ssr = 0.0  # the final evaluation's G, s and gain are still in the buffers
+        gain = buf[9][0]
         for ch in range(m):
             for p in range(n):
-                r = M[i, ch * n + p] - buf[4][ch * n + p] - buf[0][ch]
+                r = M[i, ch * n + p] - gain * buf[4][ch * n + p] - buf[0][ch]
                 ssr += r * r
         ssr_out[i] = ssr
+        gain_out[i] = gain
         it_out[i] = it
         code_out[i] = code
-    return C_out, A_out, s_out, k_out, f_out, it_out, code_out, ssr_out
+    return C_out, A_out, s_out, k_out, f_out, it_out, code_out, ssr_out, gain_out
 
 
 # --------------------------------------------------------------------------- profile likelihood

@@ -60,6 +60,16 @@ def profile_delta(noise_known: bool, f_min, dof, f_data=None):
     return delta
 
 
+def gain_wald(gain, var, f_min, dof, noise_known: bool):
+    """95 % Wald intervals (N, 2) of the gain from its Gauss-Newton variance ``var`` (noise
+    variance 1 units; scaled by f_min / dof where the noise is estimated), clipped at 0."""
+    gain = np.asarray(gain, float)
+    var = np.asarray(var, float) * (1.0 if noise_known else np.asarray(f_min, float)
+                                    / np.maximum(np.asarray(dof), 1))
+    half = stats.norm.ppf(0.5 + CONFIDENCE / 2) * np.sqrt(var)
+    return np.column_stack([np.maximum(gain - half, 0.0), gain + half])
+
+
 def goodness(chi2, dof, noise_known: bool):
     """(chi2_dof, p-value): NaN where the noise is unknown (it cannot be tested)."""
     chi2 = np.asarray(chi2, float)

@@ -43,7 +43,9 @@ from ._batch_kernel import (
     BOUND_OPEN,
     HAVE_NUMBA,
     evaluate_numpy,
+    gain_variance,
     intervals_numba,
+    linear_part_numpy,
     lm_numba,
 )
 from .assess import (
@@ -51,12 +53,13 @@ from .assess import (
     CHL_MAX,
     estimate_flag_table,
     flag_tuples,
+    gain_wald,
     goodness,
     input_flag_table,
     profile_delta,
 )
-from .estimate import EXACT_FIT, MAX_RGB
-from .model import WaterModel
+from .estimate import EXACT_FIT, GAINS, MAX_RGB
+from .model import WaterModel, chl_weights_u
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).
 INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 8)])
@@ -100,6 +103,11 @@ class BatchEstimate:
     noise_known: bool
     w: np.ndarray  # (N, 1)
     backscatter: np.ndarray  # (N, m)
+    #: (N,) the unknown exposure M = gain G + s (gain="free"); ones where it is known
+    gain: np.ndarray
+    #: (N, 2) 95 % Wald interval of the gain (its Gauss-Newton standard error); the gain itself
+    #: where it is known
+    gain_ci: np.ndarray
     attenuation: np.ndarray  # (N, q)
     wavelengths: np.ndarray
     objective: np.ndarray  # chi^2 (noise known) or ||M - G - s||^2 in data units
@@ -139,19 +147,14 @@ class BatchModel:
         chl = np.asarray(chl, float)
         if not derivative:
             return self.water.chl_weights(chl)
-        # in u = C^e0 every term's derivative is finite down to C = 0; evaluating the C
-        # derivatives at the smallest normal float keeps the products exact in the limit
-        cf = np.maximum(chl, np.finfo(float).tiny)
-        dchl_du = cf ** (1.0 - self.e0) / self.e0  # C = u^(1/e0)
-        phi, dphi = self.water.chl_weights(chl, derivative=True, floor=np.finfo(float).tiny)
-        return phi, dphi * dchl_du[:, None]
+        return chl_weights_u(self.water, chl)
 
     def coefficient(self, chl, cdom):
         """c (N, q) in m^-1 (a for the 'absorption' path model)."""
         return self.terms.coefficient(chl, cdom)
 
 
-def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs):
+def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs, free_g=False):
     """Best point of the coarse (C, a_CDOM) grid for every chart (one matrix product per unique
     L), with the closed-form s, in the charts' scaled units. The grid search weights each
     channel by its mean weight (a start needs no more; the fit itself uses every weight)."""
@@ -159,6 +162,8 @@ def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs):
     C, A = C.ravel(), A.ravel()
     cgrid = bm.coefficient(C, A)  # (P, q)
     N, m, n = Ms.shape[0], bm.m, bm.n
+    if free_g:
+        return _initial_free_gain(bm, Ms, W2, L, fs, has_fs, C, A, cgrid)
     wc = W2.reshape(N, m, n).mean(axis=2)  # (N, m)
     Msum = Ms.reshape(N, m, n).sum(axis=2)  # (N, m)
     WM = (Ms.reshape(N, m, n) * wc[:, :, None]).reshape(N, m * n)
@@ -179,6 +184,21 @@ def _initial(bm: BatchModel, Ms, W2, L, fs, has_fs):
                 s_c = np.maximum((Msum[rows, ch][:, None] - Gsum[None, :, ch]) / n, 0.0)
                 f -= (n * w[:, ch:ch + 1]) * (s_c * s_c)
         best[rows] = np.argmin(f, axis=1)
+    return C[best].copy(), A[best].copy()
+
+
+def _initial_free_gain(bm, Ms, W2, L, fs, has_fs, C, A, cgrid):
+    """:func:`_initial` with a free gain: every grid point gets its best gain and s (the
+    closed form of :func:`sca._batch_kernel.linear_part_numpy`); per chart (a start)."""
+    N, m, n = Ms.shape[0], bm.m, bm.n
+    best = np.empty(N, dtype=int)
+    wc = W2.reshape(N, m, n).mean(axis=2, keepdims=True)
+    for i in range(N):
+        G3 = (np.exp(-L[i] * cgrid) @ bm.Bt).reshape(-1, m, n)
+        M3 = np.broadcast_to(Ms[i].reshape(1, m, n), G3.shape)
+        gain, s, _ = linear_part_numpy(M3, G3, wc[i:i + 1], fs[i:i + 1] if has_fs else None)
+        r = M3 - gain[:, None, None] * G3 - s[..., None]
+        best[i] = int(np.argmin(np.einsum("pcj,pcj->p", wc[i] * r, r)))
     return C[best].copy(), A[best].copy()
 
 
@@ -204,7 +224,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    basis=None, water: Water | None = None, path_model: str | None = None,
                    cdom_slope: float | None = None, fix=None, intervals: bool = True,
                    max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
-                   engine: str = DEFAULT_ENGINE) -> BatchEstimate:
+                   engine: str = DEFAULT_ENGINE, gain: str = "known") -> BatchEstimate:
     """Estimate C, a_CDOM(440), w and s for a stack of charts ``rgb_stack`` (N, m, n).
 
     ``depth`` and ``distance`` (m) are scalars or arrays of length N. ``sigma``: the standard
@@ -215,7 +235,10 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     profile-likelihood intervals (default; without them no chart is reliable). Other arguments
     as in :func:`sca.estimate`; ``fix`` may hold ``{'backscatter': value}`` (scalar or (m,)).
     ``engine``: 'numba' (default: the iteration compiled per chart, on all cores) or 'numpy'
-    (array code, the reference); both run the same iteration. Returns a :class:`BatchEstimate`.
+    (array code, the reference); both run the same iteration. ``gain``: 'known' (data in model
+    units) or 'free' (M = gain G + s with one unknown gain per chart -- a photograph's exposure
+    -- profiled out with s; the intervals of C and a_CDOM then include its uncertainty).
+    Returns a :class:`BatchEstimate`.
     Safe to call from several threads.
     """
     t0 = time.perf_counter()
@@ -249,11 +272,14 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                                  nonnegative=True)
     if engine not in ENGINES:
         raise ValueError(f"engine: must be one of {ENGINES}, got {engine!r}")
+    if gain not in GAINS:
+        raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
+    free_g = gain == "free"
     parts = []
     for i in range(0, N, CHUNK):
         sl = slice(i, i + CHUNK)
         parts.append(_solve_chunk(bm, M[sl], None if sig is None else sig[sl], L[sl], scale[sl],
-                                  fixed_s, max_iter, tol, engine, bool(intervals)))
+                                  fixed_s, max_iter, tol, engine, bool(intervals), free_g))
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     code = out["code"]
     converged = code <= 2
@@ -270,14 +296,16 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         chl=chl, cdom=cdom, chl_ci=out["chl_ci"], cdom_ci=out["cdom_ci"], reliable=reliable,
         flags=flags, fit_rms=out["fit_rms"], chi2_dof=out["chi2_dof"], chi2_p=out["chi2_p"],
         dof=out["dof"], noise_known=noise_known, w=w,
-        backscatter=out["s"] * scale[:, None], attenuation=out["k"], wavelengths=bm.wl,
+        backscatter=out["s"] * scale[:, None], gain=out["gain"], gain_ci=out["gain_ci"],
+        attenuation=out["k"], wavelengths=bm.wl,
         objective=objective, iterations=out["it"], converged=converged,
         status=np.array([STATUS[c] for c in code]), status_code=code,
         elapsed_s=time.perf_counter() - t0,
     )
 
 
-def _solve_chunk(bm: BatchModel, M, sig, L, scale, fixed_s, max_iter, tol, engine, intervals):
+def _solve_chunk(bm: BatchModel, M, sig, L, scale, fixed_s, max_iter, tol, engine, intervals,
+                 free_g=False):
     """Levenberg-Marquardt (and the intervals) on one chunk of charts; results in a dict, s and
     f in the chunk's scaled units."""
     N = M.shape[0]
@@ -289,24 +317,31 @@ def _solve_chunk(bm: BatchModel, M, sig, L, scale, fixed_s, max_iter, tol, engin
     L = np.ascontiguousarray(L)
     scale = np.ascontiguousarray(scale)
     prob = (L, scale, Ms, W2, fs, has_fs, bm.S, bm.base, bm.ecdom, bm.Bt, bm.m, bm.n, bm.table,
-            bm.e0)
-    chl0, cdom0 = _initial(bm, Ms, W2, L, fs, has_fs)
+            bm.e0, bool(free_g))
+    chl0, cdom0 = _initial(bm, Ms, W2, L, fs, has_fs, free_g)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", W2 * Ms, Ms)
     if engine == "numba":
         with _NUMBA_LOCK:
-            chl, cdom, s, k, f, it, code, ssr = lm_numba(chl0, cdom0, prob, int(max_iter),
-                                                         float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
+            chl, cdom, s, k, f, it, code, ssr, gain = lm_numba(
+                chl0, cdom0, prob, int(max_iter), float(tol), f_exact, LM_MU0, LM_DOWN, LM_UP)
     else:
-        chl, cdom, s, k, f, it, code = _lm_numpy(bm, prob, chl0, cdom0, max_iter, tol, f_exact)
-        r = Ms - (k @ bm.Bt) / scale[:, None] - np.repeat(s, bm.n, axis=1)
+        chl, cdom, s, k, f, it, code, gain = _lm_numpy(bm, prob, chl0, cdom0, max_iter, tol,
+                                                       f_exact)
+        r = Ms - gain[:, None] * (k @ bm.Bt) / scale[:, None] - np.repeat(s, bm.n, axis=1)
         ssr = np.einsum("ij,ij->i", r, r)
-    res = dict(chl=chl, cdom=cdom, s=s, k=k, f=f, it=it, code=code)
+    res = dict(chl=chl, cdom=cdom, s=s, k=k, f=f, it=it, code=code, gain=gain)
     # goodness of fit (ssr: the unweighted ||M - G - s||^2, scaled units)
     res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", Ms, Ms))
     n_s = np.zeros(N, dtype=int) if has_fs else np.sum(s > 0, axis=1)
-    dof = bm.m * bm.n - 2 - n_s
+    dof = bm.m * bm.n - 2 - n_s - int(free_g)
     res["dof"] = dof
     res["chi2_dof"], res["chi2_p"] = goodness(f, dof, sig is not None)
+    res["gain_ci"] = np.column_stack([gain, gain])
+    if free_g:
+        phi, dphi = bm.weights(chl, derivative=True)
+        var = gain_variance(phi, dphi, cdom, L, bm.S, bm.base, bm.ecdom, bm.Bt, Ms, W2, scale, fs,
+                            has_fs, bm.m, bm.n, gain, s)
+        res["gain_ci"] = gain_wald(gain, var, f, dof, sig is not None)
     chl_ci = np.full((N, 2), np.nan)
     cdom_ci = np.full((N, 2), np.nan)
     codes = np.full((N, 4), BOUND_FAILED)
@@ -328,19 +363,20 @@ def _lm_numpy(bm, prob, chl, cdom, max_iter, tol, f_exact):
     """The numpy engine: the Levenberg-Marquardt iteration of :func:`sca._batch_kernel.lm_chart`
     as array code over the active charts (the reference)."""
     L, scale, Ms, W2, fs, has_fs = prob[:6]
+    free_g = prob[14]
     N = Ms.shape[0]
     chl, cdom = chl.copy(), cdom.copy()
 
     def evaluate(idx, C, A, grad):
         phi, dphi = bm.weights(C, derivative=True)
         return evaluate_numpy(phi, dphi, A, L[idx], bm.S, bm.base, bm.ecdom, bm.Bt, Ms[idx],
-                              W2[idx], scale[idx], fs[idx], has_fs, bm.m, bm.n, grad)
+                              W2[idx], scale[idx], fs[idx], has_fs, bm.m, bm.n, grad, free_g)
 
     iters = np.zeros(N, dtype=int)
     code = np.full(N, 3)
     mu = np.full(N, LM_MU0)
     # state of the active charts: objective, gradient and Gauss-Newton matrix at their point
-    fa, _, g, H = evaluate(np.arange(N), chl, cdom, True)
+    fa, _, g, H, _ = evaluate(np.arange(N), chl, cdom, True)
     f = fa.copy()
     done = fa <= f_exact
     code[done] = 1
@@ -385,7 +421,7 @@ def _lm_numpy(bm, prob, chl, cdom, max_iter, tol, f_exact):
         gn = np.zeros((active.size, 2))
         Hn = np.zeros((active.size, 3))
         if ti.size:
-            fn[trial], _, gn[trial], Hn[trial] = evaluate(ti, Cn[trial], An[trial], True)
+            fn[trial], _, gn[trial], Hn[trial], _ = evaluate(ti, Cn[trial], An[trial], True)
         ok = trial & (fn < fa)
         acc = active[ok]
         chl[acc], cdom[acc], f[acc] = Cn[ok], An[ok], fn[ok]
@@ -406,9 +442,9 @@ def _lm_numpy(bm, prob, chl, cdom, max_iter, tol, f_exact):
             go = ~stop
             active, fa, g, H = active[go], fa[go], g[go], H[go]
     # final values: s (and f once more, consistently) at the returned point, and k on the grid
-    f_final, s_final, _, _ = evaluate(np.arange(N), chl, cdom, False)
+    f_final, s_final, _, _, gain = evaluate(np.arange(N), chl, cdom, False)
     k_final = np.exp(-L[:, None] * bm.coefficient(chl, cdom))
-    return chl, cdom, s_final, k_final, f_final, iters, code
+    return chl, cdom, s_final, k_final, f_final, iters, code, gain
 
 
 ENGINES = ("numba", "numpy") if HAVE_NUMBA else ("numpy",)

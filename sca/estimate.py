@@ -39,22 +39,26 @@ from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from ._batch_kernel import BOUND_OPEN, intervals_serial
+from ._batch_kernel import BOUND_OPEN, gain_variance, intervals_serial, linear_part_numpy
 from .assess import (
     CDOM_MAX,
     CHL_MAX,
     CONFIDENCE,
     estimate_flags,
+    gain_wald,
     goodness,
     input_flags,
     is_reliable,
     profile_delta,
 )
-from .model import WaterModel
+from .model import WaterModel, chl_weights_u
 from .subproblem import compiled_subproblem, equality_step, polish
 
 MODES = ("paper", "safeguarded")
 FIXABLE = ("chl", "cdom", "backscatter")
+#: 'known': the data are in model units (exposure-normalised); 'free': M = gain G(x) + s 1^T
+#: with one unknown scalar gain (a photograph's exposure, any units), estimated with the water
+GAINS = ("known", "free")
 
 #: Clarabel settings of the subproblem: its defaults (1e-8 tolerances on a subproblem that
 #: is normalised to O(1) every iteration), followed by an active-set polish
@@ -152,6 +156,10 @@ class Estimate:
     #: the true objective of every trial point, accepted or not (``history`` keeps the accepted)
     trials: list = field(default_factory=list)
     path_model: str = "beam"
+    #: the exposure gain of M = gain G(x) + s (1 where it is known, ``gain="free"`` estimates it)
+    gain: float = 1.0
+    #: its 95 % Wald interval (Gauss-Newton standard error); (gain, gain) where it is known
+    gain_ci: tuple = (1.0, 1.0)
     step_history: list = field(default_factory=list, repr=False)
 
     def to_dict(self) -> dict:
@@ -175,7 +183,10 @@ class Estimator:
     def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
                  reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
                  path_model: str | None = None, cdom_slope: float | None = None, fix=None,
-                 setup: ChartSetup | None = None):
+                 setup: ChartSetup | None = None, gain: str = "known"):
+        if gain not in GAINS:
+            raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
+        self.free_gain = gain == "free"
         depth = validate.scalar("depth", depth)
         distance = validate.scalar("distance", distance)
         self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -192,16 +203,19 @@ class Estimator:
         # eq 16's T w >= 0: with one nonnegative basis function it is simply w >= 0, a bound
         # like those on C and a_CDOM (one row instead of q in the subproblem)
         self.w_bound = self.free_w and mdl.z == 1 and bool(np.all(mdl.T >= 0) and np.any(mdl.T > 0))
-        n_pos = int(self.free_chl) + int(self.free_cdom) + int(self.w_bound)
+        # the QP's delta: (gain?, C?, a_CDOM?, w...) -- the bounded ones first
+        fg = int(self.free_gain)
+        n_pos = fg + int(self.free_chl) + int(self.free_cdom) + int(self.w_bound)
         self.n_pos = n_pos
-        self.n_free = int(self.free_chl) + int(self.free_cdom) + (mdl.z if self.free_w else 0)
+        self.n_free = fg + int(self.free_chl) + int(self.free_cdom) + (mdl.z if self.free_w else 0)
         if self.n_free == 0 and not self.free_s:
             raise ValueError("fix: nothing is left to estimate")
-        n_cc = int(self.free_chl) + int(self.free_cdom)
+        n_cc = fg + int(self.free_chl) + int(self.free_cdom)
         self.w_slice = (n_cc, n_cc + mdl.z) if self.free_w else None
-        # the free entries of x = (C, a_CDOM, w) in the order of the QP's delta
-        self.cols = ([0] if self.free_chl else []) + ([1] if self.free_cdom else []) + \
-            (list(range(2, 2 + mdl.z)) if self.free_w else [])
+        self.chl_pos = fg  # where C sits in delta
+        # the free entries of the extended x = (C, a_CDOM, w_1..w_z, gain) in delta's order
+        self.cols = ([2 + mdl.z] if self.free_gain else []) + ([0] if self.free_chl else []) + \
+            ([1] if self.free_cdom else []) + (list(range(2, 2 + mdl.z)) if self.free_w else [])
 
     def _parse_fix(self, fix):
         if fix is None:
@@ -233,10 +247,22 @@ class Estimator:
         return M
 
     @staticmethod
-    def _objective(mdl, Mv, chl, cdom, w, s):
+    def _objective(mdl, Mv, chl, cdom, w, s, gain=1.0):
         k = mdl.attenuation(chl, cdom, w)
-        r = mdl.residual(Mv, k, s)
+        r = mdl.residual(Mv, gain * k, s)
         return float(r @ r), k
+
+    def linear_part(self, mdl, Mv, G, s_fixed=None):
+        """The closed-form linear unknowns for signals ``G`` (..., m n): (gain, s), gain >= 0
+        and s >= 0 minimising the (whitened) residual; gain = 1 where it is known."""
+        if not self.free_gain:
+            s = mdl.best_backscatter(Mv, G, s_fixed)
+            return np.ones(G.shape[:-1]), s
+        G3 = np.asarray(G, float).reshape((-1, mdl.m, mdl.n))
+        M3 = np.broadcast_to(np.asarray(Mv, float).reshape(1, mdl.m, mdl.n), G3.shape)
+        fs = None if s_fixed is None else np.broadcast_to(s_fixed, (G3.shape[0], mdl.m))
+        gain, s, _ = linear_part_numpy(M3, G3, (mdl.wt ** 2).reshape(1, mdl.m, mdl.n), fs)
+        return gain.reshape(G.shape[:-1]), s.reshape(G.shape[:-1] + (mdl.m,))
 
     def check_sigma(self, sigma):
         """``sigma`` (None, a scalar or (m, n), data units) as a (m, n) array or None."""
@@ -285,8 +311,8 @@ class Estimator:
         W = np.multiply.outer(mdl.phyto_scale(C) / float(mdl.t440 @ u), u)
         k = mdl.attenuation(C, A, W)
         G = mdl.signal(k)
-        s = mdl.best_backscatter(Mv, G, s_fixed)
-        r = mdl.wt * (Mv - G - np.repeat(s, mdl.n, axis=-1))
+        gain, s = self.linear_part(mdl, Mv, G, s_fixed)
+        r = mdl.wt * (Mv - gain[:, None] * G - np.repeat(s, mdl.n, axis=-1))
         f = np.einsum("ij,ij->i", r, r)
         j = int(np.argmin(f))
         return float(C[j]), float(A[j]), W[j].copy()
@@ -316,10 +342,10 @@ class Estimator:
         st = _FitState(mdl=mdl, Mv=Mv, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw))
         chl, cdom, w = self.initial_point(Mv, x0, mdl, s_fixed)
         st.initial = {"chl": chl, "cdom": cdom}
-        s = np.array(mdl.best_backscatter(Mv, mdl.signal(mdl.attenuation(chl, cdom, w)), s_fixed),
-                     dtype=float)
-        st.x = (chl, cdom, w, s)
-        st.f, _ = self._objective(mdl, Mv, chl, cdom, w, s)
+        gain, s = self.linear_part(mdl, Mv, mdl.signal(mdl.attenuation(chl, cdom, w)), s_fixed)
+        gain, s = float(gain), np.array(s, dtype=float)
+        st.x = (chl, cdom, w, s, gain)
+        st.f, _ = self._objective(mdl, Mv, chl, cdom, w, s, gain)
         st.history.append(st.f)
         it = 0
         for it in range(1, max_iter + 1):
@@ -350,16 +376,19 @@ class Estimator:
     def _linearise(self, st) -> "_Linearisation":
         """The QP data at the current point: scaled Jacobian [A E] = Q R and the residual."""
         mdl = st.mdl
-        chl, cdom, w, s = st.x
+        chl, cdom, w, s, gain = st.x
         k, dk = mdl.attenuation_jacobian(chl, cdom, w)
         J = dk.T @ mdl.B.T  # (2 + z, m n)
+        D_gain = gain if gain > 0 else 1.0
+        if self.free_gain:  # rows of the extended x: gain dG/dx, then dG/dgain = G
+            J = np.vstack([gain * J, mdl.signal(k)[None]])
         D_chl = max(chl, CHL_SCALE_MIN)
         D_cdom = max(cdom, CDOM_SCALE_MIN)
         w_min = float(mdl.phyto_scale(CHL_SCALE_MIN)) / (mdl.z * float(np.max(mdl.t440)))
         D_w = np.maximum(np.abs(w), w_min)
-        scales = np.array(([D_chl] if self.free_chl else []) + ([D_cdom] if self.free_cdom else [])
-                          + (list(D_w) if self.free_w else []))
-        r0 = mdl.residual(st.Mv, k, s)  # whitened when the noise is known
+        scales = np.array(([D_gain] if self.free_gain else []) + ([D_chl] if self.free_chl else [])
+                          + ([D_cdom] if self.free_cdom else []) + (list(D_w) if self.free_w else []))
+        r0 = mdl.residual(st.Mv, gain * k, s)  # whitened when the noise is known
         AE = J[self.cols].T * scales
         if self.free_s:
             AE = np.hstack([AE, mdl.E])
@@ -368,26 +397,26 @@ class Estimator:
         b = Q.T @ r0
         unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
         c0 = max(float(r0 @ r0 - b @ b), 0.0)  # the part of ||r0||^2 no step can remove
-        return _Linearisation(AE, r0, Rm, b, unit, c0, scales, D_chl, D_cdom, D_w)
+        return _Linearisation(AE, r0, Rm, b, unit, c0, scales, D_chl, D_cdom, D_w, D_gain)
 
     def _eq17_row(self, st, lin):
         """Eq 17 linearised: t440.(w + D_w dw) = alpha(C) + alpha'(C) D_C dC, as (row, rhs)."""
         if not self.free_w:
             return None, 0.0
         mdl = st.mdl
-        chl, _, w, _ = st.x
+        chl, _, w, _, _ = st.x
         row = np.zeros(lin.R.shape[1])
         row[self.w_slice[0]:self.w_slice[1]] = mdl.t440 * lin.D_w
         if self.free_chl:
             alpha, dalpha = mdl.phyto_scale(chl, derivative=True)
-            row[0] = -float(dalpha) * lin.D_chl
+            row[self.chl_pos] = -float(dalpha) * lin.D_chl
             return row, float(alpha) - float(mdl.t440 @ w)
         return row, float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ w)
 
     def _set_subproblem(self, sub, lin, st, safeguarded):
         """Write the QP's parameters (all in units of ``lin.unit``)."""
         mdl = st.mdl
-        chl, cdom, w, s = st.x
+        chl, cdom, w, s, gain = st.x
         unit = lin.unit
         sub.R.value = lin.R
         sub.b.value = lin.b / unit
@@ -401,7 +430,8 @@ class Estimator:
         if self.free_s:
             sub.s_lo.value = np.maximum(-s / unit, -cap)
         if self.n_pos:
-            lo = ([-chl / lin.D_chl] if self.free_chl else []) + \
+            lo = ([-gain / lin.D_gain] if self.free_gain else []) + \
+                ([-chl / lin.D_chl] if self.free_chl else []) + \
                 ([-cdom / lin.D_cdom] if self.free_cdom else []) + \
                 ([-float(w[0]) / float(lin.D_w[0])] if self.w_bound else [])
             sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
@@ -455,25 +485,28 @@ class Estimator:
         """The trial point of step ``v``, its true objective and the decrease the linearised
         model predicted for it."""
         mdl = st.mdl
-        chl, cdom, w, s = st.x
+        chl, cdom, w, s, gain = st.x
         delta = v[:self.n_free]
-        full = np.zeros(2 + mdl.z)
+        full = np.zeros(3 + mdl.z)  # extended x: (C, a_CDOM, w, gain)
         full[self.cols] = delta * lin.scales
         chl_new = max(chl + full[0], 0.0) if self.free_chl else chl
         cdom_new = max(cdom + full[1], 0.0) if self.free_cdom else cdom
-        w_new = w + full[2:] if self.free_w else w
-        if safeguarded:  # feasibility restoration: w back on eq 17, s re-fitted in closed form
+        w_new = w + full[2:2 + mdl.z] if self.free_w else w
+        gain_new = max(gain + full[2 + mdl.z], 0.0) if self.free_gain else gain
+        if safeguarded:  # feasibility restoration: w back on eq 17, gain and s re-fitted in
+            # closed form
             w_new = mdl.feasible_w(chl_new, w_new)
             G_new = mdl.signal(mdl.attenuation(chl_new, cdom_new, w_new))
-            s_new = np.array(mdl.best_backscatter(st.Mv, G_new, st.s_fixed), dtype=float)
+            gain_new, s_new = self.linear_part(mdl, st.Mv, G_new, st.s_fixed)
+            gain_new, s_new = float(gain_new), np.array(s_new, dtype=float)
         else:
             s_new = np.maximum(s + v[self.n_free:], 0.0) if self.free_s else s.copy()
-        f_new, _ = self._objective(mdl, st.Mv, chl_new, cdom_new, w_new, s_new)
+        f_new, _ = self._objective(mdl, st.Mv, chl_new, cdom_new, w_new, s_new, gain_new)
         pred = st.f - (st.qp_value * lin.unit**2 + lin.c0)
         step = float(np.max(np.abs(delta))) if delta.size else 0.0
         st.steps.append(step)
         st.trials.append(f_new)
-        return _Candidate((chl_new, cdom_new, w_new, s_new), f_new, pred, step)
+        return _Candidate((chl_new, cdom_new, w_new, s_new, gain_new), f_new, pred, step)
 
     def _judge(self, st, cand, tol, safeguarded) -> bool:
         """Accept or reject the candidate, update the trust region; True when the loop stops."""
@@ -506,16 +539,18 @@ class Estimator:
         """The Estimate of a finished fit, assessed (sca.assess): input sanity of the data,
         goodness of fit, intervals, flags and the verdict."""
         mdl = st.mdl
-        chl, cdom, w, s = st.x
+        chl, cdom, w, s, gain = st.x
         se_chl, se_cdom = mdl.standard_errors(st.Mv, chl, cdom, w, s,
-                                              (self.free_chl, self.free_cdom), st.s_fixed)
+                                              (self.free_chl, self.free_cdom), st.s_fixed,
+                                              gain if self.free_gain else None)
         unit = 1.0 if mdl.noise_known else scale * scale  # objective: chi^2 or data units
-        r = mdl.residual(st.Mv, mdl.attenuation(chl, cdom, w), s) / mdl.wt
+        r = mdl.residual(st.Mv, gain * mdl.attenuation(chl, cdom, w), s) / mdl.wt
         n_s = 0 if not self.free_s else int(np.sum(np.asarray(s) > 0))
         dof = mdl.m * mdl.n - int(self.free_chl) - int(self.free_cdom) - n_s \
-            - (mdl.z - 1 if self.free_w else 0)
+            - (mdl.z - 1 if self.free_w else 0) - int(self.free_gain)
         chi2_dof, chi2_p = goodness(st.f, dof, mdl.noise_known)
         chl_ci, cdom_ci, codes = self._intervals(st, se_chl, se_cdom, dof)
+        gain_ci = self._gain_interval(st, dof)
         flags = estimate_flags(converged=st.converged, noise_known=mdl.noise_known,
                                p_value=float(chi2_p), chl=chl, cdom=cdom, chl_ci=chl_ci,
                                cdom_ci=cdom_ci, ci_codes=codes, free_chl=self.free_chl,
@@ -539,15 +574,36 @@ class Estimator:
             fixed=dict(self.fixed), eq17_residual=float(mdl.t440 @ w - mdl.phyto_scale(chl)),
             solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel, n_solves=st.n_solves,
             polish_rescues=st.rescues, trials=[f * unit for f in st.trials],
-            path_model=self.water.path_model, step_history=st.steps,
+            path_model=self.water.path_model, gain=float(gain), gain_ci=gain_ci,
+            step_history=st.steps,
         )
+
+    def _gain_interval(self, st, dof):
+        """95 % Wald interval of a free gain (``sca._batch_kernel.gain_variance``, the batch's
+        too); (gain, gain) where it is known."""
+        mdl = st.mdl
+        chl, cdom, w, s, gain = st.x
+        if not self.free_gain:
+            return (float(gain), float(gain))
+        if mdl.z != 1:  # no eq-17 reduction: the Wald interval of the general Jacobian
+            return (float("nan"), float("nan"))
+        terms = mdl.terms
+        bm_phi, bm_dphi = chl_weights_u(mdl.water, np.array([chl]))
+        var = gain_variance(bm_phi, bm_dphi, np.array([cdom]), np.array([float(mdl.L)]),
+                            terms.shapes, terms.base, terms.cdom_shape, mdl.B.T, st.Mv[None],
+                            (mdl.wt ** 2)[None], np.ones(1),
+                            (st.s_fixed if st.s_fixed is not None else np.zeros(mdl.m))[None],
+                            st.s_fixed is not None, mdl.m, mdl.n, np.array([gain]),
+                            np.asarray(s, float)[None])
+        lo, hi = gain_wald([gain], var, [st.f], [dof], mdl.noise_known)[0]
+        return (float(lo), float(hi))
 
     def _intervals(self, st, se_chl, se_cdom, dof):
         """95 % intervals of C and a_CDOM: profile likelihood through the compiled profile of
         :mod:`sca._batch_kernel` (z = 1, w on eq 17: the same reduced problem), else Wald
         intervals from the standard errors (codes None)."""
         mdl = st.mdl
-        chl, cdom, _, _ = st.x
+        chl, cdom, _, _, _ = st.x
         if mdl.z != 1:
             z95 = stats.norm.ppf(0.5 + CONFIDENCE / 2)
             return ((max(chl - z95 * se_chl, 0.0), chl + z95 * se_chl),
@@ -559,7 +615,8 @@ class Estimator:
                 np.ascontiguousarray((st.s_fixed if has_fs else np.zeros(mdl.m))[None]), has_fs,
                 np.ascontiguousarray(terms.shapes), np.ascontiguousarray(terms.base),
                 np.ascontiguousarray(terms.cdom_shape), np.ascontiguousarray(mdl.B.T), mdl.m,
-                mdl.n, np.ascontiguousarray(water.chl_terms()), float(water.phyto_exponent))
+                mdl.n, np.ascontiguousarray(water.chl_terms()), float(water.phyto_exponent),
+                self.free_gain)
         e0 = float(water.phyto_exponent)
         Mw = mdl.wt * st.Mv
         delta = profile_delta(mdl.noise_known, np.array([st.f]), np.array([dof]),
@@ -602,6 +659,7 @@ class _Linearisation:
     D_chl: float
     D_cdom: float
     D_w: np.ndarray
+    D_gain: float = 1.0
 
 
 @dataclass
@@ -665,7 +723,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
              mode: str = "safeguarded", max_iter: int = 100,
              tol: float = 1e-10, fix=None, x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
-             setup: ChartSetup | None = None) -> Estimate:
+             setup: ChartSetup | None = None, gain: str = "known") -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -690,12 +748,16 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     fix : hold parameters fixed, e.g. ``{'backscatter': 0}`` (chart a few cm away) or
         ``{'cdom': 0.1}``; the loop then solves the smaller problem.
     x0 : optional start ``{'chl': ..., 'cdom': ...}`` instead of the coarse grid search.
+    gain : 'known' (default: ``rgb`` in model units) or 'free': ``rgb`` in any units (a
+        photograph's raw values), M = gain G(x) + s 1^T with the unknown exposure gain estimated
+        with the water -- one more linearised variable of the loop (``Estimate.gain``,
+        ``gain_ci``); the intervals of C and a_CDOM include its uncertainty.
 
     Safe to call from several threads (each thread compiles its own subproblem).
     """
     est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
                     reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
-                    path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup)
+                    path_model=path_model, cdom_slope=cdom_slope, fix=fix, setup=setup, gain=gain)
     return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
                    x0=x0)
 

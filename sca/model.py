@@ -22,6 +22,19 @@ from forward.water import Water, resolve_water
 CHL_DERIVATIVE_FLOOR = 1e-6
 
 
+def chl_weights_u(water: Water, chl):
+    """Phi (N, 4), the weights of the chlorophyll shapes of :meth:`forward.Water.chl_terms`, and
+    dPhi/du with u = C^e0 (eq 10's exponent), as the batch kernels take them. In u every term's
+    derivative is finite down to C = 0: the C derivatives are evaluated at the smallest normal
+    float, which keeps the products exact in the limit."""
+    chl = np.asarray(chl, float)
+    e0 = float(water.phyto_exponent)
+    tiny = np.finfo(float).tiny
+    cf = np.maximum(chl, tiny)
+    phi, dphi = water.chl_weights(chl, derivative=True, floor=tiny)
+    return phi, dphi * (cf ** (1.0 - e0) / e0)[:, None]
+
+
 class WaterModel:
     """k(x), G(x) and their derivatives for one chart setup, water model, basis and path."""
 
@@ -102,21 +115,30 @@ class WaterModel:
         resid = (M_vec - G_vec).reshape(G_vec.shape[:-1] + (self.m, self.n))
         return np.maximum((resid * w2).sum(axis=-1) / w2.sum(axis=-1), 0.0)
 
-    def standard_errors(self, M_vec, chl, cdom, w, s, free=(True, True), fixed_s=None):
+    def standard_errors(self, M_vec, chl, cdom, w, s, free=(True, True), fixed_s=None,
+                        gain=None):
         """Standard errors (m^-1-scaled units of C and a_CDOM) from the Gauss-Newton covariance.
 
         The backscatter is profiled out (its closed form: where s > 0 the channel's weighted
         mean is projected out of the Jacobian), w follows C along eq 17 (its shape held), the
         Jacobian is whitened, and sigma^2 = 1 when the noise is known, else
-        ||r||^2 / (m n - p - number of free s > 0). Returns (se_chl, se_cdom); a fixed parameter
+        ||r||^2 / (m n - p - number of free s > 0). ``gain``: the fitted gain of a free-gain fit
+        (M = gain G + s; its column G joins the Jacobian, so the errors include its
+        uncertainty), None where it is known. Returns (se_chl, se_cdom); a fixed parameter
         gets 0, an undetermined one inf.
         """
+        g = 1.0 if gain is None else float(gain)
         _, dk = self.attenuation_jacobian(chl, cdom, w)
         alpha, dalpha = self.phyto_scale(chl, derivative=True)
         dw_dchl = np.asarray(w, float) * (float(dalpha) / float(alpha)) if alpha > 0 else \
             np.full(self.z, float(dalpha) / float(np.sum(self.t440)))
-        cols = [dk[:, 0] + dk[:, 2:] @ dw_dchl, dk[:, 1]]
-        J = np.column_stack([self.signal(c) for c in cols]).reshape(self.m, self.n, 2)
+        cols = [g * (dk[:, 0] + dk[:, 2:] @ dw_dchl), g * dk[:, 1]]
+        free = tuple(free)
+        if gain is not None:
+            cols.append(self.attenuation(chl, cdom, w))
+            free = free + (True,)
+        p = len(cols)
+        J = np.column_stack([self.signal(c) for c in cols]).reshape(self.m, self.n, p)
         n_s = 0
         w2 = (self.wt ** 2).reshape(self.m, self.n, 1)
         if fixed_s is None:
@@ -124,12 +146,12 @@ class WaterModel:
             mean = (J * w2).sum(axis=1, keepdims=True) / w2.sum(axis=1, keepdims=True)
             J = J - active[:, None, None] * mean
             n_s = int(active.sum())
-        J = (J * np.sqrt(w2)).reshape(self.m * self.n, 2)[:, list(np.flatnonzero(free))]
-        r = self.residual(M_vec, self.attenuation(chl, cdom, w), s)
+        J = (J * np.sqrt(w2)).reshape(self.m * self.n, p)[:, list(np.flatnonzero(free))]
+        r = self.residual(M_vec, g * self.attenuation(chl, cdom, w), s)
         dof = self.m * self.n - J.shape[1] - n_s
-        out = np.zeros(2)
+        out = np.zeros(p)
         if J.shape[1] == 0 or dof <= 0:
-            return tuple(np.where(np.asarray(free), np.inf, 0.0))
+            return tuple(np.where(np.asarray(free[:2]), np.inf, 0.0))
         sigma2 = 1.0 if self.noise_known else float(r @ r) / dof
         try:
             cov = sigma2 * np.linalg.inv(J.T @ J)

@@ -140,12 +140,12 @@ def _engines(bm, M, w2, scale, chl, cdom, L):
     Ms = (M / scale).reshape(1, -1)
     W2 = w2.reshape(1, -1)
     phi, dphi = bm.weights(np.array([chl]), derivative=True)
-    f, s, g, H = sca_batch.evaluate_numpy(phi, dphi, np.array([cdom]), np.array([L]), bm.S,
-                                          bm.base, bm.ecdom, bm.Bt, Ms, W2, np.array([scale]),
-                                          np.zeros((1, 3)), False, bm.m, bm.n, True)
+    f, s, g, H, _ = sca_batch.evaluate_numpy(phi, dphi, np.array([cdom]), np.array([L]), bm.S,
+                                             bm.base, bm.ecdom, bm.Bt, Ms, W2, np.array([scale]),
+                                             np.zeros((1, 3)), False, bm.m, bm.n, True)
     out = {"numpy": (f[0], s[0], g[0], H[0])}
     prob = (np.array([L]), np.array([scale]), Ms, W2, np.zeros((1, 3)), False, bm.S, bm.base,
-            bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0)
+            bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0, False)
     buf = make_buffers(bm.S.shape[1], bm.m, bm.n)
     f1, g1, g2, h11, h12, h22 = eval_chart(chl ** bm.e0, cdom, 0, prob, buf, True)
     out["kernel"] = (f1, buf[0].copy(), np.array([g1, g2]), np.array([h11, h12, h22]))

@@ -1,7 +1,7 @@
 """The ``uw3p`` command: simulate a chart, estimate the water, regenerate figures, benchmark.
 
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S] [--gain free]
     uw3p estimate --batch charts.csv --distance 5 [--json]
     uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
     uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
@@ -149,15 +149,15 @@ def _estimate_batch(args, out, err):
             arr[np.isnan(arr)] = opt
     fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
     res = estimate_batch(M, depth=depth, distance=distance, sigma=sigma, saturation=args.saturation,
-                         fix=fix, max_iter=args.max_iter, **_setup_kwargs(args))
+                         fix=fix, max_iter=args.max_iter, gain=args.gain, **_setup_kwargs(args))
     if args.json:
         records = [dict(chart=c, chl=float(res.chl[j]), cdom=float(res.cdom[j]),
                         chl_ci=_ci(res.chl_ci[j]), cdom_ci=_ci(res.cdom_ci[j]),
                         reliable=bool(res.reliable[j]), flags=list(res.flags[j]),
                         fit_rms=float(res.fit_rms[j]), chi2_dof=float(res.chi2_dof[j]),
                         chi2_p=float(res.chi2_p[j]), dof=int(res.dof[j]),
-                        backscatter=res.backscatter[j].tolist(),
-                        attenuation=res.attenuation[j].tolist(),
+                        backscatter=res.backscatter[j].tolist(), gain=float(res.gain[j]),
+                        gain_ci=_ci(res.gain_ci[j]), attenuation=res.attenuation[j].tolist(),
                         objective=float(res.objective[j]), converged=bool(res.converged[j]),
                         iterations=int(res.iterations[j]), status=str(res.status[j]),
                         depth=float(depth[j]), distance=float(distance[j]))
@@ -168,13 +168,14 @@ def _estimate_batch(args, out, err):
         m = M.shape[1]
         out.write("chart,chl,chl_lo,chl_hi,cdom,cdom_lo,cdom_hi,reliable,flags,fit_rms,chi2_dof,"
                   + ",".join(f"backscatter_{j}" for j in range(m))
-                  + ",objective,converged,iterations,status\n")
+                  + ",gain,gain_lo,gain_hi,objective,converged,iterations,status\n")
         for j, c in enumerate(charts):
             out.write(f"{c},{res.chl[j]!r},{res.chl_ci[j, 0]!r},{res.chl_ci[j, 1]!r},"
                       f"{res.cdom[j]!r},{res.cdom_ci[j, 0]!r},{res.cdom_ci[j, 1]!r},"
                       f"{bool(res.reliable[j])},{' '.join(res.flags[j])},{res.fit_rms[j]!r},"
                       f"{res.chi2_dof[j]!r},"
                       + ",".join(repr(float(v)) for v in res.backscatter[j])
+                      + f",{res.gain[j]!r},{res.gain_ci[j, 0]!r},{res.gain_ci[j, 1]!r}"
                       + f",{res.objective[j]!r},{bool(res.converged[j])},{res.iterations[j]},"
                         f"{res.status[j]}\n")
     err.write(f"{len(charts)} charts, {int(res.converged.sum())} converged, "
@@ -205,7 +206,8 @@ def _estimate(args, out, err):
     try:
         res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
                        saturation=args.saturation, mode=args.mode or "safeguarded",
-                       fix=fix or None, max_iter=args.max_iter, **_setup_kwargs(args))
+                       fix=fix or None, max_iter=args.max_iter, gain=args.gain,
+                       **_setup_kwargs(args))
     except ValueError as exc:
         msg = str(exc)
         if msg.startswith(("rgb:", "sigma:")):  # name the file, in its orientation (rows = patches)
@@ -218,6 +220,9 @@ def _estimate(args, out, err):
         out.write(f"chl (C)          {res.chl:.6g} mg m^-3, {_interval_text(res.chl_ci, 'mg m^-3')}\n")
         out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1, {_interval_text(res.cdom_ci, 'm^-1')}\n")
         out.write("backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter) + "\n")
+        if args.gain == "free":
+            out.write(f"gain             {res.gain:.6g}, {_interval_text(res.gain_ci, '')}"
+                      "(data units per model unit)\n")
         chi2 = (f"chi2/dof {res.chi2_dof:.3g} (p = {res.chi2_p:.3g}, dof {res.dof})"
                 if res.noise_known else "chi2 not tested: the noise is unknown")
         out.write(f"fit              fit_rms {res.fit_rms:.3g}, {chi2}\n")
@@ -349,6 +354,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--saturation", type=float, default=None,
                    help="the sensor's clip level in the data's units (values there are flagged)")
     p.add_argument("--json", action="store_true", help="print the whole result as JSON")
+    p.add_argument("--gain", default="known", choices=["known", "free"],
+                   help="known: values in model units (as simulate writes them); free: any units "
+                        "(e.g. raw camera values), one unknown exposure gain fitted with the water")
     _add_setup(p)
     p.set_defaults(func=_estimate)
 
