@@ -103,16 +103,20 @@ class ChartSetup:
         return self.sensitivities.T @ self.illuminant
 
 
-def chart_setup(camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavelengths=None) -> ChartSetup:
+def chart_setup(camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavelengths=None,
+                channel_gains=None) -> ChartSetup:
     """Build the P, i, R of eq 15 on a grid; used by both the simulator and the estimator.
 
+    ``channel_gains`` (m,): the camera's channel balance, multiplying its peak-normalised curves
+    (:func:`camera_sensitivities`) before P is scaled (a calibrated camera; default: none).
     Named (string) inputs are cached, so repeated calls return the same object.
     """
     wl = wavelength_grid(wavelengths)
-    if all(x is None or (isinstance(x, str) and not x.lower().endswith((".csv", ".txt")))
-           for x in (camera, illuminant, reflectances)):
+    if channel_gains is None and all(
+            x is None or (isinstance(x, str) and not x.lower().endswith((".csv", ".txt")))
+            for x in (camera, illuminant, reflectances)):
         return _chart_setup_named(camera, illuminant, reflectances, tuple(wl))
-    return _build_setup(camera, illuminant, reflectances, wl)
+    return _build_setup(camera, illuminant, reflectances, wl, channel_gains)
 
 
 @functools.lru_cache(maxsize=32)
@@ -120,8 +124,14 @@ def _chart_setup_named(camera, illuminant, reflectances, wl_key):
     return _build_setup(camera, illuminant, reflectances, np.array(wl_key))
 
 
-def _build_setup(camera, illuminant, reflectances, wl) -> ChartSetup:
+def _build_setup(camera, illuminant, reflectances, wl, channel_gains=None) -> ChartSetup:
     sens = camera_sensitivities(camera, wl)
+    if channel_gains is not None:
+        g = np.asarray(channel_gains, dtype=float)
+        if g.shape != (sens.shape[1],) or not np.all(np.isfinite(g)) or np.any(g <= 0):
+            raise ValueError(f"channel_gains: expected {sens.shape[1]} positive numbers, got "
+                             f"{channel_gains!r}")
+        sens = sens * g
     i = illuminant_spd(illuminant, wl)
     R = chart_reflectances(reflectances, wl)
     P = sens * quadrature_weights(wl)[:, None]

@@ -11,12 +11,14 @@ import forward
 import sca
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Each package and the packages it may import (the layers: forward <- sca <- experiments, uw3p).
+#: Each package and the packages it may import (the layers: forward <- sca <- measure <-
+#: experiments, uw3p).
 LAYERS = {
     "forward": set(),
     "sca": {"forward"},
-    "experiments": {"forward", "sca"},
-    "uw3p": {"forward", "sca", "experiments"},
+    "measure": {"forward", "sca"},
+    "experiments": {"forward", "sca", "measure"},
+    "uw3p": {"forward", "sca", "measure", "experiments"},
 }
 
 

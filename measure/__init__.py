@@ -1,0 +1,17 @@
+"""uw3p measure: photographs of a ColorChecker in, measurements of the water and corrected
+images out (read -> sample -> calibrate -> measure -> correct).
+
+Above :mod:`forward` and :mod:`sca`; the ``uw3p calibrate`` and ``uw3p measure`` commands are
+thin wrappers of these functions.
+"""
+
+from .camera import Profile, calibrate, camera_setup, load_profile
+from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, parse_corners, sample_patches
+from .image import Photo, demosaic, read_image
+from .measure import MEASURE_BLOCKING, Measurement, correction, measure
+from .output import corrected_image, srgb_preview, write_outputs
+
+__all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSample",
+           "parse_corners", "sample_patches", "orientations", "Profile", "calibrate",
+           "camera_setup", "load_profile", "Measurement", "measure", "correction",
+           "MEASURE_BLOCKING", "write_outputs", "corrected_image", "srgb_preview"]

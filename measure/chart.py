@@ -1,0 +1,226 @@
+"""Locating the ColorChecker Classic in a photograph and sampling its 24 patches.
+
+The user gives the chart's four outer corners in pixels, in this order: next to patch 1 (dark
+skin), next to patch 6 (bluish green), next to patch 24 (black), next to patch 19 (white). The
+projective map (homography) from the chart's layout to the image places every patch; the inner
+part of each patch is sampled. Per patch and channel: a robust mean (the mean after iterative
+clipping at ``CLIP_SIGMA`` robust standard deviations, MAD-based), its standard error from the
+pixel spread (the estimator's ``sigma``), the pixel count and the clipped fraction.
+
+Orientation: the corners of a rectangle can be given in 8 orders; the 4 that keep the long side
+first are the chart and its 180° rotation and two mirror images. The grey row (patches 19-24:
+white to black) falls monotonically in every channel under any water (its reflectances do, and
+the water's attenuation and veiling light are the same for every patch), which the other
+three orientations' bottom rows do not; :func:`orientations` tests each.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
+           "sample_patches", "orientations", "grey_row_ok", "ORIENTATIONS"]
+
+#: Iterative clipping of a patch's pixels at this many robust standard deviations (MAD x 1.4826)
+CLIP_SIGMA = 4.0
+#: Fewest pixels of one channel in a patch's sampled box
+MIN_PIXELS = 4
+#: The grey row's steps must exceed this many standard errors to count as a fall
+GREY_STEP_SE = 3.0
+
+
+@dataclass(frozen=True)
+class ChartLayout:
+    """Geometry of a 6 x 4 patch chart in units of the patch pitch: the given corners are the
+    outer corners of a frame ``margin_x`` / ``margin_y`` pitches wider than the patch grid on
+    each side; ``sample`` is the side of the centred square sampled in each patch (fraction of
+    the pitch)."""
+
+    columns: int = 6
+    rows: int = 4
+    margin_x: float = 0.0
+    margin_y: float = 0.0
+    sample: float = 0.5
+
+    @property
+    def size(self):
+        return (self.columns + 2 * self.margin_x, self.rows + 2 * self.margin_y)
+
+
+#: 'patches': the corners are the outer corners of the patch grid (default: they are what one
+#: sees best in an underwater photo); 'card': the corners of the X-Rite ColorChecker Classic card
+#: (about 279 x 216 mm around a grid of ~44 mm pitch: margins ~0.17 and ~0.45 pitch).
+LAYOUTS = {"patches": ChartLayout(), "card": ChartLayout(margin_x=0.17, margin_y=0.45)}
+
+#: corner orders tried (indices into the given four corners) and their names: the given order,
+#: the chart rotated 180°, mirrored left-right, mirrored top-bottom
+ORIENTATIONS = {"as given": (0, 1, 2, 3), "rotated 180°": (2, 3, 0, 1),
+                "mirrored left-right": (1, 0, 3, 2), "mirrored top-bottom": (3, 2, 1, 0)}
+
+
+def parse_corners(text) -> np.ndarray:
+    """'x1,y1 x2,y2 x3,y3 x4,y4' (or a (4, 2) array) -> (4, 2) float array."""
+    if isinstance(text, str):
+        try:
+            pts = [tuple(float(v) for v in tok.split(",")) for tok in text.replace(";", " ").split()]
+        except ValueError:
+            pts = None
+        if not pts or any(len(p) != 2 for p in pts) or len(pts) != 4:
+            raise ValueError(f"corners: expected 'x1,y1 x2,y2 x3,y3 x4,y4' (four x,y pixel pairs), "
+                             f"got {text!r}")
+        arr = np.array(pts, float)
+    else:
+        arr = np.asarray(text, float)
+        if arr.shape != (4, 2):
+            raise ValueError(f"corners: expected four (x, y) pairs, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("corners: must be finite numbers")
+    return arr
+
+
+def homography(src, dst) -> np.ndarray:
+    """3 x 3 projective map H with dst ~ H src for four point pairs (direct linear transform)."""
+    A = []
+    for (x, y), (u, v) in zip(np.asarray(src, float), np.asarray(dst, float)):
+        A.append([x, y, 1, 0, 0, 0, -u * x, -u * y, -u])
+        A.append([0, 0, 0, x, y, 1, -v * x, -v * y, -v])
+    _, sv, vt = np.linalg.svd(np.array(A))
+    if sv[-2] < 1e-9 * sv[0]:
+        raise ValueError("corners: degenerate (three of them on a line, or repeated)")
+    H = vt[-1].reshape(3, 3)
+    return H / H[2, 2]
+
+
+def _apply(H, pts):
+    pts = np.asarray(pts, float)
+    q = np.c_[pts, np.ones(len(pts))] @ H.T
+    return q[:, :2] / q[:, 2:3]
+
+
+def _check_geometry(corners, size):
+    """Refuse corners outside the image or not a convex quadrilateral in order."""
+    W, H = size
+    bad = [i + 1 for i, (x, y) in enumerate(corners) if not (0 <= x <= W - 1 and 0 <= y <= H - 1)]
+    if bad:
+        raise ValueError(f"corners: corner(s) {bad} lie outside the image ({W} x {H} pixels)")
+    cross = []
+    for i in range(4):
+        a, b, c = corners[i], corners[(i + 1) % 4], corners[(i + 2) % 4]
+        cross.append(np.cross(b - a, c - b))
+    if not (all(v > 0 for v in cross) or all(v < 0 for v in cross)):
+        raise ValueError("corners: they do not form a convex quadrilateral in the order given "
+                         "(next to patch 1, patch 6, patch 24, patch 19: around the chart)")
+
+
+def _long_side_first(corners):
+    """True when corner 1 -> 2 (six patches) is longer than 2 -> 3 (four)."""
+    a = np.linalg.norm(corners[1] - corners[0]) + np.linalg.norm(corners[2] - corners[3])
+    b = np.linalg.norm(corners[2] - corners[1]) + np.linalg.norm(corners[3] - corners[0])
+    return a > b
+
+
+@dataclass
+class PatchSample:
+    """Sampled patch values, ColorChecker order: ``rgb``, ``sigma`` (3, 24) raw units (robust
+    mean and its standard error), ``n_pixels`` (3, 24), ``clipped`` (3, 24) fraction of the
+    sampled pixels at the white level, ``boxes`` (24, 4, 2) the sampled squares in pixels."""
+
+    rgb: np.ndarray
+    sigma: np.ndarray
+    n_pixels: np.ndarray
+    clipped: np.ndarray
+    boxes: np.ndarray
+
+
+def _robust_mean(v):
+    """Mean and standard error after iterative clipping at CLIP_SIGMA robust SDs."""
+    keep = v
+    for _ in range(5):
+        med = np.median(keep)
+        mad = 1.4826 * np.median(np.abs(keep - med))
+        if not mad > 0:
+            break
+        new = v[np.abs(v - med) <= CLIP_SIGMA * mad]
+        if new.size == keep.size:
+            break
+        keep = new
+    n = keep.size
+    sd = float(np.std(keep, ddof=1)) if n > 1 else np.inf
+    return float(np.mean(keep)), sd / np.sqrt(n), n
+
+
+def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"]) -> PatchSample:
+    """Sample the 24 patches of ``photo`` (:class:`measure.Photo`) inside ``corners``."""
+    corners = parse_corners(corners)
+    _check_geometry(corners, photo.size)
+    Wc, Hc = layout.size
+    H = homography(np.array([[0, 0], [Wc, 0], [Wc, Hc], [0, Hc]], float), corners)
+    Hinv = np.linalg.inv(H)
+    n = layout.columns * layout.rows
+    rgb = np.zeros((3, n))
+    sigma = np.zeros((3, n))
+    npx = np.zeros((3, n), dtype=int)
+    clip = np.zeros((3, n))
+    boxes = np.zeros((n, 4, 2))
+    h = layout.sample / 2
+    for j in range(n):
+        r, c = divmod(j, layout.columns)
+        cx, cy = layout.margin_x + c + 0.5, layout.margin_y + r + 0.5
+        sq = np.array([[cx - h, cy - h], [cx + h, cy - h], [cx + h, cy + h], [cx - h, cy + h]])
+        box = _apply(H, sq)
+        boxes[j] = box
+        x0, y0 = np.floor(box.min(axis=0)).astype(int)
+        x1, y1 = np.ceil(box.max(axis=0)).astype(int)
+        x0, y0 = max(x0, 0), max(y0, 0)
+        x1, y1 = min(x1, photo.size[0] - 1), min(y1, photo.size[1] - 1)
+        ys, xs = np.mgrid[y0:y1 + 1, x0:x1 + 1]
+        uv = _apply(Hinv, np.c_[xs.ravel(), ys.ravel()])
+        inside = (np.abs(uv[:, 0] - cx) <= h) & (np.abs(uv[:, 1] - cy) <= h)
+        yy, xx = ys.ravel()[inside], xs.ravel()[inside]
+        for ch in range(3):
+            if photo.kind == "raw":
+                sel = photo.channel[yy, xx] == ch
+                vals = photo.data[yy[sel], xx[sel]]
+                clipped = photo.clipped[yy[sel], xx[sel]]
+            else:
+                vals = photo.data[yy, xx, ch]
+                clipped = photo.clipped[yy, xx]
+            if vals.size < MIN_PIXELS:
+                raise ValueError(f"corners: patch {j + 1} covers {vals.size} pixels of channel "
+                                 f"{'RGB'[ch]} (at least {MIN_PIXELS} needed): the chart is too "
+                                 "small in the image or the corners are wrong")
+            mean, se, cnt = _robust_mean(vals.astype(float))
+            rgb[ch, j], sigma[ch, j], npx[ch, j] = mean, se, cnt
+            clip[ch, j] = float(np.mean(clipped))
+    return PatchSample(rgb, sigma, npx, clip, boxes)
+
+
+def grey_row_ok(sample: PatchSample, layout: ChartLayout = LAYOUTS["patches"]) -> bool:
+    """True when the bottom row (patches 19-24) falls from white to black in every channel by
+    more than GREY_STEP_SE standard errors at each step (clipped values count as falling)."""
+    row = slice(layout.columns * (layout.rows - 1), layout.columns * layout.rows)
+    v, se = sample.rgb[:, row], sample.sigma[:, row]
+    clip = sample.clipped[:, row] > 0
+    steps = v[:, :-1] - v[:, 1:]
+    tol = GREY_STEP_SE * np.hypot(se[:, :-1], se[:, 1:])
+    return bool(np.all((steps > tol) | clip[:, :-1]))
+
+
+def orientations(photo, corners, layout: ChartLayout = LAYOUTS["patches"]):
+    """Samples of the chart for the corner orders of :data:`ORIENTATIONS` (those whose first
+    side is the long one): {name: (corners, PatchSample, grey_row_ok)}. Corners given starting
+    at the wrong short side (the chart turned 90°) are refused."""
+    corners = parse_corners(corners)
+    _check_geometry(corners, photo.size)
+    if not _long_side_first(corners):
+        raise ValueError("corners: the first side (corner 1 -> 2, along patches 1-6) is the "
+                         "short one: the chart's six-patch side comes first (order: next to "
+                         "patch 1, patch 6, patch 24, patch 19)")
+    out = {}
+    for name, order in ORIENTATIONS.items():
+        c = corners[list(order)]
+        s = sample_patches(photo, c, layout)
+        out[name] = (c, s, grey_row_ok(s, layout))
+    return out

@@ -1,0 +1,181 @@
+"""Reading photographs: camera RAW through rawpy (LibRaw) and linear 16-bit TIFF (tifffile).
+
+A RAW file is read as its colour-filter-array (CFA) mosaic: linear raw values with the black
+level of each CFA channel subtracted, no white balance, no demosaic; every pixel keeps the
+channel (0 red, 1 green, 2 blue) of its filter, so each patch value is measured from its own
+channel's pixels. Pixels at or above the white level are marked clipped. A TIFF is taken as
+demosaiced, linear camera RGB (black level 0 unless given; clipped at the type's maximum unless
+a white level is given). Exposure time, ISO and f-number are read from the file's EXIF/TIFF
+tags where it has them (tifffile: DNG and most RAW formats are TIFF containers).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS"]
+
+#: Extensions read as TIFF (demosaiced RGB); everything else goes to LibRaw.
+TIFF_EXTENSIONS = (".tif", ".tiff")
+#: Common RAW extensions (informative: LibRaw decides what it can read).
+RAW_EXTENSIONS = (".dng", ".nef", ".cr2", ".cr3", ".arw", ".orf", ".rw2", ".raf", ".pef", ".srw")
+#: EXIF tags recorded (TIFF tag codes)
+EXIF_TAGS = {33434: "exposure_s", 33437: "f_number", 34855: "iso"}
+#: LibRaw's colour letters -> the model's channel index (both greens of a Bayer CFA are green)
+CHANNEL_OF_LETTER = {"R": 0, "G": 1, "B": 2}
+
+
+@dataclass
+class Photo:
+    """A photograph in linear raw units (black level subtracted).
+
+    ``kind`` 'raw': ``data`` (H, W) is the CFA mosaic and ``channel`` (H, W) the channel index
+    (0, 1, 2) of every pixel; 'rgb': ``data`` (H, W, 3) and ``channel`` None. ``clipped`` marks
+    pixels (any channel for 'rgb') at or above the white level; ``white`` is the clip level
+    after black subtraction (per channel, (3,)); ``black`` the black level that was subtracted
+    (per channel).
+    """
+
+    path: str
+    kind: str
+    data: np.ndarray
+    channel: np.ndarray | None
+    clipped: np.ndarray
+    white: np.ndarray
+    black: np.ndarray
+    exposure: dict = field(default_factory=dict)
+
+    @property
+    def size(self) -> tuple:
+        """(width, height) in pixels."""
+        return (int(self.data.shape[1]), int(self.data.shape[0]))
+
+
+def _exif(path) -> dict:
+    """Exposure time (s), f-number and ISO from the file's TIFF/EXIF tags, where present."""
+    import tifffile
+
+    out = {}
+    try:
+        with tifffile.TiffFile(path) as tf:
+            for page in tf.pages[:1]:
+                tags = dict(page.tags.items())
+                exif = tags.get("ExifTag") or tags.get(34665)
+                pools = [{t.code: t.value for t in page.tags.values()}]
+                if exif is not None and isinstance(exif.value, dict):
+                    pools.append({k: v for k, v in exif.value.items()})
+                for pool in pools:
+                    for code, name in EXIF_TAGS.items():
+                        val = pool.get(code, pool.get(tifffile.TIFF.TAGS.get(code, "")))
+                        if val is None or name in out:
+                            continue
+                        if isinstance(val, tuple) and len(val) == 2 and val[1]:
+                            val = val[0] / val[1]
+                        elif isinstance(val, tuple) and len(val) >= 1:
+                            val = val[0]
+                        out[name] = float(val)
+    except Exception:  # not a TIFF container: no metadata, which is allowed
+        return {}
+    return out
+
+
+def read_image(path, *, black_level=None, white_level=None) -> Photo:
+    """Read a camera RAW (any LibRaw format, DNG included) or a linear 16-bit TIFF.
+
+    ``black_level`` / ``white_level`` (raw units, scalar or per channel) override the file's
+    (for a TIFF: default 0 and the type's maximum). Raises ValueError naming the file when it
+    cannot be read.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"image: {p}: no such file")
+    if p.suffix.lower() in TIFF_EXTENSIONS:
+        return _read_tiff(p, black_level, white_level)
+    return _read_raw(p, black_level, white_level)
+
+
+def _levels(name, value, n):
+    arr = np.broadcast_to(np.asarray(value, float), (n,)).astype(float)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise ValueError(f"{name}: must be finite and >= 0, got {value!r}")
+    return arr
+
+
+def _read_raw(p: Path, black_level, white_level) -> Photo:
+    import rawpy
+
+    try:
+        raw = rawpy.imread(str(p))
+    except (rawpy.LibRawError, OSError) as exc:
+        raise ValueError(f"image: {p}: not a RAW file LibRaw can read, nor a .tif/.tiff "
+                         f"({type(exc).__name__})") from None
+    with raw:
+        try:
+            mosaic = raw.raw_image_visible.copy()
+            colors = raw.raw_colors_visible.copy()
+        except rawpy.LibRawError as exc:
+            raise ValueError(f"image: {p}: LibRaw cannot unpack it ({type(exc).__name__})") from None
+        desc = raw.color_desc.decode("ascii", "replace")
+        blacks = np.asarray(raw.black_level_per_channel, float)
+        white = float(raw.white_level)
+    letters = [desc[i] if i < len(desc) else "?" for i in range(4)]
+    if any(letter not in CHANNEL_OF_LETTER for letter in set(letters[i] for i in np.unique(colors))):
+        raise ValueError(f"image: {p}: colour filter array {desc!r} is not red/green/blue")
+    lut = np.array([CHANNEL_OF_LETTER.get(letter, 0) for letter in letters], dtype=np.int8)
+    channel = lut[colors]
+    black_px = blacks[colors] if black_level is None else \
+        _levels("black_level", black_level, 3)[channel]
+    if white_level is not None:
+        white = float(_levels("white_level", white_level, 1)[0])
+    clipped = mosaic >= white
+    data = mosaic.astype(np.float32) - black_px.astype(np.float32)
+    black3 = np.array([black_px[channel == c].mean() if np.any(channel == c) else np.nan
+                       for c in range(3)])
+    return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, _exif(p))
+
+
+def _read_tiff(p: Path, black_level, white_level) -> Photo:
+    import tifffile
+
+    try:
+        arr = tifffile.imread(str(p))
+    except Exception as exc:  # tifffile raises many kinds for a bad file
+        raise ValueError(f"image: {p}: not a readable TIFF ({type(exc).__name__}: {exc})") from None
+    if arr.ndim != 3 or arr.shape[-1] not in (3, 4):
+        raise ValueError(f"image: {p}: expected an RGB TIFF (height, width, 3), got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.integer) and not np.issubdtype(arr.dtype, np.floating):
+        raise ValueError(f"image: {p}: unsupported sample type {arr.dtype}")
+    rgb = arr[..., :3]
+    top = float(np.iinfo(rgb.dtype).max) if np.issubdtype(rgb.dtype, np.integer) else np.inf
+    white = top if white_level is None else float(_levels("white_level", white_level, 1)[0])
+    black = _levels("black_level", 0.0 if black_level is None else black_level, 3)
+    clipped = np.any(rgb >= white, axis=-1)
+    data = rgb.astype(np.float32) - black.astype(np.float32)
+    return Photo(str(p), "rgb", data, None, clipped, white - black, black, _exif(p))
+
+
+def demosaic(photo: Photo, gains=None, offset=None) -> np.ndarray:
+    """Linear (H, W, 3) camera RGB of ``photo`` with the per-channel affine map
+    gains * (value - offset) applied first (default identity). A RAW mosaic is demosaiced by
+    bilinear interpolation (normalised convolution of each channel's pixels with the 3 x 3
+    kernel [1 2 1] x [1 2 1]: exact on a smooth image, works for any CFA whose every 3 x 3
+    neighbourhood holds all three channels); an RGB photo is only mapped."""
+    from scipy.ndimage import correlate1d
+
+    gains = np.ones(3) if gains is None else np.asarray(gains, float)
+    offset = np.zeros(3) if offset is None else np.asarray(offset, float)
+    if photo.kind == "rgb":
+        return (photo.data - offset.astype(np.float32)) * gains.astype(np.float32)
+    H, W = photo.data.shape
+    out = np.empty((H, W, 3), np.float32)
+    k = np.array([0.25, 0.5, 0.25], np.float32)
+    for c in range(3):
+        mask = (photo.channel == c).astype(np.float32)
+        vals = mask * ((photo.data - np.float32(offset[c])) * np.float32(gains[c]))
+        num = correlate1d(correlate1d(vals, k, axis=0, mode="mirror"), k, axis=1, mode="mirror")
+        den = correlate1d(correlate1d(mask, k, axis=0, mode="mirror"), k, axis=1, mode="mirror")
+        out[..., c] = num / np.maximum(den, np.float32(1e-12))
+    return out

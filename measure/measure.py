@@ -1,0 +1,242 @@
+"""From a photograph of a chart underwater to a measurement of the water and a corrected image.
+
+:func:`measure`: read (or take) the photo, sample the chart in every corner order and keep the
+one whose grey row falls from white to black (:mod:`measure.chart`), fit C, a_CDOM(440), the
+veiling light and the unknown exposure gain with :func:`sca.estimate` (``gain="free"``, weighted
+by the patches' standard errors), then assess it. :func:`correction` derives the paper's Fig 11
+von Kries correction from the estimated attenuation: corrected = gains * (raw - offset), offset
+the estimated veiling light, gains the ratio of a white's response in air to its response
+through the water.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import forward
+import sca
+from forward import validate
+from forward.water import resolve_water
+from sca.assess import BLOCKING
+
+from .camera import Profile, camera_setup, load_profile
+from .chart import LAYOUTS, ChartLayout, PatchSample, orientations
+from .image import Photo, read_image
+
+__all__ = ["Measurement", "measure", "correction", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
+           "SATURATED_FRACTION", "WHITE_TARGET", "ORIENTATION_CHI2"]
+
+#: Flags of the measurement itself that make it unreliable (besides sca.assess.BLOCKING):
+#: the camera's channel balance is unknown, the chart's orientation could not be verified, too
+#: many patch values are clipped.
+MEASURE_BLOCKING = ("uncalibrated-camera", "orientation-unverified", "saturated")
+#: A clipped patch value is left out of the fit by giving it this sigma (x the largest value):
+#: its weight is then ~1e-12 of the others'.
+CLIPPED_SIGMA = 1e6
+#: More than this fraction of the 72 patch values clipped: 'saturated'.
+SATURATED_FRACTION = 1 / 3
+#: corrected.tiff: the corrected white patch's brightest channel is put at this fraction of
+#: full scale (a common factor of the gains; the correction's colour is its ratios).
+WHITE_TARGET = 0.8
+#: When several orientations pass the grey-row test, the best fit must beat the others by this
+#: chi^2 (else the orientation is not verified).
+ORIENTATION_CHI2 = 25.0
+WHITE = 18  # ColorChecker index of the white patch (patch 19)
+
+
+@dataclass
+class Measurement:
+    """The result of :func:`measure` (see ``to_dict`` for measurement.json)."""
+
+    estimate: sca.Estimate
+    sample: PatchSample
+    orientation: str
+    corners: np.ndarray
+    gains: np.ndarray
+    offset: np.ndarray
+    fitted: np.ndarray
+    attenuation_band: np.ndarray
+    camera: dict
+    photo: Photo = field(repr=False)
+    setup: forward.ChartSetup = field(repr=False)
+    flags: tuple = ()
+    reliable: bool = False
+    notes: list = field(default_factory=list)
+
+    def to_dict(self, version: str = "") -> dict:
+        e = self.estimate
+        return {
+            "estimate": {
+                "chl": e.chl, "cdom": e.cdom, "chl_ci": list(e.chl_ci), "cdom_ci": list(e.cdom_ci),
+                "gain": e.gain, "gain_ci": list(e.gain_ci),
+                "attenuation": e.attenuation.tolist(),
+                "attenuation_band": self.attenuation_band.tolist(),
+                "wavelengths": e.wavelengths.tolist(), "backscatter": e.backscatter.tolist(),
+                "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
+                "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
+                "converged": e.converged, "status": e.status,
+                "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
+                          "model unit", "backscatter": "raw units", "wavelengths": "nm",
+                          "attenuation": "dimensionless k = exp(-(depth + distance) c)"},
+            },
+            "patches": {"rgb": self.sample.rgb.tolist(), "sigma": self.sample.sigma.tolist(),
+                        "n_pixels": self.sample.n_pixels.tolist(),
+                        "clipped": self.sample.clipped.tolist(),
+                        "fitted": self.fitted.tolist(), "boxes": self.sample.boxes.tolist()},
+            "orientation": self.orientation,
+            "corners": self.corners.tolist(),
+            "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist()},
+            "camera": self.camera,
+            "image": {"path": self.photo.path, "size": list(self.photo.size),
+                      "kind": self.photo.kind, "exposure": self.photo.exposure,
+                      "black_level": self.photo.black.tolist(),
+                      "white_level": self.photo.white.tolist()},
+            "notes": self.notes,
+            "version": version,
+        }
+
+
+def _layout(layout) -> ChartLayout:
+    if isinstance(layout, ChartLayout):
+        return layout
+    if layout not in LAYOUTS:
+        raise ValueError(f"layout: must be one of {sorted(LAYOUTS)} or a ChartLayout, got {layout!r}")
+    return LAYOUTS[layout]
+
+
+def _fit(sample: PatchSample, setup, depth, distance, water):
+    """sca.estimate with a free gain on the sample; clipped values left out (CLIPPED_SIGMA)."""
+    M = np.maximum(sample.rgb, 0.0)
+    sig = np.where(np.isfinite(sample.sigma) & (sample.sigma > 0), sample.sigma,
+                   CLIPPED_SIGMA * max(float(M.max()), 1.0))
+    clipped = sample.clipped > 0
+    sig = np.where(clipped, CLIPPED_SIGMA * max(float(M.max()), 1.0), sig)
+    if not M.max() > 0:
+        raise ValueError("image: every sampled patch value is <= 0 after the black level: the "
+                         "photo is black or the corners miss the chart")
+    return sca.estimate(M, depth=depth, distance=distance, sigma=sig, gain="free", setup=setup,
+                        water=water)
+
+
+def _choose_orientation(cands, setup, depth, distance, water):
+    """(name, corners, sample, estimate, flags, notes) of the orientation to use."""
+    passing = [name for name, (_, _, ok) in cands.items() if ok]
+    if len(passing) == 1:
+        name = passing[0]
+        c, s, _ = cands[name]
+        notes = [] if name == "as given" else [
+            f"the corners were given in the wrong order; the chart was found {name} with respect "
+            "to them and sampled in its true orientation"]
+        flags = [] if name == "as given" else ["orientation-corrected"]
+        return name, c, s, _fit(s, setup, depth, distance, water), flags, notes
+    pool = passing or list(cands)
+    fits = {name: _fit(cands[name][1], setup, depth, distance, water) for name in pool}
+    order = sorted(fits, key=lambda k: fits[k].objective)
+    best = order[0]
+    c, s, _ = cands[best]
+    clear = len(order) > 1 and fits[order[1]].objective - fits[best].objective > ORIENTATION_CHI2
+    if passing and clear:
+        flags = [] if best == "as given" else ["orientation-corrected"]
+        return best, c, s, fits[best], flags, [
+            f"several orientations have a falling grey row; the fit chose {best} (chi^2 "
+            f"{fits[best].objective:.4g} against {fits[order[1]].objective:.4g})"]
+    c, s, _ = cands["as given"]
+    why = ("no orientation of the corners shows the grey row (patches 19-24) falling from white "
+           "to black in every channel" if not passing else
+           "several orientations fit about equally well")
+    return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water), \
+        ["orientation-unverified"], [f"orientation not verified: {why}; check --corners"]
+
+
+def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535.0):
+    """(gains (3,), offset (3,)) of corrected = gains * (raw - offset): offset the estimated
+    veiling light (raw units), gains the von Kries ratio (P^T i) / (P^T diag(i) k) of a white's
+    response in air to its response through the water, times one common factor that puts the
+    corrected white patch's brightest channel (``white_value``: its raw values (3,)) at
+    WHITE_TARGET x ``full_scale``."""
+    P, i = setup.sensitivities, setup.illuminant
+    vk = (P.T @ i) / (P.T @ (i * estimate.attenuation))
+    offset = np.asarray(estimate.backscatter, float)
+    if white_value is not None:
+        top = float(np.max(vk * (np.asarray(white_value, float) - offset)))
+        if top > 0:
+            vk = vk * (WHITE_TARGET * full_scale / top)
+    return vk, offset
+
+
+def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
+    """k at the corners of the (C, a_CDOM) intervals: k falls with both, so (k(hi, hi),
+    k(lo, lo)) bound it over the box of the two intervals (a conservative band)."""
+    lo_c, hi_c = estimate.chl_ci
+    lo_a, hi_a = estimate.cdom_ci
+    hi_c = min(hi_c, sca.assess.CHL_MAX)
+    hi_a = min(hi_a, sca.assess.CDOM_MAX)
+    k_low = forward.attenuation(wl, hi_c, hi_a, depth, distance, water=mdl_water)
+    k_high = forward.attenuation(wl, lo_c, lo_a, depth, distance, water=mdl_water)
+    return np.vstack([k_low, k_high])
+
+
+def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
+            quantal: bool = False, profile=None, illuminant=None, layout="patches",
+            water: forward.Water | None = None, black_level=None,
+            white_level=None) -> Measurement:
+    """Measure the water from a photograph of a ColorChecker Classic underwater.
+
+    Parameters
+    ----------
+    image : path of a RAW (any LibRaw format) or linear 16-bit TIFF, or a :class:`measure.Photo`.
+    corners : 'x1,y1 x2,y2 x3,y3 x4,y4' pixels: next to patch 1, 6, 24, 19 (see measure.chart).
+    depth, distance : m, the chart's depth and the camera-to-chart distance.
+    camera : colour-science camera name or CSV (wavelength, red, green, blue).
+    quantal : the curves act on photons (converted to energy).
+    profile : a :class:`measure.Profile` or the path of ``uw3p calibrate``'s JSON. Without it the
+        curves' own balance is used and the result is flagged ``uncalibrated-camera``.
+    illuminant : the surface illuminant (default D65).
+    layout : 'patches' (corners of the patch grid), 'card' or a :class:`measure.ChartLayout`.
+    water : :class:`forward.Water` (default the paper's).
+    black_level, white_level : override the file's (raw units).
+    """
+    photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
+                                                              white_level=white_level)
+    if isinstance(profile, (str, bytes)) or hasattr(profile, "__fspath__"):
+        profile = load_profile(profile)
+    if profile is not None and not isinstance(profile, Profile):
+        raise ValueError("profile: expected a measure.Profile or the path of a profile JSON")
+    depth = validate.scalar("depth", depth)
+    distance = validate.scalar("distance", distance)
+    water = resolve_water(water)
+    lay = _layout(layout)
+    setup = camera_setup(camera, quantal=quantal, illuminant=illuminant,
+                         gains=None if profile is None else profile.gains)
+    cands = orientations(photo, corners, lay)
+    name, c, sample, est, flags, notes = _choose_orientation(cands, setup, depth, distance, water)
+    clipped = sample.clipped > 0
+    if clipped.any():
+        flags.append("clipped-patches")
+        bad = sorted({j + 1 for j in np.flatnonzero(clipped.any(axis=0))})
+        notes.append(f"clipped values left out of the fit (patches {bad})")
+    if clipped.mean() > SATURATED_FRACTION:
+        flags.append("saturated")
+    if profile is None:
+        flags.append("uncalibrated-camera")
+        notes.append("no camera profile: the curves' own channel balance was used (run uw3p "
+                     "calibrate on a photo of the chart in air)")
+    elif profile.camera not in ("custom", camera if isinstance(camera, str) else "custom"):
+        raise ValueError(f"profile: made for camera {profile.camera!r}, not {camera!r}")
+    all_flags = tuple(dict.fromkeys(list(est.flags) + flags))
+    reliable = not any(f in BLOCKING or f in MEASURE_BLOCKING for f in all_flags)
+    G = forward.camera_response(setup.sensitivities, setup.illuminant, est.attenuation,
+                                setup.reflectances)
+    fitted = est.gain * G + est.backscatter[:, None]
+    gains, offset = correction(est, setup, sample.rgb[:, WHITE])
+    band = _band(est, water, depth, distance, setup.wavelengths) if np.all(
+        np.isfinite(est.chl_ci)) else np.vstack([est.attenuation, est.attenuation]) * np.nan
+    cam = {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),
+           "profile": None if profile is None else {"gains": profile.gains,
+                                                    "illuminant": profile.illuminant,
+                                                    "image": profile.image},
+           "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
+    return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
+                       all_flags, reliable, notes)

@@ -1,0 +1,171 @@
+"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected.png, report.png."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+import forward
+
+from .image import demosaic
+
+__all__ = ["write_outputs", "corrected_image", "srgb_preview", "PREVIEW_PIXELS"]
+
+#: Longest side of the PNG previews, pixels
+PREVIEW_PIXELS = 1600
+
+
+def _strict(x):
+    if isinstance(x, dict):
+        return {k: _strict(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_strict(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        x = float(x)
+        if np.isnan(x):
+            return None
+        if np.isinf(x):
+            return "inf" if x > 0 else "-inf"
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def corrected_image(meas) -> np.ndarray:
+    """The whole photo, demosaiced and corrected (gains * (raw - offset)), uint16 (H, W, 3)."""
+    rgb = demosaic(meas.photo, meas.gains, meas.offset)
+    return np.clip(np.rint(rgb), 0, 65535).astype(np.uint16)
+
+
+def _stride(shape):
+    return max(1, int(np.ceil(max(shape[:2]) / PREVIEW_PIXELS)))
+
+
+def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
+    """8-bit sRGB (h, w, 3) of linear camera RGB, subsampled to PREVIEW_PIXELS: the camera's
+    3 x 3 matrix to XYZ (forward.camera_to_xyz_matrix), colour-science's XYZ -> sRGB (D65),
+    scaled so that ``white`` (camera RGB (3,), default the 99.5th percentile) is Y = 1."""
+    import colour
+
+    s = _stride(rgb_linear.shape)
+    small = np.asarray(rgb_linear[::s, ::s], float)
+    M = forward.camera_to_xyz_matrix(setup)
+    xyz = small @ M.T
+    ref = (M @ np.asarray(white, float))[1] if white is not None else np.percentile(xyz[..., 1], 99.5)
+    xyz = xyz / (ref if ref > 0 else 1.0)
+    srgb = colour.XYZ_to_sRGB(xyz)
+    return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def _quick_rgb(photo) -> np.ndarray:
+    """Camera RGB at the preview's resolution without a full demosaic: a 2 x 2-periodic CFA
+    is averaged per channel over each 2 x 2 cell (half the size); other CFAs are demosaiced,
+    RGB photos taken as they are."""
+    if photo.kind == "rgb":
+        return photo.data
+    ch = photo.channel
+    H, W = (ch.shape[0] // 2) * 2, (ch.shape[1] // 2) * 2
+    tile = ch[:2, :2]
+    if not (set(tile.ravel().tolist()) == {0, 1, 2}
+            and np.array_equal(ch[:H, :W], np.tile(tile, (H // 2, W // 2)))):
+        return demosaic(photo)
+    out = np.zeros((H // 2, W // 2, 3), np.float32)
+    count = np.zeros(3)
+    for dy in range(2):
+        for dx in range(2):
+            c = tile[dy, dx]
+            out[..., c] += photo.data[dy:H:2, dx:W:2]
+            count[c] += 1
+    return out / count.astype(np.float32)
+
+
+def _report(meas, path, raw_preview):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    e = meas.estimate
+    fig, ax = plt.subplots(2, 2, figsize=(11, 8.5), dpi=110)
+    s = meas.photo.size[0] / raw_preview.shape[1]  # image pixels per preview pixel
+    a = ax[0, 0]
+    a.imshow(raw_preview)
+    for j, box in enumerate(meas.sample.boxes):
+        b = np.vstack([box, box[:1]]) / s
+        a.plot(b[:, 0], b[:, 1], color="yellow", lw=0.8)
+        a.text(*(box.mean(axis=0) / s), str(j + 1), color="yellow", fontsize=6, ha="center",
+               va="center")
+    a.set_title(f"photo (sampled boxes; orientation: {meas.orientation})", fontsize=9)
+    a.axis("off")
+    a = ax[0, 1]
+    for c, col in enumerate("rgb"):
+        a.errorbar(meas.fitted[c], meas.sample.rgb[c], yerr=2 * meas.sample.sigma[c], fmt="o",
+                   ms=3, color=col, label="RGB"[c])
+    top = float(max(meas.fitted.max(), meas.sample.rgb.max()))
+    lo = float(max(min(meas.fitted.min(), meas.sample.rgb.min()), 1e-3 * top))
+    a.plot([lo, top], [lo, top], "k:", lw=0.8)
+    a.set_xscale("log")
+    a.set_yscale("log")
+    a.set_xlabel("fitted patch value (raw units)")
+    a.set_ylabel("measured patch value (raw units, ±2 SE)")
+    a.set_title(f"fit: fit_rms {e.fit_rms:.3g}, chi²/dof {e.chi2_dof:.3g}", fontsize=9)
+    a.legend(fontsize=8)
+    a = ax[1, 0]
+    wl = e.wavelengths
+    if np.all(np.isfinite(meas.attenuation_band)):
+        a.fill_between(wl, meas.attenuation_band[0], meas.attenuation_band[1], color="C0",
+                       alpha=0.3, label="95 % band (C, a_CDOM intervals)")
+    a.plot(wl, e.attenuation, color="C0", label="estimated k")
+    a.set_xlabel("wavelength (nm)")
+    a.set_ylabel("attenuation k (dimensionless)")
+    a.legend(fontsize=8)
+    a.set_title("path attenuation exp(-(depth + distance) c)", fontsize=9)
+    a = ax[1, 1]
+    a.axis("off")
+    hi = lambda v: "inf" if not np.isfinite(v) else f"{v:.4g}"  # noqa: E731
+    lines = [f"C = {e.chl:.4g} mg m⁻³  [{e.chl_ci[0]:.4g}, {hi(e.chl_ci[1])}]",
+             f"a_CDOM(440) = {e.cdom:.4g} m⁻¹  [{e.cdom_ci[0]:.4g}, {hi(e.cdom_ci[1])}]",
+             f"gain = {e.gain:.4g}  [{e.gain_ci[0]:.4g}, {hi(e.gain_ci[1])}] raw / model unit",
+             "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
+             f"reliable: {meas.reliable}",
+             "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
+    lines += [f"note: {n}" for n in meas.notes]
+    import textwrap
+
+    text = "\n".join(textwrap.fill(x, 60) for x in lines)
+    a.text(0, 1, text, va="top", fontsize=9, family="monospace")
+    a.set_title("estimate (95 % intervals)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write_outputs(meas, outdir, version: str = "", report: bool = True) -> dict:
+    """Write the four files into ``outdir`` (created if missing); returns {name: path}."""
+    import matplotlib.pyplot as plt
+    import tifffile
+
+    out = Path(outdir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
+    paths = {k: out / k for k in ("measurement.json", "corrected.tiff", "corrected.png",
+                                  "report.png")}
+    paths["measurement.json"].write_text(
+        json.dumps(_strict(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
+        encoding="utf-8")
+    img = corrected_image(meas)
+    tifffile.imwrite(paths["corrected.tiff"], img, photometric="rgb")
+    white = meas.gains * (meas.sample.rgb[:, 18] - meas.offset)  # the corrected white patch
+    plt.imsave(paths["corrected.png"], srgb_preview(img, meas.setup, white))
+    if report:
+        _report(meas, paths["report.png"], srgb_preview(_quick_rgb(meas.photo), meas.setup,
+                                                        meas.sample.rgb[:, 18]))
+    else:
+        paths.pop("report.png")
+    return {k: str(v) for k, v in paths.items()}
