@@ -108,7 +108,8 @@ def _check_geometry(corners, size):
     cross = []
     for i in range(4):
         a, b, c = corners[i], corners[(i + 1) % 4], corners[(i + 2) % 4]
-        cross.append(np.cross(b - a, c - b))
+        u, v = b - a, c - b
+        cross.append(u[0] * v[1] - u[1] * v[0])
     if not (all(v > 0 for v in cross) or all(v < 0 for v in cross)):
         raise ValueError("corners: they do not form a convex quadrilateral in the order given "
                          "(next to patch 1, patch 6, patch 24, patch 19: around the chart)")

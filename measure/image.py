@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS"]
+__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS", "TIFF_EXTENSIONS"]
 
 #: Extensions read as TIFF (demosaiced RGB); everything else goes to LibRaw.
 TIFF_EXTENSIONS = (".tif", ".tiff")

@@ -24,6 +24,7 @@ from sca.assess import BLOCKING
 from .camera import Profile, camera_setup, load_profile
 from .chart import LAYOUTS, ChartLayout, PatchSample, orientations
 from .image import Photo, read_image
+from .lightfield import FIELDS, fit_light_field
 
 __all__ = ["Measurement", "measure", "correction", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
            "SATURATED_FRACTION", "WHITE_TARGET", "ORIENTATION_CHI2"]
@@ -64,6 +65,8 @@ class Measurement:
     flags: tuple = ()
     reliable: bool = False
     notes: list = field(default_factory=list)
+    #: the light-field model chosen by the nested-model test (measure.lightfield) and its tests
+    light_field: dict = field(default_factory=dict)
 
     def to_dict(self, version: str = "") -> dict:
         e = self.estimate
@@ -87,6 +90,7 @@ class Measurement:
                         "fitted": self.fitted.tolist(), "boxes": self.sample.boxes.tolist()},
             "orientation": self.orientation,
             "corners": self.corners.tolist(),
+            "light_field": self.light_field,
             "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist()},
             "camera": self.camera,
             "image": {"path": self.photo.path, "size": list(self.photo.size),
@@ -106,16 +110,21 @@ def _layout(layout) -> ChartLayout:
     return LAYOUTS[layout]
 
 
-def _fit(sample: PatchSample, setup, depth, distance, water):
-    """sca.estimate with a free gain on the sample; clipped values left out (CLIPPED_SIGMA)."""
+def _data(sample: PatchSample):
+    """(M, sigma) for the estimator: negative means (noise around a black level) at 0,
+    clipped or unmeasurable values left out by a sigma of CLIPPED_SIGMA x the largest value."""
     M = np.maximum(sample.rgb, 0.0)
-    sig = np.where(np.isfinite(sample.sigma) & (sample.sigma > 0), sample.sigma,
-                   CLIPPED_SIGMA * max(float(M.max()), 1.0))
-    clipped = sample.clipped > 0
-    sig = np.where(clipped, CLIPPED_SIGMA * max(float(M.max()), 1.0), sig)
     if not M.max() > 0:
         raise ValueError("image: every sampled patch value is <= 0 after the black level: the "
                          "photo is black or the corners miss the chart")
+    out = CLIPPED_SIGMA * float(M.max())
+    ok = np.isfinite(sample.sigma) & (sample.sigma > 0) & ~(sample.clipped > 0)
+    return M, np.where(ok, sample.sigma, out)
+
+
+def _fit(sample: PatchSample, setup, depth, distance, water):
+    """sca.estimate with a free gain on the sample."""
+    M, sig = _data(sample)
     return sca.estimate(M, depth=depth, distance=distance, sigma=sig, gain="free", setup=setup,
                         water=water)
 
@@ -181,7 +190,7 @@ def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
 def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
-            white_level=None) -> Measurement:
+            white_level=None, light_field: str = "auto") -> Measurement:
     """Measure the water from a photograph of a ColorChecker Classic underwater.
 
     Parameters
@@ -197,6 +206,8 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     layout : 'patches' (corners of the patch grid), 'card' or a :class:`measure.ChartLayout`.
     water : :class:`forward.Water` (default the paper's).
     black_level, white_level : override the file's (raw units).
+    light_field : 'auto' (default: the smallest of none < plane < plane+radial that the
+        likelihood-ratio test supports, :mod:`measure.lightfield`), or one of them to force it.
     """
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
@@ -210,8 +221,28 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     lay = _layout(layout)
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant,
                          gains=None if profile is None else profile.gains)
+    if light_field != "auto" and light_field not in FIELDS:
+        raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
     cands = orientations(photo, corners, lay)
     name, c, sample, est, flags, notes = _choose_orientation(cands, setup, depth, distance, water)
+    fit_setup, field_report = setup, {"model": "none"}
+    if light_field != "none":
+        M, sig = _data(sample)
+        models = tuple(FIELDS) if light_field == "auto" else ("none", light_field)
+        lf = fit_light_field(M, sig, setup, depth, distance, water, models=models)
+        chosen = lf["model"] if light_field == "auto" else light_field
+        field_report = {"model": chosen, "coefficients": lf["coefficients"] if chosen == lf["model"]
+                        else [], "field": lf["field"].tolist(), "tests": lf["tests"],
+                        "alpha": lf["alpha"], "terms": "f = 1 + a x + b y [+ c (x^2 + y^2 - "
+                        "mean)], chart coordinates in [-1, 1]"}
+        if chosen != "none":
+            fit_setup = lf["setup"]
+            est = _fit(sample, fit_setup, depth, distance, water)
+            flags.append("light-field")
+            notes.append(f"uneven light over the chart modelled ({chosen}: the field ranges "
+                         f"{lf['field'].min():.3f}-{lf['field'].max():.3f}; likelihood-ratio "
+                         f"p = {lf['tests'][chosen]['p_value']:.2g}); intervals are conditional "
+                         "on it")
     clipped = sample.clipped > 0
     if clipped.any():
         flags.append("clipped-patches")
@@ -227,8 +258,8 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
         raise ValueError(f"profile: made for camera {profile.camera!r}, not {camera!r}")
     all_flags = tuple(dict.fromkeys(list(est.flags) + flags))
     reliable = not any(f in BLOCKING or f in MEASURE_BLOCKING for f in all_flags)
-    G = forward.camera_response(setup.sensitivities, setup.illuminant, est.attenuation,
-                                setup.reflectances)
+    G = forward.camera_response(fit_setup.sensitivities, fit_setup.illuminant, est.attenuation,
+                                fit_setup.reflectances)
     fitted = est.gain * G + est.backscatter[:, None]
     gains, offset = correction(est, setup, sample.rgb[:, WHITE])
     band = _band(est, water, depth, distance, setup.wavelengths) if np.all(
@@ -239,4 +270,4 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
                                                     "image": profile.image},
            "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
     return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
-                       all_flags, reliable, notes)
+                       all_flags, reliable, notes, field_report)

@@ -4,12 +4,14 @@
     uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S] [--gain free]
     uw3p estimate --batch charts.csv --distance 5 [--json]
     uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
+    uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
+    uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
     uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
     uw3p bench [--quick]                               (what `make bench` runs)
     uw3p --version
 
-Exit status: 0 success (``estimate``: every estimate is reliable; ``design``: C measurable to
-±30 % at 95 %), 1 an estimate is not reliable or did not converge (its flags say why; ``design``:
+Exit status: 0 success (``estimate``, ``measure``: every estimate is reliable; ``calibrate``: the
+profile fits; ``design``: C measurable to ±30 % at 95 %), 1 an estimate is not reliable or did not converge (its flags say why; ``design``:
 C not measurable to ±30 %), 2 bad input (the message names the argument
 or file), 130 interrupted. ``estimate`` needs the noise (``red_sd,green_sd,blue_sd`` columns, as
 ``simulate`` writes them) to call an estimate reliable.
@@ -236,6 +238,139 @@ def _estimate(args, out, err):
     return EXIT_OK if res.reliable else EXIT_NOT_RELIABLE
 
 
+# --------------------------------------------------------------------------- photographs
+def _add_photo(p):
+    p.add_argument("--camera", default="Nikon 5100 (NPL)",
+                   help="colour-science camera name or CSV (wavelength,red,green,blue)")
+    p.add_argument("--quantal", action="store_true",
+                   help="the camera curves act on photons (quantum efficiency): convert to energy")
+    p.add_argument("--corners", required=True,
+                   help='the chart\'s outer corners in pixels, "x1,y1 x2,y2 x3,y3 x4,y4": next to '
+                        "patch 1 (dark skin), patch 6 (bluish green), patch 24 (black), patch 19 "
+                        "(white)")
+    p.add_argument("--layout", default="patches", choices=["patches", "card"],
+                   help="the corners are those of the patch grid (default) or of the whole card")
+    p.add_argument("--illuminant", default=None, help="surface illuminant name or CSV (default D65)")
+    p.add_argument("--black-level", type=float, default=None, help="override the file's, raw units")
+    p.add_argument("--white-level", type=float, default=None, help="override the file's, raw units")
+
+
+def _read_photo(args, image):
+    import measure
+
+    return measure.read_image(image, black_level=args.black_level, white_level=args.white_level)
+
+
+def _calibrate(args, out, err):
+    import measure
+
+    photo = _read_photo(args, args.image)
+    cands = measure.orientations(photo, args.corners, measure.LAYOUTS[args.layout])
+    c, sample, ok = cands["as given"]
+    if not ok:
+        passing = [k for k, v in cands.items() if v[2]]
+        hint = f" (it does {passing[0]})" if len(passing) == 1 else ""
+        raise ValueError("corners: the grey row (patches 19-24) does not fall from white to black "
+                         f"in the order given{hint}; give the corners next to patch 1, 6, 24, 19")
+    prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,
+                             illuminant=args.illuminant, image=photo.path)
+    _write_file(args.out, prof.to_json(), err)
+    out.write(f"channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains)
+              + "\nchi2/dof per channel: " + ", ".join(f"{v:.3g}" for v in prof.chi2_dof)
+              + "\nfit_rms per channel: " + ", ".join(f"{v:.3g}" for v in prof.fit_rms)
+              + f"\nreliable: {prof.reliable}" + (f" (flags: {', '.join(prof.flags)})"
+                                                  if prof.flags else "") + "\n")
+    return EXIT_OK if prof.reliable else EXIT_NOT_RELIABLE
+
+
+def _measure_one(args, image, outdir):
+    """Measure one image into ``outdir``; returns (exit code, summary row)."""
+    import measure
+
+    meas = measure.measure(_read_photo(args, image), corners=args.corners, depth=args.depth,
+                           distance=args.distance, camera=args.camera, quantal=args.quantal,
+                           profile=args.profile, illuminant=args.illuminant,
+                           layout=args.layout, water=_water(args))
+    measure.write_outputs(meas, outdir, version=__version__)
+    e = meas.estimate
+    row = dict(image=str(image), chl=e.chl, chl_lo=e.chl_ci[0], chl_hi=e.chl_ci[1], cdom=e.cdom,
+               cdom_lo=e.cdom_ci[0], cdom_hi=e.cdom_ci[1], gain=e.gain, fit_rms=e.fit_rms,
+               chi2_dof=e.chi2_dof, orientation=meas.orientation, reliable=meas.reliable,
+               flags=" ".join(meas.flags), out=str(outdir), error="")
+    return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
+
+
+def _measure_worker(job):
+    args, image, outdir = job
+    try:
+        return _measure_one(args, image, outdir)
+    except ValueError as exc:
+        return EXIT_BAD_INPUT, dict(image=str(image), error=str(exc), out=str(outdir))
+
+
+SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
+                   "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "out", "error")
+
+
+def _measure(args, out, err):
+    if args.depth is None or args.distance is None:
+        raise ValueError("--depth, --distance: both are required")
+    src = Path(args.image)
+    if src.is_dir():
+        return _measure_folder(args, src, out, err)
+    code, row = _measure_one(args, src, Path(args.out))
+    e = row
+    out.write(f"chl (C)          {e['chl']:.6g} mg m^-3, 95 % interval [{e['chl_lo']:.4g}, "
+              f"{e['chl_hi']:.4g}]\n"
+              f"cdom a_CDOM(440) {e['cdom']:.6g} m^-1, 95 % interval [{e['cdom_lo']:.4g}, "
+              f"{e['cdom_hi']:.4g}]\n"
+              f"gain             {e['gain']:.6g} raw units per model unit\n"
+              f"fit              fit_rms {e['fit_rms']:.3g}, chi2/dof {e['chi2_dof']:.3g}\n"
+              f"orientation      {e['orientation']}\n"
+              f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
+              + f"\nwrote            {args.out}/measurement.json, corrected.tiff, corrected.png, "
+                "report.png\n")
+    return code
+
+
+def _measure_folder(args, src, out, err):
+    """Every image of a folder (a dive's photos): one output folder each, summary.csv, a
+    progress bar, all cores. Files that are not images are listed in the summary with their
+    error."""
+    import csv
+    from concurrent.futures import ProcessPoolExecutor
+
+    from tqdm import tqdm
+
+    from measure.image import RAW_EXTENSIONS, TIFF_EXTENSIONS
+
+    files = sorted(p for p in src.iterdir() if p.is_file() and not p.name.startswith(".")
+                   and p.suffix.lower() in RAW_EXTENSIONS + TIFF_EXTENSIONS)
+    if not files:
+        raise ValueError(f"image: folder {src} has no RAW or TIFF files "
+                         f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
+    root = Path(args.out)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out: cannot create {root}: {exc.strerror}") from None
+    jobs = [(args, f, root / f.stem) for f in files]
+    workers = max(1, min(len(jobs), os.cpu_count() or 1))
+    with ProcessPoolExecutor(workers) as pool:
+        results = list(tqdm(pool.map(_measure_worker, jobs), total=len(jobs), file=err,
+                            desc="measuring", unit="image"))
+    with open(root / "summary.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
+        w.writeheader()
+        for _, row in results:
+            w.writerow({k: row.get(k, "") for k in SUMMARY_COLUMNS})
+    codes = [c for c, _ in results]
+    n_ok = codes.count(EXIT_OK)
+    out.write(f"{len(files)} files: {n_ok} reliable, {codes.count(EXIT_NOT_RELIABLE)} not "
+              f"reliable, {codes.count(EXIT_BAD_INPUT)} not measurable; {root}/summary.csv\n")
+    return max(codes)
+
+
 # --------------------------------------------------------------------------- design
 #: A measurement is "reliable" to the design tool when the 95 % half-width of C is at most
 #: this fraction of C, and "coarse" up to COARSE.
@@ -337,6 +472,28 @@ def build_parser() -> argparse.ArgumentParser:
     _add_setup(p)
     p.set_defaults(func=_simulate)
 
+    p = sub.add_parser("calibrate", help="fit a camera's channel balance from a photo of the "
+                                         "chart in air")
+    p.add_argument("image", help="RAW (any LibRaw format) or linear 16-bit TIFF of the chart in air")
+    p.add_argument("--out", required=True, help="the profile to write (JSON)")
+    _add_photo(p)
+    p.set_defaults(func=_calibrate)
+
+    p = sub.add_parser("measure", help="measure the water from a photo of the chart underwater "
+                                       "and colour-correct it")
+    p.add_argument("image", help="RAW or linear 16-bit TIFF, or a folder of them (a dive)")
+    p.add_argument("--depth", type=float, default=None, help="chart depth, m")
+    p.add_argument("--distance", type=float, default=None, help="camera-to-chart distance, m")
+    p.add_argument("--profile", default=None, help="camera profile from uw3p calibrate")
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    _add_photo(p)
+    g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
+    g.add_argument("--path-model", default="beam", choices=["beam", "absorption"])
+    g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
+    g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
+    g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
+    p.set_defaults(func=_measure)
+
     p = sub.add_parser("estimate", help="estimate C, CDOM and attenuation from patch values")
     p.add_argument("measurements", nargs="?", default=None,
                    help="CSV with a header patch,red,green,blue[,red_sd,green_sd,blue_sd] "
@@ -409,7 +566,8 @@ def main(argv=None, out=None, err=None) -> int:
     out = sys.stdout if out is None else out
     err = sys.stderr if err is None else err
     args = build_parser().parse_args(argv)  # usage errors: argparse prints them and exits 2
-    buf = io.StringIO() if args.command in ("simulate", "estimate", "design") else out
+    buf = io.StringIO() if args.command in ("simulate", "estimate", "design", "calibrate",
+                                            "measure") else out
     try:
         code = int(args.func(args, buf, err) or 0)
     except ValueError as exc:
