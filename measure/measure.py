@@ -22,7 +22,7 @@ from forward.water import resolve_water
 from sca.assess import BLOCKING
 
 from .camera import Profile, camera_setup, load_profile
-from .chart import LAYOUTS, ChartLayout, PatchSample, orientations
+from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, sample_patches
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
 
@@ -129,9 +129,11 @@ def _fit(sample: PatchSample, setup, depth, distance, water):
                         water=water)
 
 
-def _choose_orientation(cands, setup, depth, distance, water):
+def _choose_orientation(photo, lay, cands, setup, depth, distance, water):
     """(name, corners, sample, estimate, flags, notes) of the orientation to use."""
     passing = [name for name, (_, _, ok) in cands.items() if ok]
+    full = {name: sample_patches(photo, cands[name][0], lay) for name in (passing or ["as given"])}
+    cands = {name: (cands[name][0], full[name], cands[name][2]) for name in full}
     if len(passing) == 1:
         name = passing[0]
         c, s, _ = cands[name]
@@ -224,7 +226,8 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     if light_field != "auto" and light_field not in FIELDS:
         raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
     cands = orientations(photo, corners, lay)
-    name, c, sample, est, flags, notes = _choose_orientation(cands, setup, depth, distance, water)
+    name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
+                                                             distance, water)
     fit_setup, field_report = setup, {"model": "none"}
     if light_field != "none":
         M, sig = _data(sample)

@@ -14,7 +14,9 @@ from .image import demosaic
 __all__ = ["write_outputs", "corrected_image", "srgb_preview", "PREVIEW_PIXELS"]
 
 #: Longest side of the PNG previews, pixels
-PREVIEW_PIXELS = 1600
+PREVIEW_PIXELS = 1000
+#: PNG compression level of the previews (zlib 1: fast; they are previews)
+PNG_OPTIONS = {"compress_level": 1}
 
 
 def _strict(x):
@@ -37,8 +39,7 @@ def _strict(x):
 
 def corrected_image(meas) -> np.ndarray:
     """The whole photo, demosaiced and corrected (gains * (raw - offset)), uint16 (H, W, 3)."""
-    rgb = demosaic(meas.photo, meas.gains, meas.offset)
-    return np.clip(np.rint(rgb), 0, 65535).astype(np.uint16)
+    return demosaic(meas.photo, meas.gains, meas.offset, uint16=True)
 
 
 def _stride(shape):
@@ -47,18 +48,23 @@ def _stride(shape):
 
 def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
     """8-bit sRGB (h, w, 3) of linear camera RGB, subsampled to PREVIEW_PIXELS: the camera's
-    3 x 3 matrix to XYZ (forward.camera_to_xyz_matrix), colour-science's XYZ -> sRGB (D65),
-    scaled so that ``white`` (camera RGB (3,), default the 99.5th percentile) is Y = 1."""
+    3 x 3 matrix to XYZ (forward.camera_to_xyz_matrix) and colour-science's sRGB matrix
+    (XYZ -> linear sRGB, D65) as one matrix, then colour-science's sRGB encoding; scaled so that
+    ``white`` (camera RGB (3,), default the 99.5th percentile of Y) is Y = 1."""
     import colour
 
     s = _stride(rgb_linear.shape)
-    small = np.asarray(rgb_linear[::s, ::s], float)
-    M = forward.camera_to_xyz_matrix(setup)
-    xyz = small @ M.T
-    ref = (M @ np.asarray(white, float))[1] if white is not None else np.percentile(xyz[..., 1], 99.5)
-    xyz = xyz / (ref if ref > 0 else 1.0)
-    srgb = colour.XYZ_to_sRGB(xyz)
-    return (np.clip(srgb, 0, 1) * 255 + 0.5).astype(np.uint8)
+    small = np.asarray(rgb_linear[::s, ::s], np.float32)
+    to_xyz = forward.camera_to_xyz_matrix(setup)
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    A = srgb.matrix_XYZ_to_RGB @ to_xyz
+    if white is not None:
+        ref = float((to_xyz @ np.asarray(white, float))[1])
+    else:
+        ref = float(np.percentile(small.reshape(-1, 3) @ to_xyz[1], 99.5))
+    lin = small @ (A / (ref if ref > 0 else 1.0)).T.astype(np.float32)
+    enc = srgb.cctf_encoding(np.clip(lin, 0.0, 1.0))
+    return (enc * 255 + 0.5).astype(np.uint8)
 
 
 def _quick_rgb(photo) -> np.ndarray:
@@ -71,7 +77,7 @@ def _quick_rgb(photo) -> np.ndarray:
     H, W = (ch.shape[0] // 2) * 2, (ch.shape[1] // 2) * 2
     tile = ch[:2, :2]
     if not (set(tile.ravel().tolist()) == {0, 1, 2}
-            and np.array_equal(ch[:H, :W], np.tile(tile, (H // 2, W // 2)))):
+            and np.array_equal(ch[:4, :4], np.tile(tile, (2, 2)))):
         return demosaic(photo)
     out = np.zeros((H // 2, W // 2, 3), np.float32)
     count = np.zeros(3)
@@ -90,7 +96,7 @@ def _report(meas, path, raw_preview):
     import matplotlib.pyplot as plt
 
     e = meas.estimate
-    fig, ax = plt.subplots(2, 2, figsize=(11, 8.5), dpi=110)
+    fig, ax = plt.subplots(2, 2, figsize=(11, 8.5), dpi=90)
     s = meas.photo.size[0] / raw_preview.shape[1]  # image pixels per preview pixel
     a = ax[0, 0]
     a.imshow(raw_preview)
@@ -139,8 +145,8 @@ def _report(meas, path, raw_preview):
     text = "\n".join(textwrap.fill(x, 60) for x in lines)
     a.text(0, 1, text, va="top", fontsize=9, family="monospace")
     a.set_title("estimate (95 % intervals)", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path)
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.95, wspace=0.25, hspace=0.3)
+    fig.savefig(path, pil_kwargs=PNG_OPTIONS)
     plt.close(fig)
 
 
@@ -162,7 +168,8 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True) -> dict:
     img = corrected_image(meas)
     tifffile.imwrite(paths["corrected.tiff"], img, photometric="rgb")
     white = meas.gains * (meas.sample.rgb[:, 18] - meas.offset)  # the corrected white patch
-    plt.imsave(paths["corrected.png"], srgb_preview(img, meas.setup, white))
+    plt.imsave(paths["corrected.png"], srgb_preview(img, meas.setup, white),
+               pil_kwargs=PNG_OPTIONS)
     if report:
         _report(meas, paths["report.png"], srgb_preview(_quick_rgb(meas.photo), meas.setup,
                                                         meas.sample.rgb[:, 18]))

@@ -266,12 +266,13 @@ def _calibrate(args, out, err):
 
     photo = _read_photo(args, args.image)
     cands = measure.orientations(photo, args.corners, measure.LAYOUTS[args.layout])
-    c, sample, ok = cands["as given"]
+    c, _, ok = cands["as given"]
     if not ok:
         passing = [k for k, v in cands.items() if v[2]]
         hint = f" (it does {passing[0]})" if len(passing) == 1 else ""
         raise ValueError("corners: the grey row (patches 19-24) does not fall from white to black "
                          f"in the order given{hint}; give the corners next to patch 1, 6, 24, 19")
+    sample = measure.sample_patches(photo, c, measure.LAYOUTS[args.layout])
     prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,
                              illuminant=args.illuminant, image=photo.path)
     _write_file(args.out, prof.to_json(), err)
