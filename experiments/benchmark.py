@@ -491,8 +491,6 @@ def report(out) -> str:
     return "\n".join(lines) + "\n"
 
 
-if __name__ == "__main__":
-    main()
 
 
 # --------------------------------------------------------------------------- photographs
@@ -548,3 +546,6 @@ def photo_bench(quick=False, repeats=3):
                     measure_own_s=med(np.array(t_total) - np.array(t_read)),
                     chl=m.estimate.chl, chl_ci=list(m.estimate.chl_ci), reliable=m.reliable,
                     file_mb=Path(path).stat().st_size / 1e6)
+
+if __name__ == "__main__":
+    main()
