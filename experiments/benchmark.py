@@ -484,7 +484,7 @@ def report(out) -> str:
             "",
             f"The package's own work takes {own / post:.2f}x rawpy's decode to an RGB image "
             + ("(within the target: no longer than the decode)." if own <= post else
-               "(**above the target** of no longer than the decode; see DECISIONS.md)")
+               "(**above the target** of no longer than the decode; see DECISIONS.md).")
             + f" The estimate on this photo: C = {ph['chl']:.3f} mg m^-3, 95 % interval "
             f"[{ph['chl_ci'][0]:.3f}, {ph['chl_ci'][1]:.3f}] (truth 2), reliable {ph['reliable']}.",
         ]
