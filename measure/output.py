@@ -11,7 +11,7 @@ import forward
 
 from .image import demosaic
 
-__all__ = ["write_outputs", "corrected_image", "srgb_preview", "PREVIEW_PIXELS"]
+__all__ = ["strict_json", "write_outputs", "corrected_image", "srgb_preview", "PREVIEW_PIXELS"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -19,11 +19,12 @@ PREVIEW_PIXELS = 1000
 PNG_OPTIONS = {"compress_level": 1}
 
 
-def _strict(x):
+def strict_json(x):
+    """``x`` with inf written \"inf\", NaN null and numpy scalars as Python ones (strict JSON)."""
     if isinstance(x, dict):
-        return {k: _strict(v) for k, v in x.items()}
+        return {k: strict_json(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_strict(v) for v in x]
+        return [strict_json(v) for v in x]
     if isinstance(x, (float, np.floating)):
         x = float(x)
         if np.isnan(x):
@@ -163,7 +164,7 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True) -> dict:
     paths = {k: out / k for k in ("measurement.json", "corrected.tiff", "corrected.png",
                                   "report.png")}
     paths["measurement.json"].write_text(
-        json.dumps(_strict(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
+        json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
     img = corrected_image(meas)
     tifffile.imwrite(paths["corrected.tiff"], img, photometric="rgb")

@@ -46,6 +46,10 @@ def _add_setup(p):
     p.add_argument("--step", type=float, default=None, help="wavelength step in nm (default 10)")
     p.add_argument("--wl-min", type=float, default=400.0, help="first wavelength, nm (default 400)")
     p.add_argument("--wl-max", type=float, default=700.0, help="last wavelength, nm (default 700)")
+    _add_water(p)
+
+
+def _add_water(p):
     g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
     g.add_argument("--path-model", default="beam", choices=["beam", "absorption"],
                    help="k = exp(-L c) (beam, default) or exp(-L a) (eq 13 as printed)")
@@ -116,23 +120,9 @@ def _ci(ci):
 
 def _json(obj) -> str:
     """Strict JSON: an open interval end (inf) is written "inf", an untested value (NaN) null."""
-    def clean(x):
-        if isinstance(x, dict):
-            return {k: clean(v) for k, v in x.items()}
-        if isinstance(x, (list, tuple)):
-            return [clean(v) for v in x]
-        if isinstance(x, (float, np.floating)):
-            x = float(x)
-            if np.isnan(x):
-                return None
-            if np.isinf(x):
-                return "inf" if x > 0 else "-inf"
-        if isinstance(x, np.integer):
-            return int(x)
-        if isinstance(x, np.bool_):
-            return bool(x)
-        return x
-    return json.dumps(clean(obj), indent=1, allow_nan=False) + "\n"
+    from measure.output import strict_json
+
+    return json.dumps(strict_json(obj), indent=1, allow_nan=False) + "\n"
 
 
 def _estimate_batch(args, out, err):
@@ -488,11 +478,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--profile", default=None, help="camera profile from uw3p calibrate")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     _add_photo(p)
-    g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
-    g.add_argument("--path-model", default="beam", choices=["beam", "absorption"])
-    g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
-    g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
-    g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
+    _add_water(p)
     p.set_defaults(func=_measure)
 
     p = sub.add_parser("estimate", help="estimate C, CDOM and attenuation from patch values")
