@@ -26,11 +26,20 @@ import numpy as np
 
 # Eq 19 divides by sqrt(q): the figures evaluate it on the paper's q = 31 bands of the true and
 # estimated k, whatever grid they are simulated and fitted on (re-exported for the figures).
-from sca.estimate import RRMSE_BANDS_NM, rrmse_bands  # noqa: F401
+from sca import RRMSE_BANDS_NM, rrmse_bands  # noqa: F401
 
 from .grids import BASE_SEED
 
+__all__ = ["run", "condition", "key", "fit_condition", "pearson", "FINGERPRINT",
+           "DEFAULT_CACHE", "DEFAULT_WORKERS", "SEED_MULTIPLIER", "ORPHAN_CHECK_S",
+           "RRMSE_BANDS_NM", "rrmse_bands"]
+
 DEFAULT_CACHE = Path(os.environ.get("UW3P_CACHE", "cache"))
+#: Worker processes when not given (at most the machine's cores): the reference machine's two
+DEFAULT_WORKERS = 2
+#: A condition's noise seed is (BASE_SEED * SEED_MULTIPLIER + crc32 of the condition) mod 2^31
+#: (a prime multiplier, so that another BASE_SEED gives unrelated seeds)
+SEED_MULTIPLIER = 100003
 
 
 def _code_fingerprint() -> str:
@@ -54,7 +63,7 @@ def condition(chl, cdom, depth, distance, replicate=0, *, illuminance_lux=20000.
              replicate=int(replicate))
     tag = json.dumps([c[k] for k in ("chl", "cdom", "depth", "distance", "illuminance_lux",
                                      "replicate")])
-    c["seed"] = int(BASE_SEED * 100003 + zlib.crc32(tag.encode())) % (2**31)
+    c["seed"] = int(BASE_SEED * SEED_MULTIPLIER + zlib.crc32(tag.encode())) % (2**31)
     return c
 
 
@@ -146,7 +155,7 @@ def run(conditions, *, cache_dir=None, workers=None, progress=True, desc="sweep"
             todo.append((c, str(p)))
     # duplicates in the list are computed once
     todo = list({p: (c, p) for c, p in todo}.values())
-    workers = workers or min(2, os.cpu_count() or 1)
+    workers = workers or min(DEFAULT_WORKERS, os.cpu_count() or 1)
     if todo:
         from tqdm import tqdm
 

@@ -37,6 +37,12 @@ LAMBDA_0_NM = 440.0
 DEFAULT_CAMERA = "Nikon 5100 (NPL)"
 DEFAULT_ILLUMINANT = "D65"
 DEFAULT_CHART = "BabelColor Average"
+#: 0-based index of the white patch in ColorChecker reading order (the default chart's 24
+#: patches): the ColorChecker Classic is 4 rows x 6 columns read row by row, and patch 19 --
+#: row 4, column 1, "white 9.5 (.05 D)", the first of the grey row 19-24 -- is its white
+#: (McCamy, Marcus & Davidson, "A Color-Rendition Chart", J. Appl. Photogr. Eng. 2(3), 1976;
+#: ``colour.SDS_COLOURCHECKERS["BabelColor Average"]``, in the same order).
+WHITE_PATCH = 18
 
 
 # --------------------------------------------------------------------------- grid

@@ -413,30 +413,81 @@ class WaterTerms:
             raise ValueError(f"weights: required for a basis of z = {self.T.shape[1]} functions")
 
     # ---------------------------------------------------------------- the path coefficient
+    def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0):
+        """The path coefficient c(x) and its analytic derivatives: the one place they are built.
+
+        Parameters
+        ----------
+        chl : array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+        cdom : array_like, shape S
+            a_CDOM(440 nm), m^-1.
+        w : array_like, shape S + (z,), optional
+            Free phytoplankton weights (a_phi = T w, eq 9). Default: a_phi from eq 10 with this
+            grid's phytoplankton shape (w on eq 17).
+        values : dict, optional
+            Values (shape S or scalars) of :data:`COEFFICIENT_PARAMS` fields that replace this
+            model's constants, e.g. ``{'cdom_slope': 0.018}``.
+        wrt : sequence of str
+            Names to differentiate by: 'chl', 'cdom', 'w' (z columns) or a field of
+            :data:`COEFFICIENT_PARAMS`.
+        floor : float
+            d/dC is evaluated at max(C, floor): C^0.627 and C^0.724 have infinite slopes at 0.
+
+        Returns
+        -------
+        c : ndarray, shape S + (q,)
+            c(x) for the 'beam' path model, a(x) for 'absorption', m^-1 (eqs 4-12).
+        derivatives : dict
+            name -> d c / d name, shape S + (q,) (S + (q, z) for 'w').
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12 and Table 1. Each term of :data:`PATH_TERMS` returns its
+        value beside its derivatives.
+        """
+        values = dict(values or {})
+        unknown = set(values) - set(COEFFICIENT_PARAMS)
+        if unknown:
+            raise ValueError(f"values: not a coefficient parameter: {sorted(unknown)}; "
+                             f"choose from {COEFFICIENT_PARAMS}")
+        bad = set(wrt) - set(COEFFICIENT_PARAMS) - {"chl", "cdom", "w"}
+        if bad:
+            raise ValueError(f"wrt: cannot differentiate c(x) by {sorted(bad)}")
+        if w is None:
+            self._check_shape(None)
+        x = _TermInputs(self, np.asarray(chl, float)[..., None], np.asarray(cdom, float)[..., None],
+                        None if w is None else np.asarray(w, float), values, floor)
+        c = 0.0
+        derivatives = {}
+        for term in PATH_TERMS:
+            value, parts = term(x, wrt)
+            c = c + value
+            for name, d in parts.items():
+                derivatives[name] = derivatives[name] + d if name in derivatives else d
+        shape = np.broadcast_shapes(np.shape(chl), np.shape(cdom)) + self.wavelengths.shape
+        c = np.broadcast_to(c, shape)
+        for name in wrt:
+            full = shape + ((self.T.shape[1],) if name == "w" else ())
+            derivatives[name] = np.broadcast_to(derivatives.get(name, 0.0), full)
+        return c, derivatives
+
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """The path coefficient (c for 'beam', a for 'absorption'), m^-1, shape S + (q,).
 
         ``w`` (S + (z,)): free phytoplankton weights (a_phi = T w, eq 9); default: a_phi from
-        eq 10 with this grid's phytoplankton shape.
+        eq 10 with this grid's phytoplankton shape (see :meth:`path_coefficient`).
         """
-        self._check_shape(w)
-        phi = self.water.chl_weights(chl)
-        out = self.base + np.multiply.outer(np.asarray(cdom, float), self.cdom_shape)
-        if w is None:
-            return out + phi @ self.shapes
-        return out + phi[..., 1:] @ self.shapes[1:] + np.asarray(w, float) @ self.T.T
+        return np.array(self.path_coefficient(chl, cdom, w=w)[0])
 
     def jacobian(self, chl, cdom, w=None, *, floor: float = 0.0) -> np.ndarray:
         """d(path coefficient)/dx, shape S + (q, 2) for x = (C, a_CDOM) (w on eq 10) or
-        S + (q, 2 + z) for x = (C, a_CDOM, w) with ``w`` given; dC evaluated at max(C, floor)."""
-        self._check_shape(w)
-        _, dphi = self.water.chl_weights(chl, derivative=True, floor=floor)
-        cdom_col = np.broadcast_to(self.cdom_shape, dphi.shape[:-1] + self.cdom_shape.shape)
-        if w is None:
-            return np.stack([dphi @ self.shapes, cdom_col], axis=-1)
-        dc = dphi[..., 1:] @ self.shapes[1:]
-        T = np.broadcast_to(self.T, dphi.shape[:-1] + self.T.shape)
-        return np.concatenate([dc[..., None], cdom_col[..., None], T], axis=-1)
+        S + (q, 2 + z) for x = (C, a_CDOM, w) with ``w`` given; dC evaluated at max(C, floor)
+        (see :meth:`path_coefficient`)."""
+        wrt = ("chl", "cdom") + (("w",) if w is not None else ())
+        _, d = self.path_coefficient(chl, cdom, w=w, wrt=wrt, floor=floor)
+        cols = [d["chl"][..., None], d["cdom"][..., None]] + ([d["w"]] if w is not None else [])
+        return np.concatenate(cols, axis=-1)
 
     # ---------------------------------------------------------------- individual terms
     def absorption(self, chl, cdom, w=None) -> np.ndarray:
@@ -466,6 +517,161 @@ class WaterTerms:
         wt = self.water
         return (wt.water_backscatter_fraction * self.pure_water_scattering
                 + wt.particle_backscatter_fraction * self.particle_scattering(chl))
+
+
+# =========================================================================== the terms of c(x)
+#: ``forward.Water`` fields that enter the path coefficient c(x), so they can be estimated
+#: (eqs 6-12, Table 1). The others do not enter the chart model (the wavelength references
+#: move the grids; the backscatter fractions enter only the simulated veiling light).
+COEFFICIENT_PARAMS = ("cdom_slope", "nap_slope", "nap_scale", "nap_exponent", "phyto_scale",
+                      "phyto_exponent", "c_12", "s_12", "b_p12_star", "b_p3_star", "b_k",
+                      "gamma_12", "gamma_3", "gamma_k", "water_scattering",
+                      "water_scattering_exponent")
+
+
+class _TermInputs:
+    """The point x at which the terms of c(x) are evaluated (C and a_CDOM with a trailing
+    wavelength axis; replaced constants looked up by name)."""
+
+    def __init__(self, terms, chl, cdom, w, values, floor):
+        self.terms, self.chl, self.cdom, self.w, self.values = terms, chl, cdom, w, values
+        self.beam = terms.water.path_model == "beam"
+        self.chl_floor = np.maximum(chl, floor)
+        self.offset = terms.wavelengths - terms.water.reference_nm  # lambda - 440, nm
+        self.ratio = terms.wavelengths / terms.water.scattering_reference_nm  # lambda / 470
+
+    def given(self, name) -> bool:
+        return name in self.values
+
+    def get(self, name):
+        if name in self.values:
+            return np.asarray(self.values[name], float)[..., None]
+        return getattr(self.terms.water, name)
+
+    def log_chl(self):
+        """ln C, 0 where C = 0 (the factor of a d/d exponent term, C^e ln C -> 0)."""
+        with np.errstate(divide="ignore"):
+            return np.where(self.chl > 0, np.log(np.where(self.chl > 0, self.chl, 1.0)), 0.0)
+
+
+def _pure_water_term(x, wrt):
+    """a_w (eq 5) and, for the 'beam' path model, b_w = 0.00288 (lambda/500)^-4.32 (eq 11)."""
+    t, out = x.terms, {}
+    if not x.beam:
+        return t.pure_water_absorption, out
+    if not (x.given("water_scattering") or x.given("water_scattering_exponent")):
+        b_w, shape = t.pure_water_scattering, None
+    else:
+        shape = (t.wavelengths / 500.0) ** -x.get("water_scattering_exponent")
+        b_w = x.get("water_scattering") * shape
+    if "water_scattering" in wrt:
+        out["water_scattering"] = (t.wavelengths / 500.0) ** -x.get("water_scattering_exponent")
+    if "water_scattering_exponent" in wrt:
+        out["water_scattering_exponent"] = -b_w * np.log(t.wavelengths / 500.0)
+    return t.pure_water_absorption + b_w, out
+
+
+def _background_term(x, wrt):
+    """b_k (lambda/470)^-gamma_k, eq 12's third term ('beam' only)."""
+    t, out = x.terms, {}
+    if not x.beam:
+        return 0.0, out
+    if x.given("b_k") or x.given("gamma_k"):
+        value = x.get("b_k") * x.ratio ** -x.get("gamma_k")
+    else:
+        value = t.background_scattering
+    if "b_k" in wrt:
+        out["b_k"] = x.ratio ** -x.get("gamma_k")
+    if "gamma_k" in wrt:
+        out["gamma_k"] = -value * np.log(x.ratio)
+    return value, out
+
+
+def _cdom_term(x, wrt):
+    """a_CDOM(440) exp(-S (lambda - 440)) (eq 6)."""
+    t, out = x.terms, {}
+    shape = np.exp(-x.get("cdom_slope") * x.offset) if x.given("cdom_slope") else t.cdom_shape
+    value = x.cdom * shape
+    if "cdom" in wrt:
+        out["cdom"] = shape
+    if "cdom_slope" in wrt:
+        out["cdom_slope"] = -x.offset * value
+    return value, out
+
+
+def _phytoplankton_term(x, wrt):
+    """a_phi = 0.0378 C^0.627 times the basis shape (eqs 9, 10), or T w for free weights."""
+    t, out = x.terms, {}
+    if x.w is not None:
+        if "w" in wrt:
+            out["w"] = t.T
+        return x.w @ t.T.T, out
+    scale, exponent = x.get("phyto_scale"), x.get("phyto_exponent")
+    weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
+    if "chl" in wrt:
+        with np.errstate(divide="ignore"):
+            out["chl"] = chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0) * t.phyto_shape
+    if "phyto_scale" in wrt:
+        out["phyto_scale"] = x.chl ** exponent * t.phyto_shape
+    if "phyto_exponent" in wrt:
+        out["phyto_exponent"] = weight * x.log_chl() * t.phyto_shape
+    return weight * t.phyto_shape, out
+
+
+def _nap_term(x, wrt):
+    """a_NAP = 0.0124 C^0.724 exp(-0.011 (lambda - 440)) (eqs 7, 8)."""
+    t, out = x.terms, {}
+    scale, exponent = x.get("nap_scale"), x.get("nap_exponent")
+    shape = np.exp(-x.get("nap_slope") * x.offset) if x.given("nap_slope") else t.nap_shape
+    weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
+    value = weight * shape
+    if "chl" in wrt:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out["chl"] = chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0) * shape
+    if "nap_scale" in wrt:
+        out["nap_scale"] = x.chl ** exponent * shape
+    if "nap_exponent" in wrt:
+        out["nap_exponent"] = value * x.log_chl()
+    if "nap_slope" in wrt:
+        out["nap_slope"] = -x.offset * value
+    return value, out
+
+
+def _particle_term(x, wrt):
+    """eq 12's two chlorophyll terms ('beam' only): C_12 (1 - e^(-S_12 C)) b*_p12 (l/l0)^-g12
+    (pico + nano) and (C - C_12 (1 - e^(-S_12 C))) b*_p3 (l/l0)^-g3 (micro)."""
+    t, out = x.terms, {}
+    if not x.beam:
+        return 0.0, out
+    c12, s12 = x.get("c_12"), x.get("s_12")
+    if any(x.given(k) for k in ("b_p12_star", "gamma_12", "b_p3_star", "gamma_3")):
+        small = x.get("b_p12_star") * x.ratio ** -x.get("gamma_12")
+        large = x.get("b_p3_star") * x.ratio ** -x.get("gamma_3")
+    else:
+        small, large = t.particle_shapes
+    w_small = chl_weight(x.chl, 0.0, 1.0, c12, s12)
+    w_large = chl_weight(x.chl, 1.0, 1.0, -c12, s12)
+    if "chl" in wrt:
+        out["chl"] = (chl_weight_derivative(x.chl_floor, 0.0, 1.0, c12, s12) * small
+                      + chl_weight_derivative(x.chl_floor, 1.0, 1.0, -c12, s12) * large)
+    if "c_12" in wrt:
+        out["c_12"] = -np.expm1(-s12 * x.chl) * (small - large)
+    if "s_12" in wrt:
+        out["s_12"] = c12 * x.chl * np.exp(-s12 * x.chl) * (small - large)
+    if "b_p12_star" in wrt:
+        out["b_p12_star"] = w_small * x.ratio ** -x.get("gamma_12")
+    if "gamma_12" in wrt:
+        out["gamma_12"] = -w_small * small * np.log(x.ratio)
+    if "b_p3_star" in wrt:
+        out["b_p3_star"] = w_large * x.ratio ** -x.get("gamma_3")
+    if "gamma_3" in wrt:
+        out["gamma_3"] = -w_large * large * np.log(x.ratio)
+    return w_small * small + w_large * large, out
+
+
+#: The terms of c(x) (eqs 4-12), each returning its value and its derivatives by name.
+PATH_TERMS = (_pure_water_term, _background_term, _cdom_term, _phytoplankton_term, _nap_term,
+              _particle_term)
 
 
 # =========================================================================== public functions

@@ -123,7 +123,7 @@ def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, c
     """The flags of N fits at once (besides :func:`input_flag_table`): {flag: (N,) bool}.
     ``ci_codes`` (N, 4) are the ``BOUND_*`` codes of (chl low, chl high, cdom low, cdom high),
     or None (no intervals computed)."""
-    from ._batch_kernel import BOUND_FAILED, BOUND_OPEN
+    from .intervals import BOUND_FAILED, BOUND_OPEN
 
     converged = np.asarray(converged, bool).reshape(-1)
     N = converged.size

@@ -1,9 +1,10 @@
 """Reference method: ``scipy.optimize.least_squares`` on the reduced problem.
 
-Unknowns x = (C, a_CDOM(440), s[, gain]) with bounds >= 0; w is tied to C by eq 17 exactly (z = 1). The
-residual and its analytic Jacobian come from :class:`sca.model.WaterModel` (and so from
-:class:`forward.Water`); the start is the coarse grid of :meth:`sca.Estimator.initial_point`.
-Trust-region reflective ('trf').
+Unknowns: the free names of the fit (C, a_CDOM and any of ``free=``), then s (m values) and a
+free gain, all bounded below (:func:`sca.model.lower_bound`); w is tied to C by eq 17 exactly
+(z = 1). The residual and its analytic Jacobian come from
+:meth:`sca.model.ChartModel.predict`; the start is the coarse grid of
+:meth:`sca.Estimator.initial_point`. Trust-region reflective ('trf').
 """
 
 from __future__ import annotations
@@ -11,67 +12,98 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .estimate import Estimate, Estimator, _FitState
-from .model import WaterModel
+from .loop import MODES, Estimator
+from .model import CHL_DERIVATIVE_FLOOR, lower_bound
+from .results import Estimate
+from .verdict import assess
+
+__all__ = ["estimate_least_squares", "residual_functions"]
 
 
-def residual_functions(mdl: WaterModel, Mv, free_gain: bool = False):
-    """(fun, jac, unpack) of the reduced problem for the data ``Mv`` (vec of M, in the units of
-    ``mdl``): fun(x) = vec(M - gain G(x) - s 1^T) (whitened where ``mdl`` knows the noise),
-    jac(x) = d fun / dx, unpack(x) = (C, a_CDOM, w, s, gain); x = (C, a_CDOM, s, [gain])."""
-    m = mdl.m
-    if mdl.z != 1:
-        raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
-    B = mdl.B
-    t440 = float(mdl.t440[0])
-    E = mdl.E
+def residual_functions(est: Estimator, st):
+    """(fun, jac, unpack, lower) of the reduced problem of fit state ``st``: fun(v) = vec(M -
+    gain G(x) - s 1^T) whitened by ``st.wt``; jac(v) = d fun / dv; unpack(v) = the loop's point
+    dict; lower = the bounds of v = (names, s, [gain])."""
+    mdl = st.mdl
+    names = list(est.spec.names)
+    free = names + (["backscatter"] if est.free_s else []) + (["gain"] if est.free_gain else [])
+    base = {k: est.fixed[k] for k in ("chl", "cdom") if k in est.fixed}
+    p = len(names)
 
-    def unpack(x):
-        C, A = x[0], x[1]
-        gain = x[2 + m] if free_gain else 1.0
-        return C, A, np.array([mdl.phyto_scale(C) / t440]), x[2:2 + m], gain
+    def unpack(v):
+        x = dict(base)
+        x.update({n: float(v[j]) for j, n in enumerate(names)})
+        x["s"] = np.asarray(v[p:p + mdl.m], float) if est.free_s else st.s_fixed
+        x["gain"] = float(v[-1]) if est.free_gain else 1.0
+        x["w"] = np.array([float(mdl.phyto_scale(x["chl"])) / float(mdl.t440[0])])
+        return x
 
-    def fun(x):
-        C, A, w, s, gain = unpack(x)
-        return mdl.residual(Mv, gain * mdl.attenuation(C, A, w), s)
+    def params(x):
+        out = est.params(x)
+        out.pop("w")  # w on eq 17: the model's own phytoplankton term
+        return out
 
-    def jac(x):
-        C, A, w, s, gain = unpack(x)
-        k, dk = mdl.attenuation_jacobian(C, A, w)
-        _, dalpha = mdl.phyto_scale(C, derivative=True)
-        dk_dC = dk[:, 0] + dk[:, 2] * float(dalpha) / t440  # w follows C along eq 17
-        cols = [gain * (B @ dk_dC), gain * (B @ dk[:, 1]), E]
-        if free_gain:
-            cols.append(B @ k)
-        return -np.column_stack(cols) * mdl.wt[:, None]
+    def fun(v):
+        pred = mdl.predict(params(unpack(v)), jacobian=False)
+        return st.wt * (st.Mv - pred.values)
 
-    return fun, jac, unpack
+    def jac(v):
+        pred = mdl.predict(params(unpack(v)), free, chl_floor=CHL_DERIVATIVE_FLOOR)
+        return -pred.jacobian * st.wt[:, None]
+
+    lower = np.array([lower_bound(n, est.water) for n in names] + [0.0] * (
+        mdl.m if est.free_s else 0) + ([0.0] if est.free_gain else []))
+    return fun, jac, unpack, lower
 
 
-def estimate_least_squares(rgb, *, depth, distance, sigma=None, tol: float = 1e-12,
-                           max_nfev: int = 500, gain: str = "known", **kwargs) -> Estimate:
+def estimate_least_squares(rgb, *, depth, distance, sigma=None, saturation=None,
+                           mode: str = "safeguarded", max_iter: int = 500, tol: float = 1e-12,
+                           x0=None, gain: str = "known", **kwargs) -> Estimate:
     """Fit one chart with scipy's bounded least squares; fields as :class:`sca.Estimate`.
-    Keyword arguments as :func:`sca.estimate` (``water=``, ``camera=``, ``gain=``, ...)."""
-    if "fix" in kwargs:
-        raise ValueError("fix: estimate_least_squares fits every parameter; use sca.estimate")
+
+    Parameters
+    ----------
+    rgb, depth, distance, sigma, saturation, x0, gain :
+        As :func:`sca.estimate`.
+    mode : {'safeguarded', 'paper'}
+        Accepted for the same call as :func:`sca.estimate`; scipy's trust-region reflective
+        method is one algorithm, so it changes nothing but the ``mode`` recorded.
+    max_iter : int
+        Maximum number of function evaluations (scipy's ``max_nfev``).
+    tol : float
+        scipy's ftol, xtol and gtol.
+    **kwargs :
+        Every other keyword of :func:`sca.estimate` (``water=``, ``camera=``, ``fix=``,
+        ``free=``, ...).
+
+    Returns
+    -------
+    Estimate
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
+    if int(max_iter) != max_iter or max_iter < 1:
+        raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
     est = Estimator(depth=depth, distance=distance, gain=gain, **kwargs)
     if est.model.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
-    Mv, scale, mdl, _ = est.prepare(rgb, sigma)
-    fun, jac, unpack = residual_functions(mdl, Mv, est.free_gain)
-    C0, A0, w0 = est.initial_point(Mv, mdl=mdl)
-    g0, s0 = est.linear_part(mdl, Mv, mdl.signal(mdl.attenuation(C0, A0, w0)))
-    x0 = np.concatenate([[C0, A0], s0, [float(g0)] if est.free_gain else []])
-    if est.free_gain and not x0[-1] > 0:
-        x0[-1] = 1.0
-    res = least_squares(fun, x0, jac=jac, bounds=(0.0, np.inf), method="trf", x_scale="jac",
-                        ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
-    C, A, w, s, g = unpack(res.x)
-    # the same assessment as sca.estimate (goodness of fit, intervals, flags)
-    st = _FitState(mdl=mdl, Mv=Mv, s_fixed=None, f_exact=0.0,
-                   x=(float(C), float(A), w, s, float(g)),
-                   f=float(res.fun @ res.fun), initial={"chl": C0, "cdom": A0},
-                   status=f"scipy least_squares: {res.message}", converged=bool(res.status > 0))
-    out = est._result(st, scale, "scipy_least_squares", int(res.nfev))
+    st = est.prepare(rgb, sigma)
+    fun, jac, unpack, lower = residual_functions(est, st)
+    x = est.initial_point(st, x0)
+    v0 = np.array([x[n] for n in est.spec.names] + (list(x["s"]) if est.free_s else [])
+                  + ([x["gain"] if x["gain"] > 0 else 1.0] if est.free_gain else []), float)
+    v0 = np.maximum(v0, lower)
+    res = least_squares(fun, v0, jac=jac, bounds=(lower, np.inf), method="trf", x_scale="jac",
+                        ftol=tol, xtol=tol, gtol=tol, max_nfev=int(max_iter))
+    st.x = unpack(res.x)
+    st.f = float(res.fun @ res.fun)
+    st.initial = {"chl": x["chl"], "cdom": x["cdom"]}
+    st.status = f"scipy least_squares: {res.message}"
+    st.converged = bool(res.status > 0)
+    st.history = [st.f]
+    if saturation is not None:
+        from forward import validate
+        saturation = validate.scalar("saturation", saturation, positive=True)
+    out = assess(est, st, "scipy_least_squares", int(res.nfev), saturation)
     out.eq17_residual = 0.0
     return out

@@ -1,75 +1,285 @@
-"""The nonlinear measurement model of eq 15 and its Jacobian, for the estimator.
+"""The one model function of every estimator: predicted patch values and their Jacobian.
 
-x = (C, a_CDOM(440), w) with w in R^z (eq 9). The path coefficient c(x) and dc/dx come from
-:class:`forward.WaterTerms` (built by :meth:`forward.Water.on_grid`); nothing is re-derived
-here:
+For named parameters theta (:data:`PARAMS`) the chart model of eq 15 is
 
-    k(x) = exp(-L c(x)),   L = depth + distance                       (eqs 4-14)
-    G(x) = P^T diag(i) diag(k(x)) R,   vec(G) = B k  with B = (P (x) R) diag(i)   (eq 15)
+    M(theta) = gain G(x) + s 1^T,   G(x) = P^T diag(i) diag(k(x)) R,   k = exp(-L c(x)),
+    L = depth + distance,   vec(G) = B k  with B = (P (x) R) diag(i)
+
+with c(x) and dc/dx from :meth:`forward.WaterTerms.path_coefficient` (eqs 4-12, each term beside
+its derivative). :meth:`ChartModel.predict` returns M and dM/dtheta for any subset of the names;
+the cvxpy loop's linearisation, the scipy path, the batched Levenberg-Marquardt, the
+profile-likelihood intervals and :func:`sca.precision`'s Fisher information all call it.
+Nothing here is re-derived elsewhere.
+
+Units: chl mg m^-3, cdom m^-1 (a_CDOM at 440 nm), depth and distance m, gain and backscatter in
+the units of the measurements (model units: a white reflector in air = 1).
 """
 
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 
 import numpy as np
 
-from forward.imaging import ChartSetup, path_length
-from forward.water import Water, resolve_water
+from forward.imaging import ChartSetup
+from forward.water import COEFFICIENT_PARAMS, Water, resolve_water
 
-#: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated: both
-#: are infinite at C = 0 (DECISIONS.md).
+__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
+           "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
+           "check_names", "linear_part", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
+           "du_chain"]
+
+#: Geometry of the path (eqs 3, 14), m.
+GEOMETRY = ("depth", "distance")
+#: Parameters that enter M linearly (profiled out in closed form by the batch).
+LINEAR = ("gain", "backscatter")
+#: Parameters of c(x): C, a_CDOM(440), the phytoplankton weights w of eq 9 and any
+#: coefficient field of :class:`forward.Water`.
+SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
+#: Every name the model differentiates by.
+PARAMS = SPECTRAL + GEOMETRY + LINEAR
+
+#: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
+#: cvxpy loop: both are infinite at C = 0 (DECISIONS.md).
 CHL_DERIVATIVE_FLOOR = 1e-6
+#: Profile upper ends beyond these are open (``inf``): C in mg m^-3, a_CDOM(440) in m^-1 (far
+#: beyond natural waters: Mobley 1994 lists C up to ~100, a_CDOM(440) up to ~10), lengths in m.
+CHL_MAX, CDOM_MAX, LENGTH_MAX = 1e4, 1e3, 1e4
+#: A free Water constant's interval is open beyond this many times its default magnitude.
+CONSTANT_SPAN = 1e3
+#: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
+TINY = np.finfo(float).tiny
 
 
-def chl_weights_u(water: Water, chl):
-    """Phi (N, 4), the weights of the chlorophyll shapes of :meth:`forward.Water.chl_terms`, and
-    dPhi/du with u = C^e0 (eq 10's exponent), as the batch kernels take them. In u every term's
-    derivative is finite down to C = 0: the C derivatives are evaluated at the smallest normal
-    float, which keeps the products exact in the limit."""
-    chl = np.asarray(chl, float)
-    e0 = float(water.phyto_exponent)
-    tiny = np.finfo(float).tiny
-    cf = np.maximum(chl, tiny)
-    phi, dphi = water.chl_weights(chl, derivative=True, floor=tiny)
-    return phi, dphi * (cf ** (1.0 - e0) / e0)[:, None]
+def check_names(name: str, names, allowed=PARAMS) -> tuple:
+    """``names`` as a tuple of parameter names, or ``ValueError`` naming the argument."""
+    if isinstance(names, str):
+        names = (names,)
+    try:
+        names = tuple(names)
+    except TypeError:
+        raise ValueError(f"{name}: expected parameter names, got {names!r}") from None
+    bad = [n for n in names if n not in allowed]
+    if bad:
+        raise ValueError(f"{name}: unknown parameter(s) {bad}; choose from {tuple(allowed)}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"{name}: a parameter is named twice: {names}")
+    return names
 
 
-class WaterModel:
-    """k(x), G(x) and their derivatives for one chart setup, water model, basis and path."""
+def lower_bound(name: str, water: Water) -> float:
+    """The lower bound of parameter ``name``: 0 for C, a_CDOM, w (eq 16), s (eq 18), the gain,
+    lengths and the nonnegative Water constants; -inf for constants of any sign."""
+    if name in Water._ANY_SIGN:
+        return -np.inf
+    return 0.0
 
-    def __init__(self, setup: ChartSetup, depth, distance, *, basis=None,
-                 water: Water | None = None):
+
+def upper_cap(name: str, water: Water) -> float:
+    """Where a profile-likelihood interval of ``name`` is called open (its upper end ``inf``);
+    for constants of any sign, minus it is where the lower end is open."""
+    if name == "chl":
+        return CHL_MAX
+    if name == "cdom":
+        return CDOM_MAX
+    if name in GEOMETRY:
+        return LENGTH_MAX
+    if name in COEFFICIENT_PARAMS:
+        return CONSTANT_SPAN * max(abs(float(getattr(water, name))), 1e-3)
+    return np.inf
+
+
+# ---------------------------------------------------------- the batch's coordinate for C
+# Levenberg-Marquardt iterates in u = C^e0 (e0 = eq 10's exponent): every C-dependent term is
+# smooth in u at C = 0, where d/dC is infinite. A change of variable, not physics.
+def u_from_chl(chl, e0):
+    return np.maximum(np.asarray(chl, float), 0.0) ** e0
+
+
+def chl_from_u(u, e0):
+    u = np.asarray(u, float)
+    return np.where(u > 0, np.maximum(u, 0.0) ** (1.0 / e0), 0.0)
+
+
+def du_chain(chl, e0):
+    """dC/du at C (evaluated at max(C, TINY), so that dM/dC dC/du is finite at C = 0)."""
+    cf = np.maximum(np.asarray(chl, float), TINY)
+    return cf ** (1.0 - e0) / e0
+
+
+@dataclass
+class Prediction:
+    """Output of :meth:`ChartModel.predict` (leading shape S of the parameters).
+
+    Attributes
+    ----------
+    values : ndarray, S + (m n,)
+        vec(gain G + s 1^T), row-major over (channel, patch).
+    signal : ndarray, S + (m n,)
+        vec(G) at unit gain, without backscatter.
+    attenuation : ndarray, S + (q,)
+        k = exp(-L c).
+    coefficient : ndarray, S + (q,)
+        The path coefficient c (m^-1).
+    jacobian : ndarray, S + (m n, p) or None
+        d values / d theta, columns in the order of ``columns``.
+    columns : tuple of str
+        One name per Jacobian column ('w' repeats z times, 'backscatter' m times).
+    """
+
+    values: np.ndarray
+    signal: np.ndarray
+    attenuation: np.ndarray
+    coefficient: np.ndarray
+    jacobian: np.ndarray | None
+    columns: tuple
+
+    def column(self, name: str) -> np.ndarray:
+        """The Jacobian columns of ``name``, S + (m n, count)."""
+        idx = [i for i, c in enumerate(self.columns) if c == name]
+        return self.jacobian[..., idx]
+
+
+class ChartModel:
+    """The chart model of eq 15 for one chart setup, water model and basis.
+
+    Parameters
+    ----------
+    setup : forward.ChartSetup
+        Camera P, illuminant i and chart R on one wavelength grid.
+    water : forward.Water, optional
+        Constants, tables and path model (default: the paper's).
+    basis : array_like or str, optional
+        Phytoplankton basis T of eq 9 replacing the water's table.
+    """
+
+    def __init__(self, setup: ChartSetup, *, water: Water | None = None, basis=None):
         self.setup = setup
         self.water = water = resolve_water(water)
-        self.wavelengths = wl = setup.wavelengths
-        self.terms = water.on_grid(wl, basis=basis)
+        self.wavelengths = setup.wavelengths
+        self.terms = water.on_grid(self.wavelengths, basis=basis)
         self.T, self.t440 = self.terms.T, self.terms.t440
         self.z = self.T.shape[1]
-        self.L = np.asarray(path_length(depth, distance), dtype=float)
-        self.path_model = water.path_model
         P, i, R = setup.sensitivities, setup.illuminant, setup.reflectances
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
-        self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, wl.size) * i
-        #: whitening weights 1 / sigma of vec(M) (ones: the paper's unweighted eq 15)
-        #: E maps s (m,) to every patch of its channel: vec(s 1^T) = E s
-        self.E = np.kron(np.eye(self.m), np.ones((self.n, 1)))
-        self.wt = np.ones(self.m * self.n)
-        self.noise_known = False
+        self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
+        self.Bt = np.ascontiguousarray(self.B.T)
+        #: the exponent of eq 10: the batch's coordinate u = C^e0 (see :func:`du_chain`)
+        self.e0 = float(water.phyto_exponent)
 
-    def scaled(self, factor: float, sigma=None) -> "WaterModel":
-        """A copy whose signals are divided by ``factor`` (the data's scale) and, with ``sigma``
-        (vec, data units), whose residuals are whitened by it (weighted least squares: the
-        objective is then chi^2); shares the rest."""
+    def scaled(self, factor: float) -> "ChartModel":
+        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest."""
         new = copy.copy(self)
         new.B = self.B / factor
-        if sigma is not None:
-            new.wt = factor / np.asarray(sigma, float)
-            new.noise_known = True
+        new.Bt = np.ascontiguousarray(new.B.T)
         return new
 
-    # --- eq 17 -----------------------------------------------------------------------------
+    def default(self, name: str):
+        """The value a parameter takes when it is not given: the water's constant, gain 1,
+        no backscatter."""
+        if name in COEFFICIENT_PARAMS:
+            return float(getattr(self.water, name))
+        if name == "gain":
+            return 1.0
+        if name == "backscatter":
+            return np.zeros(self.m)
+        if name == "cdom":
+            return 0.0
+        raise ValueError(f"params: '{name}' has no default; give its value")
+
+    # ------------------------------------------------------------------ the model function
+    def predict(self, params: dict, free=(), *, chl_floor: float = 0.0,
+                jacobian: bool = True) -> Prediction:
+        """M(theta) and d M / d theta for the parameters named in ``free``.
+
+        Parameters
+        ----------
+        params : dict
+            name -> value, each of leading shape S (or broadcastable): 'chl' (mg m^-3), 'depth'
+            and 'distance' (m) are required; 'cdom' (m^-1, default 0), 'gain' (default 1),
+            'backscatter' (S + (m,), default 0), 'w' (S + (z,), free phytoplankton weights of
+            eq 9; default w on eq 17) and any :data:`forward.water.COEFFICIENT_PARAMS` field
+            (default: the water's constant) are optional.
+        free : sequence of str
+            Names (:data:`PARAMS`) whose derivative columns are returned, in this order.
+        chl_floor : float
+            d/dC is evaluated at max(C, chl_floor) (infinite at C = 0 for chl_floor = 0).
+        jacobian : bool
+            False: values only (``free`` is ignored).
+
+        Returns
+        -------
+        Prediction
+        """
+        free = check_names("free", free) if jacobian else ()
+        unknown = set(params) - set(PARAMS)
+        if unknown:
+            raise ValueError(f"params: unknown parameter(s) {sorted(unknown)}")
+        for need in ("chl", "depth", "distance"):
+            if need not in params:
+                raise ValueError(f"params: '{need}' is required")
+        chl = np.asarray(params["chl"], float)
+        cdom = np.asarray(params.get("cdom", 0.0), float)
+        L = np.asarray(params["depth"], float) + np.asarray(params["distance"], float)
+        gain = np.asarray(params.get("gain", 1.0), float)
+        s = np.asarray(params.get("backscatter", np.zeros(self.m)), float)
+        w = params.get("w")
+        if "w" in free and w is None:
+            raise ValueError("free: 'w' needs the weights in params['w']")
+        consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
+        spectral = tuple(n for n in free if n in SPECTRAL)
+        c, dc = self.terms.path_coefficient(chl, cdom, w=w, values=consts, wrt=spectral,
+                                            floor=chl_floor)
+        k = np.exp(-L[..., None] * c)
+        G = k @ self.Bt
+        values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
+        if not jacobian:
+            return Prediction(values, G, k, c, None, ())
+        lead = values.shape[:-1]
+        q, mn = self.wavelengths.size, self.m * self.n
+        # every column of dk/dtheta stacked (S, p_q, q), projected by one matrix product
+        dks, names, extra = [], [], {}
+        for name in free:
+            if name in SPECTRAL:
+                d = dc[name] if name == "w" else dc[name][..., None]
+                dks.append(np.swapaxes(np.broadcast_to(d, lead + d.shape[-2:]), -1, -2))
+            elif name in GEOMETRY:
+                dks.append(np.broadcast_to(c, lead + (q,))[..., None, :])
+            else:
+                extra[name] = None
+                continue
+            names += [name] * dks[-1].shape[-2]
+        blocks = []
+        if dks:
+            dk = np.concatenate(dks, axis=-2)
+            is_geo = np.array([n in GEOMETRY for n in names])
+            # d k / d theta = -L k dc/dtheta (spectral), -c k (path length)
+            factor = np.where(is_geo[:, None], 1.0, L[..., None, None]) * -k[..., None, :]
+            dG = ((factor * dk).reshape(-1, q) @ self.Bt).reshape(lead + (len(names), mn))
+            blocks.append(dG * gain[..., None, None])
+        order = list(names)
+        for name in free:
+            if name == "gain":
+                blocks.append(G[..., None, :])
+            elif name == "backscatter":
+                blocks.append(np.broadcast_to(np.repeat(np.eye(self.m), self.n, axis=1),
+                                              lead + (self.m, mn)))
+            else:
+                continue
+            order += [name] * blocks[-1].shape[-2]
+        if blocks:
+            J = np.swapaxes(np.concatenate(blocks, axis=-2), -1, -2)
+        else:
+            J = np.zeros(lead + (mn, 0))
+        # columns in the order of ``free``
+        perm = [i for name in free for i, c_ in enumerate(order) if c_ == name]
+        J = J[..., perm] if perm != list(range(len(order))) else J
+        names = [order[i] for i in perm]
+        return Prediction(values, G, k, c, J, tuple(names))
+
+    # ------------------------------------------------------------------ eq 17
     def phyto_scale(self, chl, derivative=False):
         """(T w)(440) required by eq 17: 0.0378 C^0.627 (and its derivative at the floor)."""
         return self.water.phytoplankton_440(chl, derivative=derivative, floor=CHL_DERIVATIVE_FLOOR)
@@ -83,84 +293,106 @@ class WaterModel:
             t = float(self.t440 @ shape)
         return shape * (float(self.phyto_scale(chl)) / t)
 
-    # --- attenuation -----------------------------------------------------------------------
-    def coefficient(self, chl, cdom, w):
-        """c(x) (or a(x) for the 'absorption' path model), m^-1, shape (..., q)."""
-        return self.terms.coefficient(chl, cdom, w)
 
-    def attenuation(self, chl, cdom, w):
-        """k(x) = exp(-L c(x)), shape (..., q)."""
-        return np.exp(-self.L * self.coefficient(chl, cdom, w))
+# ------------------------------------------------------------------ the linear unknowns
+def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
+    """The closed-form linear unknowns of M = gain G + s 1^T for given signals.
 
-    def attenuation_jacobian(self, chl, cdom, w):
-        """k (q,) and dk/dx (q, 2 + z), columns (C, a_CDOM, w_1..w_z).
+    gain >= 0 (when ``free_gain``; else 1) and s >= 0 minimise sum w2 (M - gain G - s 1^T)^2:
+    an active set over the channels' s (a channel whose s would be negative is held at 0 and
+    the gain refitted; at most m + 1 passes).
 
-        The C column is evaluated at max(C, CHL_DERIVATIVE_FLOOR), so it is finite at C = 0.
-        """
-        k = self.attenuation(chl, cdom, w)
-        dc = self.terms.jacobian(chl, cdom, w, floor=CHL_DERIVATIVE_FLOOR)
-        return k, (-self.L * k)[:, None] * dc
+    Parameters
+    ----------
+    M3, G3 : ndarray, (N, m, n)
+        Measurements and unit-gain signals.
+    w2 : ndarray, broadcastable to (N, m, n)
+        Weights 1 / sigma^2 (ones: unweighted).
+    fixed_s : ndarray, (N, m), optional
+        Backscatter held at these values.
+    free_gain : bool
+        Estimate the gain (else it is 1).
 
-    # --- measurements ----------------------------------------------------------------------
-    def signal(self, k):
-        """vec(P^T diag(i) diag(k) R), shape (..., m n)."""
-        return np.asarray(k) @ self.B.T
+    Returns
+    -------
+    gain : ndarray, (N,)
+    s : ndarray, (N, m)
+    active : ndarray of bool, (N, m)
+        True where s is free and positive (its channel mean is projected out of a Jacobian).
+    """
+    N, m, _ = G3.shape
+    w2 = np.broadcast_to(w2, G3.shape)
+    sw, sM, sG = w2.sum(-1), (w2 * M3).sum(-1), (w2 * G3).sum(-1)
+    act = np.full((N, m), fixed_s is None)
+    s0 = np.zeros((N, m)) if fixed_s is None else np.broadcast_to(fixed_s, (N, m))
+    if not free_gain:
+        gain = np.ones(N)
+        if fixed_s is not None:
+            return gain, np.array(s0, float), act
+        s = (sM - sG) / sw
+        act = s > 0
+        return gain, np.where(act, s, 0.0), act
+    sGG, sGM = (w2 * G3 * G3).sum(-1), (w2 * G3 * M3).sum(-1)
+    gain = np.zeros(N)
+    for _ in range(m + 1):
+        num = np.where(act, sGM - sG * sM / sw, sGM - s0 * sG).sum(-1)
+        den = np.where(act, sGG - sG * sG / sw, sGG).sum(-1)
+        ok = (den > 0) & (num > 0)
+        gain = np.where(ok, num / np.where(ok, den, 1.0), 0.0)
+        s = np.where(act, (sM - gain[:, None] * sG) / sw, s0)
+        neg = act & (s <= 0)
+        if not neg.any():
+            break
+        act = act & ~neg
+    return gain, np.where(act, s, s0), act
 
-    def best_backscatter(self, M_vec, G_vec, fixed=None):
-        """Closed-form s >= 0 minimising ||W (M - G - s 1^T)||_F for fixed G: per channel, the
-        clipped (weighted) mean residual. ``fixed`` (m,) returns that instead. Broadcasts over leading axes."""
-        if fixed is not None:
-            return np.broadcast_to(fixed, G_vec.shape[:-1] + (self.m,))
-        w2 = (self.wt ** 2).reshape(self.m, self.n)
-        resid = (M_vec - G_vec).reshape(G_vec.shape[:-1] + (self.m, self.n))
-        return np.maximum((resid * w2).sum(axis=-1) / w2.sum(axis=-1), 0.0)
 
-    def standard_errors(self, M_vec, chl, cdom, w, s, free=(True, True), fixed_s=None,
-                        gain=None):
-        """Standard errors (m^-1-scaled units of C and a_CDOM) from the Gauss-Newton covariance.
+def covariance(J, sigma2=1.0, *, cond_max: float = 1e14):
+    """Gauss-Newton covariance sigma^2 (J^T J)^-1 of whitened Jacobians J (..., rows, p).
 
-        The backscatter is profiled out (its closed form: where s > 0 the channel's weighted
-        mean is projected out of the Jacobian), w follows C along eq 17 (its shape held), the
-        Jacobian is whitened, and sigma^2 = 1 when the noise is known, else
-        ||r||^2 / (m n - p - number of free s > 0). ``gain``: the fitted gain of a free-gain fit
-        (M = gain G + s; its column G joins the Jacobian, so the errors include its
-        uncertainty), None where it is known. Returns (se_chl, se_cdom); a fixed parameter
-        gets 0, an undetermined one inf.
-        """
-        g = 1.0 if gain is None else float(gain)
-        _, dk = self.attenuation_jacobian(chl, cdom, w)
-        alpha, dalpha = self.phyto_scale(chl, derivative=True)
-        dw_dchl = np.asarray(w, float) * (float(dalpha) / float(alpha)) if alpha > 0 else \
-            np.full(self.z, float(dalpha) / float(np.sum(self.t440)))
-        cols = [g * (dk[:, 0] + dk[:, 2:] @ dw_dchl), g * dk[:, 1]]
-        free = tuple(free)
-        if gain is not None:
-            cols.append(self.attenuation(chl, cdom, w))
-            free = free + (True,)
-        p = len(cols)
-        J = np.column_stack([self.signal(c) for c in cols]).reshape(self.m, self.n, p)
-        n_s = 0
-        w2 = (self.wt ** 2).reshape(self.m, self.n, 1)
-        if fixed_s is None:
-            active = np.asarray(s) > 0
-            mean = (J * w2).sum(axis=1, keepdims=True) / w2.sum(axis=1, keepdims=True)
-            J = J - active[:, None, None] * mean
-            n_s = int(active.sum())
-        J = (J * np.sqrt(w2)).reshape(self.m * self.n, p)[:, list(np.flatnonzero(free))]
-        r = self.residual(M_vec, g * self.attenuation(chl, cdom, w), s)
-        dof = self.m * self.n - J.shape[1] - n_s
-        out = np.zeros(p)
-        if J.shape[1] == 0 or dof <= 0:
-            return tuple(np.where(np.asarray(free[:2]), np.inf, 0.0))
-        sigma2 = 1.0 if self.noise_known else float(r @ r) / dof
-        try:
-            cov = sigma2 * np.linalg.inv(J.T @ J)
-            se = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        except np.linalg.LinAlgError:
-            se = np.full(J.shape[1], np.inf)
-        out[list(np.flatnonzero(free))] = se
-        return float(out[0]), float(out[1])
+    The one covariance of the package: the estimators' standard errors and Wald intervals and
+    :func:`sca.precision`'s Cramér-Rao bound (there J is whitened by the sensor's noise and
+    sigma^2 = 1). Singular (undetermined) problems give infinite variances.
+    """
+    J = np.asarray(J, float)
+    F = np.swapaxes(J, -1, -2) @ J
+    out = np.full(F.shape, np.inf)
+    flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
+    if F.shape[-1]:
+        with np.errstate(all="ignore"):
+            ok = np.isfinite(flat_F).all(axis=(1, 2))
+            ok[ok] = np.linalg.cond(flat_F[ok]) < cond_max
+        if ok.any():
+            flat_out[ok] = np.linalg.inv(flat_F[ok])
+    return out.reshape(F.shape) * np.asarray(sigma2, float)[..., None, None]
 
-    def residual(self, M_vec, k, s):
-        """vec(M - G(k) - s 1^T), whitened: divided by sigma where the noise is known."""
-        return self.wt * (M_vec - self.signal(k) - np.repeat(np.asarray(s), self.n, axis=-1))
+
+def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
+    """Gauss-Newton covariance of parameters theta (and a free gain) with the backscatter of the
+    ``active`` channels profiled out: the one covariance of the estimators' standard errors and
+    Wald intervals and of :func:`sca.precision`'s Cramér-Rao bound.
+
+    Parameters
+    ----------
+    J : ndarray, (N, m, n, p)
+        d M / d theta (M = gain G + s, so already multiplied by the gain).
+    w2 : ndarray, broadcastable to (N, m, n)
+        Weights 1 / sigma^2.
+    active : ndarray of bool, (N, m)
+        Channels whose s is free (and inside its bound): their weighted mean is projected out
+        of every column (equivalently, one indicator column per active channel).
+    sigma2 : float or (N,)
+        Noise variance in the units of ``w2`` (1 where the noise is known).
+    gain_column : ndarray, (N, m, n), optional
+        d M / d gain (= G) of a free gain; it becomes the last parameter.
+
+    Returns
+    -------
+    ndarray, (N, p [+ 1], p [+ 1])
+    """
+    cols = J if gain_column is None else np.concatenate([J, gain_column[..., None]], axis=-1)
+    w2 = np.broadcast_to(np.asarray(w2, float), cols.shape[:-1])[..., None]
+    a = np.asarray(active, bool)[..., None, None]
+    cols = cols - a * (w2 * cols).sum(2, keepdims=True) / w2.sum(2, keepdims=True)
+    N = cols.shape[0]
+    return covariance((np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1]), sigma2)

@@ -57,17 +57,16 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
 
 
 @pytest.mark.parametrize("noise", [False, True])
-def test_numba_engine_matches_numpy_reference(charts, noise):
+def test_batch_reaches_the_loops_optimum(charts, noise):
+    """The batch (variable projection + LM) and the cvxpy loop minimise the same objective."""
     stacks, depth, distance = charts
-    fast = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, engine="numba")
-    ref = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, engine="numpy")
-    np.testing.assert_array_equal(fast.converged, ref.converged)
-    assert fast.converged.sum() >= len(CASES) - 2
-    # (noise-free objectives are at rounding level, ~1e-25: compared absolutely)
-    np.testing.assert_allclose(fast.objective, ref.objective, rtol=1e-9, atol=1e-20)
-    if not noise:
-        np.testing.assert_allclose(fast.chl, ref.chl, rtol=1e-6, atol=1e-9)
-        np.testing.assert_allclose(fast.cdom, ref.cdom, rtol=1e-6, atol=1e-9)
+    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance)
+    assert b.converged.sum() >= len(CASES) - 2
+    for i in range(0, len(b), 3):
+        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]))
+        if b.converged[i] and e.converged:
+            # equal objective (noise-free ones are at rounding level: compared absolutely)
+            assert b.objective[i] <= e.objective * (1 + 1e-6) + 1e-20, i
 
 
 def test_fields_shapes_and_fixed_backscatter():
@@ -99,4 +98,6 @@ def test_bad_input():
     with pytest.raises(ValueError, match="^basis:"):
         sca.estimate_batch(M, depth=1, distance=1, basis=np.ones((301, 2)))
     with pytest.raises(ValueError, match="^fix:"):
-        sca.estimate_batch(M, depth=1, distance=1, fix={"cdom": 0.1})
+        sca.estimate_batch(M, depth=1, distance=1, fix={"cdom"})
+    with pytest.raises(ValueError, match="^depth:"):
+        sca.estimate_batch(np.repeat(M, 3, axis=0), depth=[1.0, 2.0], distance=1)

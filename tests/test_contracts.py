@@ -1,10 +1,12 @@
-"""One physics: every estimator's model equals the simulator's, in value and derivative.
+"""One physics, one core: the model function equals the simulator, in value and derivative,
+and every estimator goes through it.
 
-For both path models and non-default constants of :class:`forward.Water`, each estimator path
--- the cvxpy loop's model (:class:`sca.WaterModel`), the scipy least-squares residual, and the
-numpy and numba engines of the batched solver -- is compared with :mod:`forward` (value) and
-with finite differences of :mod:`forward` (Jacobian). Changing a constant through
-``forward.Water`` must move every estimator with it.
+For both path models and non-default constants of :class:`forward.Water`,
+:meth:`sca.ChartModel.predict` is compared with :mod:`forward` (value) and its Jacobian with
+finite differences of :mod:`forward`, for every parameter name (C, a_CDOM, every coefficient
+of c(x), the geometry, the gain, the backscatter, the free phytoplankton weights). The cvxpy
+loop's linearisation, the scipy residual and the batch's evaluation are checked against the
+model function. Changing a constant through ``forward.Water`` must move every estimator with it.
 """
 
 import dataclasses
@@ -16,7 +18,9 @@ from hypothesis import strategies as st
 
 import forward
 import sca
+from forward.water import COEFFICIENT_PARAMS
 from sca import batch as sca_batch
+from sca.lm import Problem, evaluate
 from sca.lsq import residual_functions
 
 WL = forward.wavelength_grid()
@@ -33,6 +37,7 @@ WATERS = {
     "odd-beam": ODD_WATER,
     "odd-absorption": dataclasses.replace(ODD_WATER, path_model="absorption"),
 }
+S = np.array([0.01, 0.02, 0.03])  # a backscatter (model units)
 
 
 def conditions():
@@ -40,150 +45,128 @@ def conditions():
                 distance=st.floats(0.2, 8.0))
 
 
-def forward_k(water, chl, cdom, depth, distance, a_phi=None):
-    """k from forward's public functions, optionally with a_phi given directly."""
-    if a_phi is None:
-        return forward.attenuation(WL, chl, cdom, depth, distance, water=water)
-    a = forward.absorption(WL, chl, cdom, phytoplankton=a_phi, water=water)
-    c = a + (forward.scattering(WL, chl, water=water) if water.path_model == "beam" else 0.0)
-    return np.exp(-(depth + distance) * c)
+def forward_chart(water, chl, cdom, depth, distance, gain=1.0, s=S):
+    """vec(gain G + s 1^T) from forward's public functions alone."""
+    k = forward.attenuation(WL, chl, cdom, depth, distance, water=water)
+    G = forward.camera_response(SETUP.sensitivities, SETUP.illuminant, k, SETUP.reflectances)
+    return (gain * G + np.asarray(s)[:, None]).ravel()
+
+
+def forward_at(water, point, name, value):
+    """forward's chart with parameter ``name`` replaced by ``value``."""
+    p = dict(point)
+    if name in COEFFICIENT_PARAMS:
+        water = dataclasses.replace(water, **{name: value})
+    else:
+        p[name] = value
+    return forward_chart(water, **p)
 
 
 def central(fn, x, h):
     return (fn(x + h) - fn(x - h)) / (2 * h)
 
 
-# ------------------------------------------------------------------------- the cvxpy loop
+# ------------------------------------------------------------------------- the model function
 @pytest.mark.parametrize("name", sorted(WATERS))
 @given(**conditions())
-def test_loop_model_equals_forward(name, chl, cdom, depth, distance):
+def test_model_equals_forward(name, chl, cdom, depth, distance):
     water = WATERS[name]
-    mdl = sca.Estimator(depth=depth, distance=distance, water=water).model
-    w = np.array([water.phytoplankton_440(chl) / mdl.t440[0]])
-    k_fwd = forward_k(water, chl, cdom, depth, distance)
-    np.testing.assert_allclose(mdl.attenuation(chl, cdom, w), k_fwd, rtol=1e-12, atol=1e-300)
-    # the signal: P^T diag(i) diag(k) R of the simulator
-    sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False, backscatter=False,
-                                 water=water)
-    np.testing.assert_allclose(mdl.signal(mdl.attenuation(chl, cdom, w)).reshape(3, 24), sim.rgb,
-                               rtol=1e-12, atol=1e-300)
-    # Jacobian columns against finite differences of forward
-    k, dk = mdl.attenuation_jacobian(chl, cdom, w)
-    h = 1e-6 * chl
-    fd_chl_total = central(lambda c: forward_k(water, c, cdom, depth, distance), chl, h)
-    dalpha = water.phytoplankton_440(chl, derivative=True)[1]
-    np.testing.assert_allclose(dk[:, 0] + dk[:, 2] * dalpha / mdl.t440[0], fd_chl_total,
-                               rtol=2e-6, atol=1e-12 * np.max(k) + 1e-300)
-    fd_cdom = central(lambda a: forward_k(water, chl, a, depth, distance), max(cdom, 1e-4), 1e-6)
-    k_at = mdl.attenuation_jacobian(chl, max(cdom, 1e-4), w)[1]
-    np.testing.assert_allclose(k_at[:, 1], fd_cdom, rtol=2e-6, atol=1e-12 * np.max(k) + 1e-300)
-    T = mdl.T[:, 0]
-    fd_w = central(lambda x: forward_k(water, chl, cdom, depth, distance, a_phi=T * x), w[0],
-                   1e-6 * w[0])
-    np.testing.assert_allclose(dk[:, 2], fd_w, rtol=2e-6, atol=1e-12 * np.max(k) + 1e-300)
+    mdl = sca.ChartModel(SETUP, water=water)
+    pred = mdl.predict({"chl": chl, "cdom": cdom, "depth": depth, "distance": distance,
+                        "gain": 1.7, "backscatter": S}, jacobian=False)
+    ref = forward_chart(water, chl, cdom, depth, distance, gain=1.7)
+    assert pred.values == pytest.approx(ref, rel=1e-10, abs=1e-14)
 
 
-# ------------------------------------------------------------------------- the scipy path
+SCALARS = ("chl", "cdom", "depth", "distance", "gain") + COEFFICIENT_PARAMS
+
+
 @pytest.mark.parametrize("name", sorted(WATERS))
-@given(**conditions())
-def test_scipy_residual_equals_forward(name, chl, cdom, depth, distance):
+def test_every_parameter_jacobian_equals_finite_differences_of_forward(name):
+    """Every name the model differentiates by, against central differences of forward."""
     water = WATERS[name]
-    sim = forward.simulate_chart(1.0, 0.1, depth, distance, seed=1, water=water)
-    est = sca.Estimator(depth=depth, distance=distance, water=water)
-    Mv, scale, mdl, _ = est.prepare(sim.rgb)
-    fun, jac, _ = residual_functions(mdl, Mv)
-    s = np.array([0.001, 0.002, 0.0005])
-    x = np.array([chl, cdom, *s])
-    G = forward.simulate_chart(chl, cdom, depth, distance, noise=False, backscatter=False,
-                               water=water).rgb
-    r_fwd = (sim.rgb - G - s[:, None] * scale).ravel() / scale
-    np.testing.assert_allclose(fun(x), r_fwd, rtol=1e-9, atol=1e-12)
-    # d fun / d(C, a_CDOM) = -dG/dx / scale (G from forward, differenced itself); d/ds = -E
-    L = depth + distance
-    a = max(cdom, 1e-6)
-    J = jac(np.array([chl, a, *s]))
-    for j, fn, x0, h in ((0, lambda c: _signal(water, c, a, L), chl, 1e-6 * chl),
-                         (1, lambda v: _signal(water, chl, v, L), a, 1e-6)):
-        fd = -central(fn, x0, h).ravel() / scale
-        np.testing.assert_allclose(J[:, j], fd, rtol=1e-5, atol=1e-7 * np.abs(fd).max() + 1e-300)
-    np.testing.assert_array_equal(J[:, 2:], -np.kron(np.eye(3), np.ones((24, 1))))
+    mdl = sca.ChartModel(SETUP, water=water)
+    point = dict(chl=1.3, cdom=0.2, depth=6.0, distance=2.0, gain=1.0, s=S)
+    params = {"chl": 1.3, "cdom": 0.2, "depth": 6.0, "distance": 2.0, "gain": 1.0,
+              "backscatter": S}
+    pred = mdl.predict(params, SCALARS + ("backscatter",))
+    for j, p in enumerate(SCALARS):
+        v = point[p] if p in point else float(getattr(water, p))
+        h = 1e-5 * max(abs(v), 1e-2)
+        fd = central(lambda x: forward_at(water, point, p, x), v, h)
+        col = pred.column(p)[:, 0]
+        scale = max(np.max(np.abs(fd)), 1e-300)
+        if water.path_model == "absorption" and not np.any(fd):  # a scattering constant
+            assert not np.any(col), p
+            continue
+        assert np.max(np.abs(col - fd)) <= 1e-5 * scale, (name, p)
+    E = pred.column("backscatter")
+    assert E.shape == (72, 3) and np.all(E.sum(axis=1) == 1)
 
 
-# ------------------------------------------------------------------------- the batch engines
-def _signal(water, chl, cdom, L):
-    """G = P^T diag(i) diag(k) R (3, 24) from forward."""
-    k = forward.attenuation(WL, chl, cdom, L, 0.0, water=water)
-    return forward.camera_response(SETUP.sensitivities, SETUP.illuminant, k, SETUP.reflectances)
+def test_free_weights_jacobian_equals_finite_differences():
+    """'w' (eq 9's weights, the loop's variables): a_phi = T w replaces eq 10."""
+    mdl = sca.ChartModel(SETUP)
+    w = np.array([0.02])
+    p = {"chl": 1.0, "cdom": 0.1, "depth": 5.0, "distance": 1.0, "w": w}
+    J = mdl.predict(p, ("w", "chl"), chl_floor=sca.CHL_DERIVATIVE_FLOOR).column("w")[:, 0]
+
+    def f(x):
+        return mdl.predict({**p, "w": np.array([x])}, jacobian=False).values
+    assert J == pytest.approx(central(f, 0.02, 1e-7), rel=1e-5, abs=1e-12)
 
 
-def _projected_residual(water, M, w2, scale, chl, cdom, L):
-    """r = sqrt(w2) (M - G - s), s the clipped w2-weighted channel mean, from forward, in units
-    of scale (w2 = weights in those units, (3, 24))."""
-    R0 = (M - _signal(water, chl, cdom, L)) / scale
-    s = np.maximum((w2 * R0).sum(axis=1) / w2.sum(axis=1), 0.0)
-    return (np.sqrt(w2) * (R0 - s[:, None])).ravel(), s
+def test_unknown_or_inert_names_are_refused():
+    mdl = sca.ChartModel(SETUP)
+    p = {"chl": 1.0, "depth": 5.0, "distance": 1.0}
+    with pytest.raises(ValueError, match="^free:"):
+        mdl.predict(p, ("turbidity",))
+    with pytest.raises(ValueError, match="^free:"):
+        sca.estimate(np.ones((3, 24)), depth=5, distance=1, free=("water_backscatter_fraction",))
+    with pytest.raises(ValueError, match="^fix:"):
+        sca.estimate(np.ones((3, 24)), depth=5, distance=1, fix={"cdom"})
 
 
-def _projected_jacobian(water, w2, scale, s, fn, x, h):
-    """d r / dx = -sqrt(w2) (dG/dx - its w2-weighted channel mean where s > 0) / scale, with
-    dG/dx by central differences of forward's G (differencing G itself: r = M - G loses digits
-    where G << M)."""
-    dG = central(fn, x, h) / scale
-    mean = (w2 * dG).sum(axis=1, keepdims=True) / w2.sum(axis=1, keepdims=True)
-    return -(np.sqrt(w2) * (dG - (s > 0)[:, None] * mean)).ravel()
-
-
-def _engines(bm, M, w2, scale, chl, cdom, L):
-    """(f, s, g, H) from the numpy evaluation and the compiled (or plain) kernel."""
-    from sca._batch_kernel import eval_chart, make_buffers
-
-    Ms = (M / scale).reshape(1, -1)
-    W2 = w2.reshape(1, -1)
-    phi, dphi = bm.weights(np.array([chl]), derivative=True)
-    f, s, g, H, _ = sca_batch.evaluate_numpy(phi, dphi, np.array([cdom]), np.array([L]), bm.S,
-                                             bm.base, bm.ecdom, bm.Bt, Ms, W2, np.array([scale]),
-                                             np.zeros((1, 3)), False, bm.m, bm.n, True)
-    out = {"numpy": (f[0], s[0], g[0], H[0])}
-    prob = (np.array([L]), np.array([scale]), Ms, W2, np.zeros((1, 3)), False, bm.S, bm.base,
-            bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, bm.e0, False)
-    buf = make_buffers(bm.S.shape[1], bm.m, bm.n)
-    f1, g1, g2, h11, h12, h22 = eval_chart(chl ** bm.e0, cdom, 0, prob, buf, True)
-    out["kernel"] = (f1, buf[0].copy(), np.array([g1, g2]), np.array([h11, h12, h22]))
-    return out
-
-
-@pytest.mark.parametrize("weighted", [False, True])
+# ------------------------------------------------------------------------- every path uses it
 @pytest.mark.parametrize("name", sorted(WATERS))
-@given(**conditions())
-def test_batch_engines_equal_forward(name, weighted, chl, cdom, depth, distance):
+def test_every_estimator_path_equals_the_model_function(name):
     water = WATERS[name]
-    L = depth + distance
-    sim = forward.simulate_chart(1.0, 0.1, depth, distance, seed=2, water=water)
-    M = sim.rgb
-    scale = float(M.max())
-    w2 = (scale / sim.rgb_sigma) ** 2 if weighted else np.ones_like(M)
-    bm = sca_batch.BatchModel(SETUP, water=water)
-    r, s = _projected_residual(water, M, w2, scale, chl, cdom, L)
-    e0 = water.phyto_exponent
-    u = chl ** e0
-    # the projected Jacobian J = dr/d(u, a_CDOM) by finite differences of forward
-    hu, ha = 1e-6 * u, 1e-6
-    a = max(cdom, ha)
-    Ju = _projected_jacobian(water, w2, scale, s, lambda x: _signal(water, x ** (1 / e0), cdom, L),
-                             u, hu)
-    Ja = _projected_jacobian(water, w2, scale, s, lambda x: _signal(water, chl, x, L), a, ha)
-    for engine, (f, s_e, g, H) in _engines(bm, M, w2, scale, chl, cdom, L).items():
-        assert f == pytest.approx(float(r @ r), rel=1e-9), engine
-        np.testing.assert_allclose(s_e, s, rtol=1e-9, atol=1e-15, err_msg=engine)
-        tol = 1e-5 * (np.linalg.norm(Ju) * np.linalg.norm(r) + 1e-300)
-        assert g[0] == pytest.approx(float(Ju @ r), rel=1e-5, abs=tol), engine
-        assert H[0] == pytest.approx(float(Ju @ Ju), rel=1e-5), engine
-        if cdom >= ha:
-            tol_a = 1e-5 * (np.linalg.norm(Ja) * np.linalg.norm(r) + 1e-300)
-            assert g[1] == pytest.approx(float(Ja @ r), rel=1e-5, abs=tol_a), engine
-            assert H[2] == pytest.approx(float(Ja @ Ja), rel=1e-5), engine
-            assert H[1] == pytest.approx(float(Ju @ Ja), rel=1e-5,
-                                         abs=1e-6 * np.sqrt(H[0] * H[2])), engine
+    sim = forward.simulate_chart(1.3, 0.2, 6.0, 2.0, water=water, seed=1)
+    est = sca.Estimator(depth=6.0, distance=2.0, water=water, free=("cdom_slope",))
+    st_ = est.prepare(sim.rgb, sim.rgb_sigma)
+    mdl = st_.mdl
+    x = {"chl": 1.3, "cdom": 0.2, "w": mdl.feasible_w(1.3), "gain": 1.0, "s": S,
+         "cdom_slope": 0.016}
+    ref = mdl.predict({"chl": 1.3, "cdom": 0.2, "depth": 6.0, "distance": 2.0,
+                       "backscatter": S, "cdom_slope": 0.016},
+                      ("chl", "cdom", "cdom_slope", "backscatter"),
+                      chl_floor=sca.CHL_DERIVATIVE_FLOOR)
+    # the scipy residual and its Jacobian
+    fun, jac, unpack, _ = residual_functions(est, st_)
+    v = np.array([1.3, 0.2, 0.016, *S])
+    assert fun(v) == pytest.approx(st_.wt * (st_.Mv - ref.values), rel=1e-12, abs=1e-12)
+    assert jac(v) == pytest.approx(-ref.jacobian * st_.wt[:, None], rel=1e-12, abs=1e-12)
+    # the loop's linearisation: the same columns, scaled
+    st_.x = x
+    lin = est._linearise(st_)
+    Jw = mdl.predict(est.params(x), est.order, chl_floor=sca.CHL_DERIVATIVE_FLOOR).jacobian
+    assert lin.AE[:, :Jw.shape[1]] == pytest.approx(Jw * lin.scales * st_.wt[:, None], rel=1e-12)
+    # the batch's evaluation: its objective is the model's residual at the closed-form s
+    prob = Problem(mdl, st_.Mv[None], (st_.wt ** 2)[None], np.ones(1), ("chl", "cdom", "cdom_slope"),
+                   {"depth": np.array([6.0]), "distance": np.array([2.0])})
+    f, g, H, gain, s, *_ = evaluate(prob, np.arange(1), np.array([[1.3 ** mdl.e0, 0.2, 0.016]]))
+    pred = mdl.predict({"chl": 1.3, "cdom": 0.2, "depth": 6.0, "distance": 2.0,
+                        "backscatter": s[0], "cdom_slope": 0.016}, jacobian=False)
+    r = st_.wt * (st_.Mv - pred.values)
+    assert f[0] == pytest.approx(r @ r, rel=1e-12)
+    # and its gradient is half the derivative of the profiled objective
+    for j, h in ((1, 1e-6), (2, 1e-7)):
+        th = np.array([[1.3 ** mdl.e0, 0.2, 0.016]])
+        hi, lo = th.copy(), th.copy()
+        hi[0, j] += h
+        lo[0, j] -= h
+        d = (evaluate(prob, np.arange(1), hi, False)[0] - evaluate(prob, np.arange(1), lo, False)[0]) / (2 * h)
+        assert g[0, j] == pytest.approx(d[0] / 2, rel=1e-4, abs=1e-8 * f[0])
 
 
 # ------------------------------------------------------------------------- Water itself
@@ -202,7 +185,7 @@ def test_water_is_immutable_and_tables_read_only():
     w = forward.Water()
     with pytest.raises(dataclasses.FrozenInstanceError):
         w.b_k = 0.0
-    for arr in (*w.pure_water_absorption_table, *w.phytoplankton_basis_table, w.chl_terms()):
+    for arr in (*w.pure_water_absorption_table, *w.phytoplankton_basis_table):
         assert not arr.flags.writeable
     terms = w.on_grid()
     for f in dataclasses.fields(terms):

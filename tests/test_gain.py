@@ -8,7 +8,8 @@ import pytest
 import forward
 import sca
 from sca import batch as sca_batch
-from sca._batch_kernel import eval_chart, make_buffers
+from sca.lm import Problem, evaluate
+from sca.model import ChartModel, linear_part
 
 DN = 1234.5  # an arbitrary unit: raw counts per model unit
 
@@ -79,63 +80,54 @@ def test_paper_mode_takes_the_gain_step_too(chart):
 
 
 @pytest.mark.parametrize("chl,cdom", [(0.5, 0.05), (3.0, 0.4)])
-def test_free_gain_kernel_equals_finite_differences_of_forward(chl, cdom):
-    """f and the gradient of the free-gain kernel (gain and s profiled out) against central
+def test_free_gain_evaluation_equals_finite_differences_of_forward(chl, cdom):
+    """f and the gradient of the batch's evaluation (gain and s profiled out) against central
     differences of the profiled objective built from forward's signal."""
     sim = forward.simulate_chart(1.0, 0.1, 6.0, 2.0, seed=5)
     M = sim.rgb * DN
     scale = float(M.max())
     w2 = (scale / (sim.rgb_sigma * DN)) ** 2
     st = sim.setup
-    bm = sca_batch.BatchModel(st)
-    L = 8.0
-    e0 = bm.e0
+    mdl = ChartModel(st)
+    e0 = mdl.e0
 
     def profiled(u, a):
         k = forward.attenuation(st.wavelengths, u ** (1 / e0), a, 6.0, 2.0)
         G = (forward.camera_response(st.sensitivities, st.illuminant, k, st.reflectances)
              / scale)[None]
-        g, s, _ = sca._batch_kernel.linear_part_numpy((M / scale)[None], G, w2[None])
+        g, s, _ = linear_part((M / scale)[None], G, w2[None])
         r = (M / scale)[None] - g[:, None, None] * G - s[..., None]
         return float(np.sum(w2 * r * r)), float(g[0])
 
     u = chl ** e0
-    Ms = (M / scale).reshape(1, -1)
-    prob = (np.array([L]), np.array([scale]), Ms, w2.reshape(1, -1), np.zeros((1, 3)), False,
-            bm.S, bm.base, bm.ecdom, bm.Bt, bm.m, bm.n, bm.table, e0, True)
-    buf = make_buffers(bm.S.shape[1], bm.m, bm.n)
-    f, g1, g2, h11, h12, h22 = eval_chart(u, cdom, 0, prob, buf, True)
+    prob = Problem(mdl, (M / scale).reshape(1, -1), w2.reshape(1, -1), np.array([scale]),
+                   ("chl", "cdom"), {"depth": np.array([6.0]), "distance": np.array([2.0])},
+                   free_gain=True)
+    f, g, H, gain, *_ = evaluate(prob, np.arange(1), np.array([[u, cdom]]), True)
     f_ref, gain_ref = profiled(u, cdom)
-    assert f == pytest.approx(f_ref, rel=1e-9) and buf[9][0] == pytest.approx(gain_ref, rel=1e-9)
+    assert f[0] == pytest.approx(f_ref, rel=1e-9) and gain[0] == pytest.approx(gain_ref, rel=1e-9)
     hu, ha = 1e-6 * u, 1e-6 * cdom
     du = (profiled(u + hu, cdom)[0] - profiled(u - hu, cdom)[0]) / (2 * hu)
     da = (profiled(u, cdom + ha)[0] - profiled(u, cdom - ha)[0]) / (2 * ha)
     # g = J^T r = (1/2) d f / d theta (variable projection: exact for the profiled objective)
-    assert g1 == pytest.approx(du / 2, rel=1e-4, abs=1e-8 * abs(f))
-    assert g2 == pytest.approx(da / 2, rel=1e-4, abs=1e-8 * abs(f))
-    assert h11 > 0 and h22 > 0 and h11 * h22 > h12 * h12
-    # the numpy engine agrees
-    phi, dphi = bm.weights(np.array([chl]), derivative=True)
-    fn, _, gn, Hn, gain = sca_batch.evaluate_numpy(
-        phi, dphi, np.array([cdom]), np.array([L]), bm.S, bm.base, bm.ecdom, bm.Bt, Ms,
-        w2.reshape(1, -1), np.array([scale]), np.zeros((1, 3)), False, 3, 24, True, True)
-    assert fn[0] == pytest.approx(f, rel=1e-10) and gain[0] == pytest.approx(buf[9][0], rel=1e-10)
-    assert gn[0] == pytest.approx([g1, g2], rel=1e-8)
-    assert Hn[0] == pytest.approx([h11, h12, h22], rel=1e-8)
+    assert g[0, 0] == pytest.approx(du / 2, rel=1e-4, abs=1e-8 * abs(f[0]))
+    assert g[0, 1] == pytest.approx(da / 2, rel=1e-4, abs=1e-8 * abs(f[0]))
+    h = H[0]
+    assert h[0, 0] > 0 and h[1, 1] > 0 and h[0, 0] * h[1, 1] > h[0, 1] ** 2
 
 
 def test_gain_free_bound_matches_the_free_gain_estimators_spread():
     """Issue 12's gain-free rows of sca.precision, validated against the estimator that fits a
     gain: the spread of 300 noisy charts in arbitrary units."""
     c, a, d, r = 1.0, 0.1, 5.0, 1.0
-    p = sca.precision(c, a, d, r, gain="free")
+    p = sca.precision(c, a, depth=d, distance=r, gain="free")
     sims = [forward.simulate_chart(c, a, d, r, seed=s) for s in range(300)]
     b = sca.estimate_batch(np.array([s.rgb for s in sims]) * DN, depth=d, distance=r,
                            sigma=np.array([s.rgb_sigma for s in sims]) * DN, intervals=False,
                            gain="free")
     assert np.all(b.converged)
-    assert 0.8 < b.chl.std(ddof=1) / p.chl_sd[0] < 1.25
-    assert 0.8 < b.cdom.std(ddof=1) / p.cdom_sd[0] < 1.25
+    assert 0.8 < b.chl.std(ddof=1) / p.chl_sd < 1.25
+    assert 0.8 < b.cdom.std(ddof=1) / p.cdom_sd < 1.25
 
 
 def test_gain_interval_coverage_in_a_batch():

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+__all__ = ["RGB", "BATCH_EXTRA", "read_patch_csv", "read_batch_csv", "patch_csv"]
+
 #: Channel names recognised by name, in the order the estimator expects them.
 RGB = ("red", "green", "blue")
 #: Columns of a batch file that are not channels.
@@ -79,8 +81,29 @@ def _patch_order(patch, p, name, where=""):
 
 
 def read_patch_csv(path, *, name: str = "measurements"):
-    """Patch values (m, n) of one chart from a CSV file and their standard deviations (m, n),
-    or None when the file has no ``_sd`` columns (see the module docstring)."""
+    """Read the patch values of one chart from a CSV file (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file: one row per patch, with or without a header.
+    name : str, optional
+        What error messages call the file (the CLI argument), default ``"measurements"``.
+
+    Returns
+    -------
+    rgb : numpy.ndarray
+        Patch values, shape (m channels, n patches), in patch order, in the file's units.
+    sigma : numpy.ndarray or None
+        Their standard deviations, shape (m, n), same units; None when the file has no
+        ``<channel>_sd`` columns.
+
+    Raises
+    ------
+    ValueError
+        The file is missing, unreadable, not numeric, ragged, or does not number its patches
+        1..n once each; the message starts with ``name``.
+    """
     p, rows = _rows(path, name)
     header = None
     try:
@@ -113,8 +136,35 @@ def read_patch_csv(path, *, name: str = "measurements"):
 
 
 def read_batch_csv(path, *, name: str = "--batch"):
-    """A batch of charts: (chart ids (list of str), M (N, m, n), sigma (N, m, n) or None,
-    depth (N,), distance (N,)), depth/distance NaN where the file has no such column."""
+    """Read a batch of charts from one CSV file (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The CSV file, header ``chart,patch,<channels>[,<channel>_sd...][,depth_m,distance_m]``.
+    name : str, optional
+        What error messages call the file (the CLI argument), default ``"--batch"``.
+
+    Returns
+    -------
+    charts : list of str
+        Chart ids, in order of first appearance.
+    M : numpy.ndarray
+        Patch values, shape (N charts, m channels, n patches), in patch order.
+    sigma : numpy.ndarray or None
+        Their standard deviations, shape (N, m, n); None without ``_sd`` columns.
+    depth : numpy.ndarray
+        Chart depth per chart in m, shape (N,); NaN where the file has no ``depth_m`` column.
+    distance : numpy.ndarray
+        Camera-to-chart distance per chart in m, shape (N,); NaN without ``distance_m``.
+
+    Raises
+    ------
+    ValueError
+        A malformed file (see :func:`read_patch_csv`), charts with different numbers of
+        patches, or a chart with more than one depth or distance; the message starts with
+        ``name``.
+    """
     p, rows = _rows(path, name)
     header = rows[0]
     low = [h.lower() for h in header]
@@ -158,8 +208,21 @@ def read_batch_csv(path, *, name: str = "--batch"):
 
 
 def patch_csv(rgb, sigma=None) -> str:
-    """Patch values (m, n) as CSV text: a header, one row per patch, one column per channel,
-    then one ``<channel>_sd`` column per channel when ``sigma`` (m, n) is given."""
+    """Patch values as CSV text, the format :func:`read_patch_csv` reads.
+
+    Parameters
+    ----------
+    rgb : array_like
+        Patch values, shape (m channels, n patches). Three channels are named red, green,
+        blue; otherwise ch0, ch1, ...
+    sigma : array_like, optional
+        Their standard deviations, shape (m, n); written as ``<channel>_sd`` columns.
+
+    Returns
+    -------
+    str
+        A header, then one row per patch (numbered from 1), values written exactly (``repr``).
+    """
     rgb = np.asarray(rgb)
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")

@@ -1,0 +1,217 @@
+"""How precisely can a camera measure the water? The Cramér-Rao bound of the chart model.
+
+For each condition (C, a_CDOM(440), depth, distance, and the water's constants) the noise-free
+chart M0 = gain (G(x) + s 1^T) is computed with :meth:`sca.model.ChartModel.predict` (camera,
+illuminant, chart, :class:`forward.Water`) and the veiling light of :mod:`forward`, its noise
+sigma with the sensor's own noise model (:func:`forward.sensor.noise_model`), and the Fisher
+information J^T diag(1 / sigma^2) J of the free parameters with the model function's analytic
+Jacobian; the backscatter s_1..s_m is a free parameter (the estimators fit it) and is profiled
+out (:func:`sca.model.profiled_covariance`, the estimators' own covariance). The covariance
+bound is its inverse: the standard deviation of every free parameter (``sd``), the correlation
+of C and a_CDOM and (delta method) the expected RRMSE of the attenuation k (eq 19 on the paper's
+31 bands of 10 nm).
+
+``gain``: 'known' (the exposure is known: data in model units), 'free' (one unknown scalar
+gain: a photograph's exposure) or 'channels' (an unknown gain per channel: a camera whose R:G:B
+balance is not calibrated). ``fix``: parameters held known. ``free``: more parameters estimated
+(a forward.Water coefficient such as 'cdom_slope', or the geometry).
+
+Where the bound is not attained (flags): near a bound (the 95 % interval would reach C = 0 or
+a_CDOM = 0: the estimator's constraint makes its error distribution one-sided;
+``near-bound-chl`` / ``near-bound-cdom``), for charts too dark for the noise (``dark``) or
+clipped (``saturated``). The validation (``experiments/instrument.py``, tests) compares the
+bound with the estimator's spread where none is raised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from forward import validate
+from forward.imaging import ChartSetup, length, resolve_setup, veiling_light
+from forward.sensor import SensorSettings, noise_model
+from forward.spectra import DEFAULT_CAMERA
+from forward.water import Water, resolve_water
+
+from .assess import flag_tuples, input_flag_table
+from .fitspec import fit_spec
+from .metrics import RRMSE_BANDS_NM
+from .model import CHL_DERIVATIVE_FLOOR, ChartModel, profiled_covariance
+
+__all__ = ["GAINS", "Z95", "Precision", "precision"]
+
+GAINS = ("known", "free", "channels")
+#: The 97.5 % point of the standard normal (95 % two-sided).
+Z95 = 1.959963984540054
+
+
+@dataclass
+class Precision:
+    """The bound for N conditions (arrays of length N; floats for scalar conditions).
+
+    ``sd`` is a dict of the standard deviation of every free parameter (C and a_CDOM included,
+    a free gain too), in its own units.
+    """
+
+    chl: np.ndarray
+    cdom: np.ndarray
+    depth: np.ndarray
+    distance: np.ndarray
+    chl_sd: np.ndarray  # mg m^-3
+    cdom_sd: np.ndarray  # m^-1
+    correlation: np.ndarray  # corr(C, a_CDOM) of the bound
+    rrmse: np.ndarray  # expected RRMSE of k (eq 19, 31 bands of 10 nm)
+    attained: np.ndarray  # bool: no flag raised
+    flags: list  # N tuples
+    gain: str
+    fixed: dict
+    sd: dict = field(default_factory=dict)
+
+    @property
+    def chl_rel95(self) -> np.ndarray:
+        """95 % half-width of C relative to C (1.96 sd / C)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return Z95 * self.chl_sd / self.chl
+
+    @property
+    def cdom_rel95(self) -> np.ndarray:
+        """95 % half-width of a_CDOM relative to a_CDOM (1.96 sd / a_CDOM)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return Z95 * self.cdom_sd / self.cdom
+
+    def __len__(self):
+        return np.size(self.chl)
+
+
+def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
+              reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
+              water: Water | None = None, gain: str = "known", fix=None, free=(),
+              setup: ChartSetup | None = None) -> Precision:
+    """The Cramér-Rao bound of C, a_CDOM(440) and any free parameter for every condition.
+
+    Parameters
+    ----------
+    chl : float or array_like
+        C, mg m^-3.
+    cdom : float or array_like
+        a_CDOM(440), m^-1.
+    depth, distance : float or array_like
+        The path, m (keyword-only). All four broadcast to N conditions.
+    camera, illuminant, reflectances, wavelengths, setup :
+        As :func:`forward.simulate_chart`.
+    sensor : forward.SensorSettings, optional
+        The sensor whose noise model gives sigma (default ``forward.SensorSettings()``).
+    water : forward.Water, optional
+        The water (default the paper's).
+    gain : {'known', 'free', 'channels'}
+        The exposure: known, one unknown gain, or one unknown gain per channel.
+    fix : dict, optional
+        Parameters held known: 'cdom' or 'chl' (value None: known at the condition's value;
+        a number replaces the condition's value), 'backscatter' (None: known), or a
+        forward.Water coefficient (its value).
+    free : sequence of str
+        More parameters estimated: forward.Water coefficients (e.g. 'cdom_slope') or the
+        geometry ('depth', 'distance').
+
+    Returns
+    -------
+    Precision
+        Scalars where every condition was a scalar.
+
+    References
+    ----------
+    S. M. Kay, Fundamentals of Statistical Signal Processing: Estimation Theory (1993), ch. 3.
+    """
+    scalar = all(np.ndim(v) == 0 for v in (chl, cdom, depth, distance))
+    if gain not in GAINS:
+        raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
+    if fix is not None and not isinstance(fix, dict):
+        raise ValueError("fix: expected a dict like {'cdom': None} (known at the condition's "
+                         f"value) or {{'cdom': 0.1}}, got {type(fix).__name__}")
+    fix = dict(fix or {})
+    if "chl" in fix:
+        raise ValueError("fix: the bound is for C; it cannot hold C known")
+    cond = {"chl": chl, "cdom": cdom}
+    for k in ("cdom",):
+        if fix.get(k) is not None:
+            cond[k] = fix[k]
+    chl, cdom, depth, distance = (np.array(x, float) for x in np.broadcast_arrays(
+        np.atleast_1d(validate.nonnegative("chl", cond["chl"])),
+        np.atleast_1d(validate.nonnegative("cdom", cond["cdom"])),
+        np.atleast_1d(length("depth", depth)), np.atleast_1d(length("distance", distance))))
+    sensor = SensorSettings() if sensor is None else sensor
+    if not isinstance(sensor, SensorSettings):
+        raise ValueError("sensor: expected a forward.SensorSettings")
+    setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
+    m = setup.sensitivities.shape[1]
+    spec_fix = {k: (0.0 if v is None else v) for k, v in fix.items()}
+    spec = fit_spec(free, spec_fix, "free" if gain == "free" else "known",
+                    resolve_water(water), m)
+    mdl = ChartModel(setup, water=spec.water)
+    if mdl.z != 1:
+        raise ValueError("basis: the bound is for one basis function (z = 1)")
+    N, n = chl.size, mdl.n
+    names = list(spec.names)
+    if "chl" not in names:
+        names.insert(0, "chl")
+    params = {"chl": chl, "cdom": cdom, "depth": depth, "distance": distance}
+    pred = mdl.predict(params, names, chl_floor=CHL_DERIVATIVE_FLOOR)
+    s = veiling_light(setup.wavelengths, chl, cdom, depth, distance, illuminant=setup.illuminant,
+                      water=spec.water) @ setup.sensitivities  # (N, m)
+    M0 = pred.signal.reshape(N, m, n) + s[:, :, None]
+    sigma, saturation, _, _ = noise_model(M0, setup, sensor)
+    J = pred.jacobian.reshape(N, m, n, -1)
+    if gain == "channels":  # one gain per channel: d M0 / d g_c = M0 in channel c
+        per = np.zeros((N, m, n, m))
+        for c in range(m):
+            per[:, c, :, c] = M0[:, c, :]
+        J = np.concatenate([J, per], axis=-1)
+    active = np.full((N, m), spec.free_s)
+    cov = profiled_covariance(J, 1.0 / sigma ** 2, active,
+                              gain_column=M0 if gain == "free" else None)
+    sd_all = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
+    sd = {nm: sd_all[:, j] for j, nm in enumerate(names)}
+    if gain == "free":
+        sd["gain"] = sd_all[:, -1]
+    chl_sd = sd["chl"]
+    cdom_free = "cdom" in names
+    if cdom_free:
+        i = names.index("cdom")
+        cdom_sd = sd["cdom"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov[:, 0, i] / (chl_sd * cdom_sd)
+        sel = [0, i]
+    else:
+        cdom_sd, corr, sel = np.zeros(N), np.full(N, np.nan), [0]
+    # the attenuation's delta-method variance from the (C[, a_CDOM]) block
+    dk = (-(depth + distance)[:, None, None] * pred.attenuation[:, :, None]) * np.stack(
+        [mdl.terms.path_coefficient(chl, cdom, wrt=(nm,), floor=CHL_DERIVATIVE_FLOOR)[1][nm]
+         for nm in (names[j] for j in sel)], axis=-1)
+    cov_x = cov[:, sel][:, :, sel]
+    bands = np.isin(setup.wavelengths, RRMSE_BANDS_NM)
+    var_k = np.einsum("nlp,npq,nlq->nl", dk[:, bands], cov_x, dk[:, bands])
+    k = pred.attenuation
+    rrmse = np.sqrt(var_k.sum(axis=1)) / (np.sqrt(bands.sum()) * np.linalg.norm(k[:, bands], axis=1))
+    flags, attained = _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, cdom_free)
+    out = Precision(chl=chl, cdom=cdom, depth=depth, distance=distance, chl_sd=chl_sd,
+                    cdom_sd=cdom_sd, correlation=corr, rrmse=rrmse, attained=attained,
+                    flags=flags, gain=gain, fixed=fix, sd=sd)
+    if scalar:
+        for name in ("chl", "cdom", "depth", "distance", "chl_sd", "cdom_sd", "correlation",
+                     "rrmse"):
+            setattr(out, name, float(getattr(out, name)[0]))
+        out.attained = bool(out.attained[0])
+        out.flags = out.flags[0]
+        out.sd = {k_: float(v[0]) for k_, v in sd.items()}
+    return out
+
+
+def _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, cdom_free):
+    table = input_flag_table(M0, sigma, saturation)
+    table = {k: table[k] for k in ("dark", "saturated")}
+    table["near-bound-chl"] = Z95 * chl_sd >= chl
+    table["near-bound-cdom"] = cdom_free & (Z95 * cdom_sd >= cdom)
+    flags, _ = flag_tuples(table)
+    return flags, ~np.column_stack(list(table.values())).any(axis=1)

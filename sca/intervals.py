@@ -1,0 +1,181 @@
+"""Profile-likelihood intervals of any free parameter, for many charts at once.
+
+The 95 % interval of a parameter theta_j is {theta_j : min over the other parameters of f <= f_hat
++ delta} (:func:`sca.assess.profile_delta`). Each end is searched from the optimum on
+z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear model: a first step
+from the Gauss-Newton curvature, secant extrapolation until the target sqrt(delta) is
+bracketed, then the Illinois method to 1e-3 of sqrt(delta). Every profile point P(theta_j) is
+the Levenberg-Marquardt of :mod:`sca.lm` with theta_j held (the same engine and model function
+as the fit, so every estimator's intervals agree). C is searched in u = C^e0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .lm import Problem, levenberg_marquardt
+
+__all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
+           "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
+           "ROOT_TOL", "profile_intervals", "effective_curvature"]
+
+#: Result codes of a profile end: found, at the lower bound (e.g. 0), open (beyond the cap),
+#: failed.
+BOUND_FOUND, BOUND_ZERO, BOUND_OPEN, BOUND_FAILED = 0, 1, 2, 3
+#: Levenberg-Marquardt iterations per profile point (warm-started from the previous point).
+PROFILE_MAX_ITER = 20
+#: Secant steps allowed to bracket the target, and Illinois steps to converge on it.
+BRACKET_STEPS, ILLINOIS_STEPS = 80, 60
+#: A secant extrapolation aims this much beyond the target (to bracket it) ...
+BRACKET_OVERSHOOT = 1.05
+#: ... and grows the step by at most this factor (or by 3x when z did not rise).
+BRACKET_GROWTH, BRACKET_FLAT_GROWTH = 4.0, 3.0
+#: Illinois stops when |z - sqrt(delta)| <= ROOT_TOL sqrt(delta).
+ROOT_TOL = 1e-3
+#: Relative size of a profile point's absolute stopping tolerance (fraction of delta).
+POINT_ATOL = 1e-4
+#: Overflow guard of the profile objective.
+F_OVERFLOW = 1e300
+
+
+def effective_curvature(H, j):
+    """1 / (H^-1)_jj: the curvature of the profile of parameter j (H_jj where H is singular)."""
+    H = np.asarray(H, float)
+    out = np.array(H[:, j, j], float)
+    if H.shape[1] == 1:
+        return out
+    with np.errstate(all="ignore"):
+        det = np.linalg.det(H)
+    ok = np.isfinite(det) & (np.abs(det) > 0)
+    if ok.any():
+        inv = np.linalg.inv(H[ok])
+        val = 1.0 / inv[:, j, j]
+        out[ok] = np.where(np.isfinite(val) & (val > 0), val, out[ok])
+    return out
+
+
+def _point(prob, idx, j, t, psi, atol):
+    """P(theta_j = t) for charts idx, minimising the others from ``psi``: (f, theta)."""
+    theta = np.array(psi, float)
+    theta[:, j] = t
+    hold = np.zeros(theta.shape, bool)
+    hold[:, j] = True
+    sub = _subset(prob, idx)
+    theta, f, _, _ = levenberg_marquardt(sub, theta, max_iter=PROFILE_MAX_ITER, tol=0.0,
+                                         f_exact=np.zeros(idx.size), atol=atol, hold=hold)
+    return f, theta
+
+
+def _subset(prob: Problem, idx) -> Problem:
+    return Problem(prob.model, prob.M[idx], prob.W2[idx], prob.scale[idx], prob.names,
+                   {k: v[idx] for k, v in prob.fixed.items()}, prob.free_gain,
+                   None if prob.fixed_s is None else prob.fixed_s[idx])
+
+
+def _profile_end(prob, j, side, theta_hat, f_hat, delta, heff, lower, cap, lower_open=False):
+    """One end (``side`` -1 lower, +1 upper) of parameter j's interval for every chart."""
+    N = theta_hat.shape[0]
+    t_hat = theta_hat[:, j]
+    res = t_hat.copy()
+    code = np.full(N, BOUND_FOUND)
+    limit = lower if side < 0 else cap
+    limit_code = BOUND_ZERO if (side < 0 and not lower_open) else BOUND_OPEN
+    todo = delta > 0  # an exact fit with the noise estimated from it: zero width
+    at_limit = todo & ((t_hat <= limit) if side < 0 else np.zeros(N, bool))
+    res[at_limit], code[at_limit] = limit, limit_code
+    todo &= ~at_limit
+    zt = np.sqrt(np.maximum(delta, 0.0))
+    atol = POINT_ATOL * delta
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.where(heff > 0, np.sqrt(delta / heff), 0.0)
+    step = np.where((step > 0) & (step < F_OVERFLOW), step, np.maximum(np.abs(t_hat), 1e-3))
+    t_lo, z_lo, psi = t_hat.copy(), np.zeros(N), theta_hat.copy()
+    t1 = t_hat + side * step
+    t_hi, z_hi = t1.copy(), np.zeros(N)
+    bracketing = todo.copy()
+    refining = np.zeros(N, bool)
+    for _ in range(BRACKET_STEPS):
+        ia = np.flatnonzero(bracketing)
+        if ia.size == 0:
+            break
+        t = np.maximum(t1[ia], limit) if side < 0 else np.minimum(t1[ia], limit)
+        f1, psi1 = _point(prob, ia, j, t, psi[ia], atol[ia])
+        failed = ~(f1 < F_OVERFLOW)
+        z1 = np.sqrt(np.maximum(f1 - f_hat[ia], 0.0))
+        hit = ~failed & (z1 >= zt[ia])
+        at_end = ~failed & ~hit & ((t <= limit) if side < 0 else (t >= limit))
+        go = ~failed & ~hit & ~at_end
+        res[ia[failed]], code[ia[failed]] = np.nan, BOUND_FAILED
+        res[ia[at_end]], code[ia[at_end]] = limit, limit_code
+        t_hi[ia[hit]], z_hi[ia[hit]] = t[hit], z1[hit]
+        refining[ia[hit]] = True
+        bracketing[ia[failed | hit | at_end]] = False
+        g = ia[go]
+        span = t[go] - t_lo[g]
+        dz = z1[go] - z_lo[g]
+        tn = t[go] + BRACKET_FLAT_GROWTH * span
+        with np.errstate(divide="ignore", invalid="ignore"):
+            sec = t[go] + (zt[g] - z1[go]) * span / dz * BRACKET_OVERSHOOT
+        sec = np.where(np.abs(sec - t[go]) > BRACKET_GROWTH * np.abs(span),
+                       t[go] + BRACKET_GROWTH * span, sec)
+        tn = np.where(dz > 0, sec, tn)
+        t_lo[g], z_lo[g], psi[g] = t[go], z1[go], psi1[go]
+        t1[g] = tn
+    res[bracketing], code[bracketing] = np.nan, BOUND_FAILED
+    a, fa = t_lo.copy(), z_lo - zt
+    b, fb = t_hi.copy(), z_hi - zt
+    for _ in range(ILLINOIS_STEPS):
+        ia = np.flatnonzero(refining)
+        if ia.size == 0:
+            break
+        done = (np.abs(fb[ia]) <= ROOT_TOL * zt[ia]) | (
+            np.abs(b[ia] - a[ia]) <= 1e-12 * np.maximum(np.abs(a[ia]), np.abs(b[ia])))
+        res[ia[done]] = b[ia[done]]
+        refining[ia[done]] = False
+        ia = ia[~done]
+        if ia.size == 0:
+            break
+        c = b[ia] - fb[ia] * (b[ia] - a[ia]) / (fb[ia] - fa[ia])
+        fc_, psi_new = _point(prob, ia, j, c, psi[ia], atol[ia])
+        psi[ia] = psi_new
+        failed = ~(fc_ < F_OVERFLOW)
+        res[ia[failed]], code[ia[failed]] = np.nan, BOUND_FAILED
+        refining[ia[failed]] = False
+        fc = np.sqrt(np.maximum(fc_ - f_hat[ia], 0.0)) - zt[ia]
+        flip = fc * fb[ia] < 0
+        a[ia] = np.where(flip, b[ia], a[ia])
+        fa[ia] = np.where(flip, fb[ia], 0.5 * fa[ia])  # Illinois: halve the retained end
+        b[ia], fb[ia] = c, fc
+        b[ia[failed]] = np.nan
+    res[refining] = b[refining]
+    return res, code
+
+
+def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=None):
+    """Profile-likelihood ends of the parameters ``which`` (default: all) of every chart.
+
+    Parameters
+    ----------
+    prob : Problem
+    theta_hat : (N, p) optimum (LM coordinates)
+    f_hat : (N,) objective there;  delta : (N,) rise that bounds the interval
+    H : (N, p, p) Gauss-Newton matrix at the optimum
+    caps : (p,) where an upper end is open (LM coordinates)
+
+    Returns
+    -------
+    ends : (N, p, 2) lower and upper ends (LM coordinates)
+    codes : (N, p, 2) ``BOUND_*``
+    """
+    N, p = theta_hat.shape
+    which = range(p) if which is None else which
+    ends = np.repeat(theta_hat[:, :, None], 2, axis=2).astype(float)
+    codes = np.full((N, p, 2), BOUND_FOUND)
+    for j in which:
+        heff = effective_curvature(H, j)
+        lower_open = not np.isfinite(prob.lower[j])
+        lower = -caps[j] if lower_open else prob.lower[j]
+        for k, side in enumerate((-1.0, 1.0)):
+            ends[:, j, k], codes[:, j, k] = _profile_end(prob, j, side, theta_hat, f_hat, delta,
+                                                         heff, lower, caps[j], lower_open)
+    return ends, codes

@@ -1,0 +1,225 @@
+"""Variable projection and Levenberg-Marquardt for many charts at once, for any free parameters.
+
+The engine knows no physics: it calls :meth:`sca.model.ChartModel.predict` for the signals and
+their Jacobian. For charts i with weights w2 = 1 / sigma^2 (ones where the noise is unknown):
+
+    G = predict(theta).signal / scale_i,   (gain, s) = closed form (:func:`sca.model.linear_part`),
+    r = sqrt(w2) (M - gain G - s 1^T),   f = ||r||^2,
+    J = -gain dG/dtheta projected off span{active channel indicators, G (free gain)}
+        (Kaufman's variable-projection Jacobian: exact gradient g = J^T r, H = J^T J).
+
+The iteration variable of C is u = C^e0 (:func:`sca.model.du_chain`); every other parameter is
+its own coordinate. A Levenberg-Marquardt step with Marquardt scaling (diag of H) and projected
+lower bounds (a variable at its bound whose gradient points outwards is held); all charts
+advance together and converged charts leave the active set.
+
+Codes (:data:`STATUS`): 0 relative decrease below tol, 1 exact fit, 2 no further decrease
+predicted, 3 iteration limit, 4 damping grew without decrease.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .model import TINY, ChartModel, chl_from_u, du_chain, linear_part, lower_bound
+
+__all__ = ["STATUS", "LM_MU0", "LM_DOWN", "LM_UP", "LM_MU_MIN", "LM_MU_MAX", "SINGULAR_DET",
+           "Problem", "evaluate", "levenberg_marquardt"]
+
+STATUS = {
+    0: "converged: relative decrease below tol",
+    1: "exact fit (objective at rounding level)",
+    2: "converged: no further decrease predicted",
+    3: "maximum number of iterations reached",
+    4: "damping grew without decrease (not stationary)",
+}
+
+#: Levenberg-Marquardt damping: start, divisor after a success, factor after a failure.
+LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
+#: Damping floor, and the damping above which a chart that cannot decrease stops (code 4).
+LM_MU_MIN, LM_MU_MAX = 1e-12, 1e12
+#: A Marquardt-scaled step matrix whose determinant is below this is treated as singular:
+#: the step falls back to the diagonal (steepest descent scaled by the curvatures).
+SINGULAR_DET = 1e-14
+
+
+@dataclass
+class Problem:
+    """N charts in scaled units (every chart's maximum is 1) and what is fixed about them.
+
+    Attributes
+    ----------
+    model : ChartModel (unscaled units)
+    M : (N, m n) measurements / scale
+    W2 : (N, m n) weights (scale / sigma)^2, or ones
+    scale : (N,) the data's scales
+    names : free nonlinear parameters, in the order of theta's columns
+    fixed : name -> (N,) (or (N, m) for 'backscatter') values of everything else
+    free_gain : the exposure gain is estimated (profiled out with s)
+    fixed_s : (N, m) backscatter held (scaled units) or None (s free)
+    """
+
+    model: ChartModel
+    M: np.ndarray
+    W2: np.ndarray
+    scale: np.ndarray
+    names: tuple
+    fixed: dict
+    free_gain: bool = False
+    fixed_s: np.ndarray | None = None
+    lower: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        self.lower = np.array([lower_bound(n, self.model.water) for n in self.names])
+        self.chl_col = self.names.index("chl") if "chl" in self.names else -1
+
+    @property
+    def size(self) -> int:
+        return self.M.shape[0]
+
+    def params(self, idx, theta) -> dict:
+        """The model's parameters of charts ``idx`` at LM coordinates ``theta`` (len(idx), p)."""
+        out = {k: v[idx] for k, v in self.fixed.items()}
+        for j, name in enumerate(self.names):
+            out[name] = chl_from_u(theta[:, j], self.model.e0) if j == self.chl_col else theta[:, j]
+        return out
+
+
+def evaluate(prob: Problem, idx, theta, grad: bool = True):
+    """Objective, variable-projection gradient and Gauss-Newton matrix of charts ``idx``.
+
+    Returns
+    -------
+    f : (k,) weighted sum of squares
+    g : (k, p) J^T r;  H : (k, p, p) J^T J (None without ``grad``)
+    gain : (k,);  s : (k, m) (scaled units);  ssr : (k,) unweighted sum of squares;
+    k : (k, q) the attenuation
+    """
+    mdl = prob.model
+    m, n = mdl.m, mdl.n
+    params = prob.params(idx, theta)
+    pred = mdl.predict(params, prob.names if grad else (), chl_floor=TINY, jacobian=grad)
+    sc = prob.scale[idx][:, None]
+    G3 = (pred.signal / sc).reshape(-1, m, n)
+    M3 = prob.M[idx].reshape(-1, m, n)
+    w2 = prob.W2[idx].reshape(-1, m, n)
+    fs = None if prob.fixed_s is None else prob.fixed_s[idx]
+    gain, s, act = linear_part(M3, G3, w2, fs, prob.free_gain)
+    r = M3 - gain[:, None, None] * G3 - s[..., None]
+    f = np.einsum("ijk,ijk->i", w2 * r, r)
+    ssr = np.einsum("ijk,ijk->i", r, r)
+    if not grad:
+        return f, None, None, gain, s, ssr, pred.attenuation
+    J = pred.jacobian / sc[:, :, None]
+    if prob.chl_col >= 0:
+        J[..., prob.chl_col] *= du_chain(params["chl"], mdl.e0)[:, None]
+    J = (gain[:, None, None] * J).reshape(-1, m, n, J.shape[-1])
+    w2e = w2[..., None]
+    a = act[..., None, None]
+    J = J - a * (w2e * J).sum(2, keepdims=True) / w2e.sum(2, keepdims=True)
+    if prob.free_gain:  # project off the centred G (the gain's column)
+        Gc = G3 - act[..., None] * (w2 * G3).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
+        gg = np.einsum("ijk,ijk->i", w2 * Gc, Gc)
+        live = (gain > 0) & (gg > 0)
+        proj = np.einsum("ijk,ijkp->ip", w2 * Gc, J) / np.where(gg > 0, gg, 1.0)[:, None]
+        J = J - live[:, None, None, None] * Gc[..., None] * proj[:, None, None, :]
+    Jf = J.reshape(J.shape[0], m * n, -1)
+    wf = w2.reshape(-1, m * n)
+    g = -np.einsum("ij,ijp->ip", wf * r.reshape(-1, m * n), Jf)
+    H = np.einsum("ijp,ijq->ipq", wf[..., None] * Jf, Jf)
+    return f, g, H, gain, s, ssr, pred.attenuation
+
+
+def _step(g, H, mu, theta, lower, hold):
+    """The projected, Marquardt-scaled step d and the decrease the Gauss-Newton model predicts."""
+    diag = np.diagonal(H, axis1=1, axis2=2)
+    free = ~((theta <= lower) & (g > 0)) & (diag > 0) & ~hold
+    both = free[:, :, None] & free[:, None, :]
+    A = np.where(both, H, 0.0)
+    dA = np.where(free, diag * (1.0 + mu[:, None]), 1.0)
+    p = g.shape[1]
+    eye = np.eye(p, dtype=bool)
+    A = np.where(eye, dA[:, :, None], A)
+    b = np.where(free, -g, 0.0)
+    norm = np.sqrt(dA[:, :, None] * dA[:, None, :])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        good = np.linalg.det(A / norm) > SINGULAR_DET
+    d = b / dA
+    if good.any():
+        d[good] = np.linalg.solve(A[good], b[good][..., None])[..., 0]
+    pred = -2.0 * np.einsum("ip,ip->i", g, d) - np.einsum("ip,ipq,iq->i", d, H, d)
+    return d, pred
+
+
+def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
+                        atol=None, hold=None):
+    """Projected Levenberg-Marquardt of every chart from ``theta0`` (N, p), LM coordinates.
+
+    Parameters
+    ----------
+    prob : Problem
+    theta0 : (N, p) start
+    max_iter : iteration limit
+    tol : relative decrease (and predicted decrease) at which a chart stops
+    f_exact : (N,) objective at which the fit is exact to rounding
+    atol : (N,) optional absolute predicted decrease at which a chart stops (profile points)
+    hold : (N, p) bool, optional: coordinates held where they are (profile points)
+
+    Returns
+    -------
+    theta : (N, p);  f : (N,);  iterations : (N,);  code : (N,) (:data:`STATUS`)
+    """
+    N, p = theta0.shape
+    theta = np.array(theta0, float)
+    hold = np.zeros((N, p), bool) if hold is None else np.asarray(hold, bool)
+    atol = np.zeros(N) if atol is None else np.asarray(atol, float)
+    iters = np.zeros(N, dtype=int)
+    code = np.full(N, 3)
+    mu = np.full(N, LM_MU0)
+    f = np.zeros(N)
+    if N == 0:
+        return theta, f, iters, code
+    fa, g, H, *_ = evaluate(prob, np.arange(N), theta, True)
+    f[:] = fa
+    done = fa <= f_exact
+    code[done] = 1
+    active = np.flatnonzero(~done)
+    fa, g, H = fa[active], g[active], H[active]
+    for it in range(1, int(max_iter) + 1):
+        if active.size == 0:
+            break
+        th = theta[active]
+        d, pred = _step(g, H, mu[active], th, prob.lower, hold[active])
+        iters[active] = it
+        # stationary: the model predicts (relatively) nothing more; stop without a trial
+        stat = pred <= np.maximum(tol * fa, atol[active])
+        tn = np.maximum(th + d, prob.lower)
+        trial = ~stat
+        ti = active[trial]
+        fn = np.full(active.size, np.inf)
+        gn = np.zeros_like(g)
+        Hn = np.zeros_like(H)
+        if ti.size:
+            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, ti, tn[trial], True)
+        ok = trial & (fn < fa)
+        acc = active[ok]
+        theta[acc], f[acc] = tn[ok], fn[ok]
+        mu[acc] = np.maximum(mu[acc] / LM_DOWN, LM_MU_MIN)
+        mu[active[trial & ~ok]] *= LM_UP
+        decrease = np.where(ok, fa - fn, 0.0)
+        conv_dec = ok & (decrease <= tol * fa)
+        exact = np.where(ok, fn, fa) <= f_exact[active]
+        fin = np.full(active.size, -1)
+        fin[conv_dec] = 0
+        fin[stat] = 2
+        fin[exact] = 1
+        fin[trial & ~ok & (mu[active] > LM_MU_MAX)] = 4
+        stop = fin >= 0
+        code[active[stop]] = fin[stop]
+        fa[ok], g[ok], H[ok] = fn[ok], gn[ok], Hn[ok]
+        if stop.any():
+            go = ~stop
+            active, fa, g, H = active[go], fa[go], g[go], H[go]
+    return theta, f, iters, code

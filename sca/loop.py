@@ -1,0 +1,646 @@
+"""The paper's estimator (eqs 15-18): sequential convex programming in cvxpy with Clarabel.
+
+At iteration t the attenuation k(x) and the equality (17) are replaced by their first-order
+Taylor expansions around x_t (the Jacobian of :meth:`sca.model.ChartModel.predict`), the
+resulting QP (:mod:`sca.subproblem`) is solved, and its solution becomes x_{t+1}; the loop
+repeats until the objective, evaluated with the true nonlinear k, no longer decreases.
+
+Two modes (DECISIONS.md):
+
+* ``mode="paper"`` -- the literal loop: full Taylor steps, stop at the first step that does not
+  decrease the objective (the previous point is returned).
+* ``mode="safeguarded"`` (default) -- the same subproblem inside a trust region on the scaled
+  parameters (:mod:`sca.trust_region`), shrunk when the true objective rises and grown when
+  the model predicts well; iterates are put back on eq 17 (w rescaled) and s (and a free gain)
+  are re-fitted in closed form; stops when the relative decrease of the objective falls below
+  ``tol`` or the model predicts none.
+
+``converged`` is True only where the returned point is stationary (the subproblem predicts a
+relative decrease below ``tol``) or fits the data to rounding error; every other end is
+reported in ``status``. Any parameter of ``free=`` (a forward.Water coefficient, the geometry)
+is one more linearised variable.
+
+The loop's parts (methods of :class:`Estimator`): ``_linearise`` (the QP's data at the current
+point), ``_set_subproblem`` / ``_solve_step`` (Clarabel, its fallbacks, the active-set polish),
+``_candidate`` (the trial point and the decrease the model predicts), ``_judge`` (acceptance
+and the trust-region update) and ``_result`` (:mod:`sca.verdict`).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import cvxpy as cp
+import numpy as np
+
+from forward import validate
+from forward.imaging import ChartSetup, resolve_setup
+from forward.spectra import DEFAULT_CAMERA
+from forward.water import Water, resolve_water
+
+from .fitspec import GAINS, fit_spec
+from .limits import EXACT_FIT, MAX_RGB
+from .model import CHL_DERIVATIVE_FLOOR, ChartModel, linear_part, lower_bound
+from .results import Estimate
+from .subproblem import compiled_subproblem, equality_step, polish
+from .trust_region import (
+    CONVERGED_PRED_FACTOR,
+    TR_COLLAPSE,
+    TR_RADIUS0,
+    TR_SHRINK,
+    update_radius,
+)
+from .verdict import assess
+
+__all__ = ["MODES", "GAINS", "Estimator", "estimate", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
+           "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",
+           "INIT_CDOM", "GRADIENT_VANISHES"]
+
+MODES = ("paper", "safeguarded")
+#: Clarabel settings of the subproblem: its defaults (1e-8 tolerances on a subproblem that
+#: is normalised to O(1) every iteration), followed by an active-set polish
+#: (:func:`sca.subproblem.polish`) that makes the step exact where bounds are active.
+CLARABEL_SETTINGS = dict(max_iter=200)
+#: Tried in order when a solve fails (each failure is recorded; only when all fail is the loop
+#: stopped and reported in ``status``).
+CLARABEL_FALLBACKS = (
+    CLARABEL_SETTINGS,
+    dict(CLARABEL_SETTINGS, equilibrate_enable=False),
+    dict(CLARABEL_SETTINGS, tol_gap_abs=1e-6, tol_gap_rel=1e-6, tol_feas=1e-6),
+)
+
+#: Inequality bounds of the (normalised) subproblem are capped at this multiple of the
+#: least-squares step that satisfies the linearised eq 17 (see the loop): bounds millions of
+#: step lengths away make Clarabel's interior-point start fail. Should a capped bound bind,
+#: the step is still only a candidate judged by the true objective (safeguarded mode); in
+#: paper mode the cap acts as a trust region of 100 such steps.
+BOUND_CAP = 1e2
+
+#: Scales (C in mg m^-3, a_CDOM in m^-1) below which parameters are not scaled further.
+CHL_SCALE_MIN = 1e-3
+CDOM_SCALE_MIN = 1e-3
+#: ... and the same for any other free parameter (a Water coefficient, a length).
+PARAM_SCALE_MIN = 1e-6
+#: The loop stops as converged when ||Q^T r0|| (the part of the residual a step can remove)
+#: is below this: the gradient vanishes.
+GRADIENT_VANISHES = 1e-300
+
+#: Coarse initial search grids (deterministic, independent of the data's truth).
+INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 26)])
+INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 18)])
+
+
+class Estimator:
+    """Estimator for one (camera, illuminant, chart, grid, water model, basis, unknowns): build
+    once, fit many.
+
+    The cvxpy subproblem is compiled once per problem structure and per thread (see
+    :func:`sca.subproblem.compiled_subproblem`); only parameter values change per iteration.
+    An ``Estimator`` holds no state that a fit changes, so one may be shared between threads.
+
+    Parameters
+    ----------
+    depth, distance : float
+        The path of the measurement, m (keyword-only).
+    camera, illuminant, reflectances, wavelengths, basis, setup :
+        As :func:`forward.simulate_chart`.
+    water, path_model, cdom_slope :
+        The water model (:class:`forward.Water`, default the paper's).
+    fix : dict, optional
+        Held parameters (see :func:`sca.estimate`).
+    free : sequence of str
+        Parameters estimated besides C and a_CDOM (see :func:`sca.estimate`).
+    gain : {'known', 'free'}
+        The exposure gain of M = gain G + s: known (model units) or estimated.
+    """
+
+    def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
+                 reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
+                 path_model: str | None = None, cdom_slope: float | None = None, fix=None,
+                 free=(), setup: ChartSetup | None = None, gain: str = "known"):
+        self.depth = validate.scalar("depth", depth)
+        self.distance = validate.scalar("distance", distance)
+        self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
+        water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
+        m = setup.sensitivities.shape[1]
+        self.spec = spec = fit_spec(free, fix, gain, water, m)
+        self.water = spec.water
+        self.model = mdl = ChartModel(setup, basis=basis, water=spec.water)
+        self.fixed = dict(spec.fixed)
+        self.free_gain, self.free_s = spec.free_gain, spec.free_s
+        self.free_chl, self.free_cdom = "chl" in spec.names, "cdom" in spec.names
+        self.extras = tuple(n for n in spec.names if n not in ("chl", "cdom"))
+        tied = set(self.extras) & {"phyto_scale", "phyto_exponent"}
+        if tied:
+            raise ValueError(f"free: {sorted(tied)} enter eq 17, which this loop linearises with "
+                             "the water's constants; use sca.estimate_least_squares or "
+                             "sca.estimate_batch")
+        # with C fixed and one basis function, eq 17 fixes w too
+        self.free_w = self.free_chl or mdl.z > 1
+        # eq 16's T w >= 0: with one nonnegative basis function it is simply w >= 0, a bound
+        # like those on C and a_CDOM (one row instead of q in the subproblem)
+        self.w_bound = self.free_w and mdl.z == 1 and bool(np.all(mdl.T >= 0) and np.any(mdl.T > 0))
+        bounded = [n for n in self.extras if np.isfinite(lower_bound(n, self.water))]
+        unbounded = [n for n in self.extras if n not in bounded]
+        # the QP's delta, by name: the bounded scalars, w, then the unbounded
+        self.order = ((["gain"] if self.free_gain else []) + (["chl"] if self.free_chl else [])
+                      + (["cdom"] if self.free_cdom else []) + bounded
+                      + (["w"] if self.free_w else []) + unbounded)
+        self.n_scalar_pos = len(self.order) - int(self.free_w) - len(unbounded)
+        self.n_pos = self.n_scalar_pos + int(self.w_bound)
+        self.n_free = len(self.order) - int(self.free_w) + (mdl.z if self.free_w else 0)
+        if self.n_free == 0 and not self.free_s:
+            raise ValueError("fix: nothing is left to estimate")
+        self.w_slice = (self.n_scalar_pos, self.n_scalar_pos + mdl.z) if self.free_w else None
+
+    # ----------------------------------------------------------------------------- helpers
+    def _check_rgb(self, rgb):
+        shape = (self.model.m, self.model.n)
+        M = validate.array("rgb", rgb, shape=shape)
+        if np.any(M < 0):
+            raise ValueError(f"rgb: contains negative values (min {M.min():g}); measurements are "
+                             "exposure-normalised sensor values >= 0")
+        if M.max() > MAX_RGB:
+            raise ValueError(f"rgb: values up to {M.max():g} exceed {MAX_RGB:g}; measurements in "
+                             "model units are O(1) (a white reflector in air = 1)")
+        return M
+
+    def params(self, x) -> dict:
+        """The model's parameters at the loop's point ``x`` (a dict)."""
+        out = {"chl": x["chl"], "cdom": x["cdom"], "w": x["w"], "gain": x["gain"],
+               "backscatter": x["s"], "depth": self.depth, "distance": self.distance}
+        out.update({n: x[n] for n in self.extras})
+        return out
+
+    def signal(self, st, x) -> np.ndarray:
+        """vec(G) at unit gain, in the problem's units."""
+        p = self.params(x)
+        p.pop("gain"), p.pop("backscatter")
+        return st.mdl.predict(p, jacobian=False).signal
+
+    def objective(self, st, x) -> float:
+        """The (whitened) sum of squares of M - gain G - s at ``x``."""
+        r = st.wt * (st.Mv - x["gain"] * self.signal(st, x) - np.repeat(x["s"], st.mdl.n))
+        return float(r @ r)
+
+    def linear_part(self, st, G):
+        """The closed-form (gain, s) for signals ``G`` (..., m n): s >= 0 and gain >= 0
+        minimising the (whitened) residual (:func:`sca.model.linear_part`); gain = 1 where it is
+        known."""
+        mdl = st.mdl
+        G3 = np.asarray(G, float).reshape((-1, mdl.m, mdl.n))
+        M3 = np.broadcast_to(st.Mv.reshape(1, mdl.m, mdl.n), G3.shape)
+        fs = None if st.s_fixed is None else np.broadcast_to(st.s_fixed, (G3.shape[0], mdl.m))
+        gain, s, _ = linear_part(M3, G3, (st.wt ** 2).reshape(1, mdl.m, mdl.n), fs,
+                                 self.free_gain)
+        return gain.reshape(G.shape[:-1]), s.reshape(G.shape[:-1] + (mdl.m,))
+
+    def check_sigma(self, sigma):
+        """``sigma`` (None, a scalar or (m, n), data units) as a (m, n) array or None."""
+        if sigma is None:
+            return None
+        shape = (self.model.m, self.model.n)
+        arr = validate.array("sigma", sigma)
+        if arr.ndim == 0:
+            arr = np.full(shape, float(arr))
+        if arr.shape != shape:
+            raise ValueError(f"sigma: expected a scalar or shape {shape}, got {arr.shape}")
+        if np.any(arr <= 0):
+            raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+        return arr
+
+    def prepare(self, rgb, sigma=None) -> "_FitState":
+        """Validate ``rgb`` (and ``sigma``) and scale the problem: a fresh fit state holding
+        vec(M) / max M, the scale, the model in those units, the whitening weights (scale /
+        sigma, or ones) and the fixed backscatter in those units (or None)."""
+        M = self._check_rgb(rgb)
+        sig = self.check_sigma(sigma)
+        scale = float(np.max(M))
+        if scale <= 0:
+            raise ValueError("rgb: all values are zero; nothing to fit")
+        s_fixed = None if self.free_s else self.fixed["backscatter"] / scale
+        wt = np.ones(M.size) if sig is None else scale / sig.ravel()
+        Mv = M.ravel() / scale
+        Mw = wt * Mv
+        return _FitState(mdl=self.model.scaled(scale), Mv=Mv, wt=wt, noise_known=sig is not None,
+                         scale=scale, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw))
+
+    def initial_point(self, st, x0=None) -> dict:
+        """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
+        closed-form gain and s, unless ``x0`` (dict with 'chl' and/or 'cdom', or any free
+        name) gives it; other free parameters start at the water's constants or the given
+        geometry."""
+        mdl = st.mdl
+        chl_grid = np.array([self.fixed["chl"]]) if not self.free_chl else INIT_CHL
+        cdom_grid = np.array([self.fixed["cdom"]]) if not self.free_cdom else INIT_CDOM
+        start = {n: float(getattr(self, n)) if n in ("depth", "distance") else mdl.default(n)
+                 for n in self.extras}
+        if x0 is not None:
+            allowed = {"chl", "cdom"} | set(self.extras)
+            if not isinstance(x0, dict) or not set(x0) <= allowed:
+                raise ValueError(f"x0: expected a dict with keys among {sorted(allowed)}")
+            if "chl" in x0 and self.free_chl:
+                chl_grid = np.array([validate.scalar("x0['chl']", x0["chl"])])
+            if "cdom" in x0 and self.free_cdom:
+                cdom_grid = np.array([validate.scalar("x0['cdom']", x0["cdom"])])
+            for n in self.extras:
+                if n in x0:
+                    start[n] = validate.scalar(f"x0[{n!r}]", x0[n], nonnegative=False)
+        C, A = (v.ravel() for v in np.meshgrid(chl_grid, cdom_grid, indexing="ij"))
+        u = np.full(mdl.z, 1.0 / mdl.z)
+        W = np.multiply.outer(mdl.phyto_scale(C) / float(mdl.t440 @ u), u)
+        grid = {"chl": C, "cdom": A, "w": W, "s": np.zeros((C.size, mdl.m)), "gain": 1.0}
+        grid.update({n: np.full(C.size, v) for n, v in start.items()})
+        G = self.signal(st, grid)
+        gain, s = self.linear_part(st, G)
+        r = st.wt * (st.Mv - gain[:, None] * G - np.repeat(s, mdl.n, axis=-1))
+        j = int(np.argmin(np.einsum("ij,ij->i", r, r)))
+        x = {"chl": float(C[j]), "cdom": float(A[j]), "w": W[j].copy(), **start}
+        x["gain"], x["s"] = self._closed_form(st, x)
+        return x
+
+    def _closed_form(self, st, x):
+        gain, s = self.linear_part(st, self.signal(st, {**x, "gain": 1.0, "s": None})[None])
+        return float(gain[0]), np.array(s[0], dtype=float)
+
+    # ----------------------------------------------------------------------------- the loop
+    def fit(self, rgb, *, sigma=None, saturation=None, mode: str = "safeguarded",
+            max_iter: int = 100, tol: float = 1e-10, x0=None, trace: dict | None = None) -> Estimate:
+        """Run the sequential convex loop on measured patch values ``rgb`` (m, n), then assess
+        the fit (:mod:`sca.verdict`); see :func:`sca.estimate`. ``trace``: a dict that receives
+        the loop's timing (solve_time_s, clarabel_time_s, n_solves, polish_rescues), for
+        benchmarks."""
+        if mode not in MODES:
+            raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
+        if int(max_iter) != max_iter or max_iter < 1:
+            raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
+        tol = validate.scalar("tol", tol, positive=True)
+        if saturation is not None:
+            saturation = validate.scalar("saturation", saturation, positive=True)
+        st = self.prepare(rgb, sigma)
+        it = self._loop(st, mode, int(max_iter), tol, x0)
+        if trace is not None:
+            trace.update(solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel,
+                         n_solves=st.n_solves, polish_rescues=st.rescues)
+        return assess(self, st, mode, it, saturation)
+
+    def _loop(self, st, mode, max_iter, tol, x0):
+        """Linearise, solve the QP, judge the step with the true objective, repeat."""
+        safeguarded = mode == "safeguarded"
+        mdl = st.mdl
+        sub = compiled_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
+                                  mdl.wavelengths.size, mdl.m if self.free_s else 0, safeguarded,
+                                  self.free_w)
+        st.x = self.initial_point(st, x0)
+        st.initial = {"chl": st.x["chl"], "cdom": st.x["cdom"]}
+        st.f = self.objective(st, st.x)
+        st.history.append(st.f)
+        it = 0
+        for it in range(1, max_iter + 1):
+            if st.f <= st.f_exact:
+                st.stop("exact fit (objective at rounding level)", True)
+                it -= 1
+                break
+            lin = self._linearise(st)
+            if lin.unit <= GRADIENT_VANISHES:
+                st.stop("converged: the gradient vanishes", True)
+                break
+            v, failure = self._solve_step(sub, lin, st, safeguarded)
+            if failure:
+                st.stop(f"solver failed at iteration {it}: {failure}", False)
+                break
+            cand = self._candidate(st, lin, v, safeguarded)
+            if not np.isfinite(cand.f):
+                st.stop(f"non-finite objective at iteration {it}", False)
+                break
+            if self._judge(st, cand, tol, safeguarded):
+                break
+        else:
+            st.stop("maximum number of iterations reached", False)
+        if st.f <= st.f_exact and not st.converged:
+            st.stop("exact fit (objective at rounding level)", True)
+        return it
+
+    def _scales(self, st) -> np.ndarray:
+        """The scale D of every entry of delta (the QP's unknowns are x = x_t + D delta)."""
+        mdl, x = st.mdl, st.x
+        w_min = float(mdl.phyto_scale(CHL_SCALE_MIN)) / (mdl.z * float(np.max(mdl.t440)))
+        out = []
+        for name in self.order:
+            if name == "gain":
+                out.append(x["gain"] if x["gain"] > 0 else 1.0)
+            elif name == "chl":
+                out.append(max(x["chl"], CHL_SCALE_MIN))
+            elif name == "cdom":
+                out.append(max(x["cdom"], CDOM_SCALE_MIN))
+            elif name == "w":
+                out.extend(np.maximum(np.abs(x["w"]), w_min))
+            else:
+                out.append(max(abs(x[name]), PARAM_SCALE_MIN))
+        return np.array(out, float)
+
+    def _linearise(self, st) -> "_Linearisation":
+        """The QP data at the current point: scaled Jacobian [A E] = Q R and the residual."""
+        mdl, x = st.mdl, st.x
+        pred = mdl.predict(self.params(x), [n for n in self.order], chl_floor=CHL_DERIVATIVE_FLOOR)
+        scales = self._scales(st)
+        r0 = st.wt * (st.Mv - pred.values)  # whitened when the noise is known
+        AE = pred.jacobian * scales
+        if self.free_s:
+            AE = np.hstack([AE, np.repeat(np.eye(mdl.m), mdl.n, axis=0)])
+        AE = AE * st.wt[:, None]
+        Q, Rm = np.linalg.qr(AE)
+        b = Q.T @ r0
+        unit = float(np.linalg.norm(b))  # the step is solved for in units of ||Q^T r0||
+        c0 = max(float(r0 @ r0 - b @ b), 0.0)  # the part of ||r0||^2 no step can remove
+        return _Linearisation(AE, r0, Rm, b, unit, c0, scales)
+
+    def _position(self, name):
+        """Index of scalar ``name`` in delta."""
+        i = self.order.index(name)
+        if self.free_w and i > self.order.index("w"):
+            i += self.model.z - 1
+        return i
+
+    def _eq17_row(self, st, lin):
+        """Eq 17 linearised: t440.(w + D_w dw) = alpha(C) + alpha'(C) D_C dC, as (row, rhs)."""
+        if not self.free_w:
+            return None, 0.0
+        mdl, x = st.mdl, st.x
+        row = np.zeros(lin.R.shape[1])
+        lo, hi = self.w_slice
+        row[lo:hi] = mdl.t440 * lin.scales[lo:hi]
+        if self.free_chl:
+            alpha, dalpha = mdl.phyto_scale(x["chl"], derivative=True)
+            i = self._position("chl")
+            row[i] = -float(dalpha) * lin.scales[i]
+            return row, float(alpha) - float(mdl.t440 @ x["w"])
+        return row, float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ x["w"])
+
+    def _set_subproblem(self, sub, lin, st, safeguarded):
+        """Write the QP's parameters (all in units of ``lin.unit``)."""
+        mdl, x = st.mdl, st.x
+        unit = lin.unit
+        sub.R.value = lin.R
+        sub.b.value = lin.b / unit
+        eq_row, eq_rhs = self._eq17_row(st, lin)
+        # Bounds far beyond any step the model can want only hurt the interior-point start;
+        # they are capped at BOUND_CAP times the least-squares step that respects the
+        # linearised eq 17 (without it, C and w are nearly collinear and the unconstrained
+        # step is meaningless).
+        v_ls = equality_step(lin.R, lin.b / unit, eq_row, eq_rhs / unit)
+        cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
+        if self.free_s:
+            sub.s_lo.value = np.maximum(-x["s"] / unit, -cap)
+        if self.n_pos:
+            lo = []
+            for name in self.order[:self.n_scalar_pos]:
+                i = self._position(name)
+                lo.append((lower_bound(name, self.water) - x[name]) / lin.scales[i])
+            if self.w_bound:
+                lo.append(-float(x["w"][0]) / float(lin.scales[self.w_slice[0]]))
+            sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
+        if safeguarded and self.n_free:
+            sub.hi.value = np.full(self.n_free, min(st.radius / unit, cap))
+        if self.free_w:
+            if not self.w_bound:
+                TDw = mdl.T * lin.scales[self.w_slice[0]:self.w_slice[1]]
+                sub.TDw.value = TDw
+                sub.Tw_rhs.value = np.maximum(-(mdl.T @ x["w"]) / unit,
+                                              -cap * np.abs(TDw).sum(axis=1))
+            sub.a_eq.value = eq_row[:self.n_free]
+            sub.b_eq.value = eq_rhs / unit
+
+    def qp_problem(self, sub, lin):
+        """The cvxpy problem and variable solved each iteration: the compiled DPP problem.
+        (A benchmark baseline overrides this to rebuild the problem every time.)"""
+        return sub.problem, sub.v
+
+    def _solve_step(self, sub, lin, st, safeguarded):
+        """Solve the QP (with the fallbacks and the active-set polish): the step in data units
+        and '' or the reasons it failed."""
+        self._set_subproblem(sub, lin, st, safeguarded)
+        t0 = time.perf_counter()
+        problem, v_var = self.qp_problem(sub, lin)
+        v_var.value = None  # a cached problem: never read a previous solve's values
+        failure = _solve(problem)
+        st.t_solve += time.perf_counter() - t0
+        st.n_solves += 1
+        stats = getattr(problem, "solver_stats", None)
+        if stats is not None and stats.solve_time:
+            st.t_clarabel += float(stats.solve_time)
+        v = None
+        if not failure:
+            v, _ = polish(sub, np.asarray(v_var.value, float))
+        elif v_var.value is not None and np.all(np.isfinite(v_var.value)):
+            # Clarabel stopped early (e.g. its iteration limit on a degenerate, weakly active
+            # bound) but returned an iterate: the active-set polish may turn it into a
+            # feasible point that the model says is no worse than not moving (v = 0, feasible
+            # in safeguarded mode). Counted in ``polish_rescues`` of the trace.
+            v, rescued = polish(sub, np.asarray(v_var.value, float),
+                                f_ref=1.0 if safeguarded else None)
+            if rescued:
+                failure = ""
+                st.rescues += 1
+        if failure:
+            return None, failure
+        st.qp_value = float(np.sum((lin.R @ v - lin.b / lin.unit) ** 2))
+        return v * lin.unit, ""
+
+    def _candidate(self, st, lin, v, safeguarded) -> "_Candidate":
+        """The trial point of step ``v``, its true objective and the decrease the linearised
+        model predicted for it."""
+        mdl, x = st.mdl, st.x
+        delta = v[:self.n_free]
+        step = delta * lin.scales
+        new = dict(x)
+        for name in self.order:
+            if name == "w":
+                new["w"] = x["w"] + step[self.w_slice[0]:self.w_slice[1]]
+                continue
+            value = x[name] + step[self._position(name)]
+            low = lower_bound(name, self.water)
+            new[name] = max(value, low) if np.isfinite(low) else value
+        if safeguarded:  # feasibility restoration: w back on eq 17, gain and s re-fitted in
+            # closed form
+            new["w"] = mdl.feasible_w(new["chl"], new["w"])
+            new["gain"], new["s"] = self._closed_form(st, new)
+        else:
+            new["s"] = np.maximum(x["s"] + v[self.n_free:], 0.0) if self.free_s else x["s"].copy()
+        f_new = self.objective(st, new)
+        pred = st.f - (st.qp_value * lin.unit**2 + lin.c0)
+        size = float(np.max(np.abs(delta))) if delta.size else 0.0
+        st.trials.append(f_new)
+        return _Candidate(new, f_new, pred, size)
+
+    def _judge(self, st, cand, tol, safeguarded) -> bool:
+        """Accept or reject the candidate, update the trust region; True when the loop stops."""
+        stationary = cand.pred <= tol * st.f or st.f <= st.f_exact
+        if cand.f < st.f:  # accept
+            decrease = st.f - cand.f
+            st.x, st.f = cand.x, cand.f
+            st.history.append(st.f)
+            if not safeguarded:
+                return False
+            st.radius = update_radius(st.radius, decrease / cand.pred if cand.pred > 0 else 0.0,
+                                      cand.step)
+            if decrease <= tol * (st.f + decrease) and \
+                    cand.pred <= CONVERGED_PRED_FACTOR * tol * (st.f + decrease):
+                return st.stop("converged: relative decrease below tol", True)
+            return False
+        # the objective did not decrease
+        if not safeguarded:
+            if stationary:
+                return st.stop("objective stopped decreasing at a stationary point", True)
+            return st.stop("objective stopped decreasing after a full Taylor step, but the point "
+                           "is not stationary (paper mode stopped early)", False)
+        if stationary:
+            return st.stop("converged: no further decrease predicted", True)
+        st.radius = min(st.radius, cand.step) / TR_SHRINK
+        if st.radius < TR_COLLAPSE:
+            return st.stop("trust region collapsed without reaching a stationary point", False)
+        return False
+
+
+@dataclass
+class _Linearisation:
+    """The QP of one iteration: [A E] (scaled Jacobian and the s columns), r0, its QR factor R,
+    Q^T r0, the unit ||Q^T r0||, the irreducible part c0 of ||r0||^2, and the scales D."""
+
+    AE: np.ndarray
+    r0: np.ndarray
+    R: np.ndarray
+    b: np.ndarray
+    unit: float
+    c0: float
+    scales: np.ndarray
+
+
+@dataclass
+class _Candidate:
+    x: dict
+    f: float
+    pred: float
+    step: float
+
+
+@dataclass
+class _FitState:
+    """Everything one fit changes (local to the call: an Estimator itself is never mutated)."""
+
+    mdl: ChartModel
+    Mv: np.ndarray
+    wt: np.ndarray
+    noise_known: bool
+    scale: float
+    s_fixed: np.ndarray | None
+    f_exact: float
+    x: dict = field(default_factory=dict)
+    f: float = np.inf
+    initial: dict = field(default_factory=dict)
+    radius: float = TR_RADIUS0
+    history: list = field(default_factory=list)
+    trials: list = field(default_factory=list)
+    status: str = ""
+    converged: bool = False
+    qp_value: float = 0.0
+    n_solves: int = 0
+    t_solve: float = 0.0
+    t_clarabel: float = 0.0
+    rescues: int = 0
+
+    def stop(self, status: str, converged: bool) -> bool:
+        self.status, self.converged = status, converged
+        return True
+
+
+def _solve(problem) -> str:
+    """Solve with Clarabel; on failure retry with the fallbacks of ``CLARABEL_FALLBACKS``.
+
+    Returns '' on success, else the reasons of every attempt.
+    """
+    reasons = []
+    for settings in CLARABEL_FALLBACKS:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # 'Solution may be inaccurate': judged below
+                problem.solve(solver=cp.CLARABEL, warm_start=False, **settings)
+        except (cp.SolverError, ValueError, ArithmeticError) as exc:
+            reasons.append(f"{type(exc).__name__}: {exc}")
+            continue
+        if problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and problem.value is not None:
+            return ""
+        reasons.append(f"status {problem.status}")
+    return "; ".join(reasons)
+
+
+
+def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAULT_CAMERA,
+             illuminant=None, reflectances=None, wavelengths=None, basis=None,
+             mode: str = "safeguarded", max_iter: int = 100,
+             tol: float = 1e-10, fix=None, free=(), x0=None, water: Water | None = None,
+             path_model: str | None = None, cdom_slope: float | None = None,
+             setup: ChartSetup | None = None, gain: str = "known") -> Estimate:
+    """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
+
+    Parameters
+    ----------
+    rgb : array_like, (m, n)
+        Measured patch values in the model units of :func:`forward.simulate_chart`
+        (exposure-normalised: a white reflector in air = 1 in the reference channel), or any
+        units with ``gain='free'``.
+    depth, distance : float
+        The path of the measurement, m (keyword-only).
+    sigma : float or (m, n), optional
+        Standard deviation of each value of ``rgb`` (same units), e.g.
+        ``forward.simulate_chart(...).rgb_sigma``. The fit is then weighted least squares, its
+        chi^2 is tested and the intervals use the known noise. Without it the noise is
+        estimated from the residual, the fit cannot be tested, and the estimate is not
+        ``reliable`` (flag ``noise-unknown``).
+    saturation : float, optional
+        The sensor's clip level in the units of ``rgb`` for the ``saturated`` check; without
+        it two values tied at the maximum count as clipped.
+    camera, illuminant, reflectances, wavelengths, basis, setup :
+        As :func:`forward.simulate_chart`; must describe the same camera and chart as the data.
+    mode : {'safeguarded', 'paper'}
+        The safeguarded loop (default) or the paper's literal loop.
+    max_iter : int
+        Maximum number of convex subproblems.
+    tol : float
+        Relative objective decrease at which the loop stops.
+    fix : dict, optional
+        Held parameters, e.g. ``{'backscatter': 0}`` (chart a few cm away), ``{'cdom': 0.1}``
+        or a forward.Water coefficient ``{'cdom_slope': 0.016}``.
+    free : sequence of str
+        Parameters estimated besides C, a_CDOM and s: any forward.Water coefficient of c(x)
+        (e.g. ``('cdom_slope',)``: eq 6's slope, "usually between 0.014 and 0.019"), 'depth',
+        'distance' or 'gain'. Each is one more linearised variable of the loop; its estimate
+        and 95 % profile-likelihood interval are in ``values`` and ``intervals``.
+    x0 : dict, optional
+        Start ``{'chl': ..., 'cdom': ...}`` (and any free name) instead of the coarse grid.
+    water : forward.Water, optional
+        Constants, tables and path model (default the paper's); ``path_model`` and
+        ``cdom_slope`` replace those fields.
+    gain : {'known', 'free'}
+        'known' (default: ``rgb`` in model units) or 'free': M = gain G(x) + s 1^T with the
+        unknown exposure gain estimated with the water (``Estimate.gain``, ``gain_ci``); the
+        intervals of the other parameters include its uncertainty.
+
+    Returns
+    -------
+    Estimate
+
+    References
+    ----------
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18.
+
+    Safe to call from several threads (each thread compiles its own subproblem).
+    """
+    est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
+                    reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
+                    path_model=path_model, cdom_slope=cdom_slope, fix=fix, free=free,
+                    setup=setup, gain=gain)
+    return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
+                   x0=x0)

@@ -1,0 +1,76 @@
+"""``free=``: any parameter of the model function is a name, not a rewrite. The paper's own open
+question -- eq 6's slope "usually varies between 0.014 and 0.019" -- estimated with C and
+a_CDOM, in the loop, the scipy path, the batch and the Cramér-Rao bound."""
+
+import numpy as np
+import pytest
+
+import forward
+import sca
+
+SLOPE = 0.018
+WORLD = forward.Water(cdom_slope=SLOPE)
+C, A, D, R = 1.0, 0.5, 3.0, 1.0
+DRAWS = 200
+
+
+@pytest.fixture(scope="module")
+def chart():
+    return forward.simulate_chart(C, A, D, R, water=WORLD, seed=2)
+
+
+@pytest.fixture(scope="module")
+def draws():
+    sims = [forward.simulate_chart(C, A, D, R, water=WORLD, seed=100 + s) for s in range(DRAWS)]
+    return np.array([s.rgb for s in sims]), np.array([s.rgb_sigma for s in sims])
+
+
+def test_single_fits_recover_the_slope_with_an_interval(chart):
+    fits = {"loop": sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma,
+                                 free=("cdom_slope",)),
+            "scipy": sca.estimate_least_squares(chart.rgb, depth=D, distance=R,
+                                                sigma=chart.rgb_sigma, free=("cdom_slope",))}
+    ref = fits["loop"]
+    assert ref.reliable and set(ref.values) == {"chl", "cdom", "cdom_slope"}
+    lo, hi = ref.intervals["cdom_slope"]
+    assert lo <= SLOPE <= hi and hi - lo < 0.001
+    assert ref.values["chl"] == ref.chl and ref.intervals["chl"] == ref.chl_ci
+    for name, e in fits.items():
+        assert e.values["cdom_slope"] == pytest.approx(ref.values["cdom_slope"], rel=1e-6), name
+        assert e.intervals["cdom_slope"] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-5)
+    b = sca.estimate_batch(chart.rgb[None], depth=D, distance=R, sigma=chart.rgb_sigma,
+                           free=("cdom_slope",))
+    assert b.values["cdom_slope"][0] == pytest.approx(ref.values["cdom_slope"], rel=1e-6)
+    assert b.intervals["cdom_slope"][0] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-4)
+
+
+def test_the_fixed_slope_fit_of_this_world_is_a_misfit_not_an_answer(chart):
+    e = sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma)
+    assert not e.reliable and "misfit" in e.flags
+
+
+def test_batch_intervals_are_calibrated_and_the_bound_predicts_the_spread(draws):
+    rgb, sigma = draws
+    b = sca.estimate_batch(rgb, depth=D, distance=R, sigma=sigma, free=("cdom_slope",))
+    p = sca.precision(C, A, depth=D, distance=R, water=WORLD, free=("cdom_slope",))
+    assert np.all(b.converged)
+    for name, truth in (("chl", C), ("cdom", A), ("cdom_slope", SLOPE)):
+        lo, hi = b.intervals[name].T
+        cover = np.mean((lo <= truth) & (truth <= hi))
+        # 95 % nominal; 200 draws: the binomial standard error is 1.5 %, so 3 SE is 4.6 %
+        assert 0.904 <= cover <= 0.996, (name, cover)
+        # the sample SD's standard error is 1 / sqrt(2 * 199) = 5 %: within 3 SE of the bound
+        ratio = b.values[name].std(ddof=1) / p.sd[name]
+        assert 0.85 < ratio < 1.15, (name, ratio)
+
+
+def test_fix_holds_any_constant_and_free_adds_any_name(chart):
+    held = sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma,
+                        fix={"cdom_slope": SLOPE})
+    assert held.reliable and "cdom_slope" not in held.values
+    assert held.chl_ci[0] <= C <= held.chl_ci[1]
+    with pytest.raises(ValueError, match="^free:"):
+        sca.estimate(chart.rgb, depth=D, distance=R, free=("cdom_slope",),
+                     fix={"cdom_slope": SLOPE})
+    with pytest.raises(ValueError, match="^free:"):
+        sca.estimate_batch(chart.rgb[None], depth=D, distance=R, free=("colour",))

@@ -1,0 +1,68 @@
+"""``uw3p bench``: speed against error of every estimator (what ``make bench`` runs).
+
+    uw3p bench [--quick]
+
+Runs ``python -m experiments.benchmark`` in its own process with one BLAS thread, and exits with
+its status.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+__all__ = ["NAME", "BUFFERED", "add_parser", "run"]
+
+#: The subcommand's name.
+NAME = "bench"
+#: Output goes straight to the terminal (the benchmark's own process writes it).
+BUFFERED = False
+
+
+def add_parser(sub):
+    """Register ``bench`` and its options.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``uw3p`` parser's subcommands.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser, its ``func`` default set to :func:`run`.
+    """
+    p = sub.add_parser(NAME, help="speed against error of every estimator (make bench)")
+    p.add_argument("--quick", action="store_true", help="reduced sizes (a check, not the record)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args, out, err) -> int:
+    """Run the benchmark in a child process and wait for it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options: ``quick``.
+    out, err : text streams
+        Unused (the child writes to the process's own streams).
+
+    Returns
+    -------
+    int
+        The benchmark's exit status.
+    """
+    import subprocess
+
+    # one BLAS thread (see the Makefile and DECISIONS.md); set before numpy is imported, so the
+    # benchmark runs in its own process
+    env = dict(os.environ)
+    env.setdefault("OPENBLAS_NUM_THREADS", "1")
+    cmd = [sys.executable, "-m", "experiments.benchmark"] + (["--quick"] if args.quick else [])
+    proc = subprocess.Popen(cmd, env=env)
+    try:
+        return proc.wait()
+    except KeyboardInterrupt:
+        proc.wait()
+        raise

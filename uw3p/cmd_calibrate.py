@@ -1,0 +1,88 @@
+"""``uw3p calibrate``: a camera's channel balance from a photograph of the chart in air.
+
+    uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
+
+The profile written is what ``uw3p measure --profile`` reads. Exit status 0 when the profile
+fits (reliable), 1 when it does not.
+"""
+
+from __future__ import annotations
+
+from .common import EXIT_NOT_RELIABLE, EXIT_OK, add_photo_options, read_photo, write_file
+
+__all__ = ["NAME", "BUFFERED", "add_parser", "run"]
+
+#: The subcommand's name.
+NAME = "calibrate"
+#: Output is collected and written when the command ends (see ``uw3p.cli.main``).
+BUFFERED = True
+
+
+def add_parser(sub):
+    """Register ``calibrate`` and its options.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``uw3p`` parser's subcommands.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser, its ``func`` default set to :func:`run`.
+    """
+    p = sub.add_parser(NAME, help="fit a camera's channel balance from a photo of the "
+                                  "chart in air")
+    p.add_argument("image", help="RAW (any LibRaw format) or linear 16-bit TIFF of the chart in air")
+    p.add_argument("--out", required=True, help="the profile to write (JSON)")
+    add_photo_options(p)
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args, out, err) -> int:
+    """Fit the channel balance of the camera from ``image`` and write the profile to ``--out``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options: ``image``, ``out`` and the photo options (``corners`` in pixels,
+        ``layout``, ``camera``, ``quantal``, ``illuminant``, black and white levels in raw
+        units).
+    out : text stream
+        The channel gains (largest 1), chi^2/dof and fit_rms per channel, and whether the
+        profile is reliable.
+    err : text stream
+        ``wrote <profile>``.
+
+    Returns
+    -------
+    int
+        ``EXIT_OK`` when the profile is reliable, else ``EXIT_NOT_RELIABLE``.
+
+    Raises
+    ------
+    ValueError
+        Bad input (an unreadable image, corners whose grey row does not fall from white to
+        black, an unwritable ``--out``); the message names the argument or file.
+    """
+    import measure
+
+    photo = read_photo(args, args.image)
+    cands = measure.orientations(photo, args.corners, measure.LAYOUTS[args.layout])
+    c, _, ok = cands["as given"]
+    if not ok:
+        passing = [k for k, v in cands.items() if v[2]]
+        hint = f" (it does {passing[0]})" if len(passing) == 1 else ""
+        raise ValueError("corners: the grey row (patches 19-24) does not fall from white to black "
+                         f"in the order given{hint}; give the corners next to patch 1, 6, 24, 19")
+    sample = measure.sample_patches(photo, c, measure.LAYOUTS[args.layout])
+    prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,
+                             illuminant=args.illuminant, image=photo.path)
+    write_file(args.out, prof.to_json(), err)
+    out.write("channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains)
+              + "\nchi2/dof per channel: " + ", ".join(f"{v:.3g}" for v in prof.chi2_dof)
+              + "\nfit_rms per channel: " + ", ".join(f"{v:.3g}" for v in prof.fit_rms)
+              + f"\nreliable: {prof.reliable}" + (f" (flags: {', '.join(prof.flags)})"
+                                                  if prof.flags else "") + "\n")
+    return EXIT_OK if prof.reliable else EXIT_NOT_RELIABLE

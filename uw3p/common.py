@@ -1,0 +1,258 @@
+"""What the ``uw3p`` subcommands share: exit codes, common options and output helpers.
+
+Each subcommand lives in its own module (``cmd_<name>.py``) and imports from here. This module
+imports nothing heavy at load time (numpy, ``forward`` and ``measure`` are imported inside the
+functions that need them), so that ``uw3p --help`` stays cheap.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+__all__ = [
+    "EXIT_OK", "EXIT_NOT_RELIABLE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
+    "add_setup_options", "add_water_options", "add_photo_options",
+    "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
+    "write_file", "json_text",
+]
+
+#: Exit status: success (every estimate reliable / converged).
+EXIT_OK = 0
+#: Exit status: an estimate is not reliable or did not converge (its flags say why).
+EXIT_NOT_RELIABLE = 1
+#: Exit status: bad input; the message names the argument or file.
+EXIT_BAD_INPUT = 2
+#: Exit status: interrupted (Ctrl-C).
+EXIT_INTERRUPTED = 130
+
+#: Wavelength step (nm) used when ``--wl-min``/``--wl-max`` are given without ``--step``.
+#: Without any of the three the package's own grid is used (400-700 nm at 1 nm,
+#: ``forward.spectra.DEFAULT_STEP_NM``).
+_RANGE_STEP_NM = 10.0
+
+
+# --------------------------------------------------------------------------- options
+def add_setup_options(p) -> None:
+    """Add the camera, illuminant, chart, wavelength-grid and water options.
+
+    Used by the commands that run the model on a chart (``simulate``, ``estimate``, ``design``).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser; options ``--camera``, ``--illuminant``, ``--reflectances``,
+        ``--step``, ``--wl-min``, ``--wl-max`` and those of :func:`add_water_options` are added.
+
+    Returns
+    -------
+    None
+    """
+    p.add_argument("--camera", default="Nikon 5100 (NPL)",
+                   help="colour-science camera name or CSV file (default: %(default)s)")
+    p.add_argument("--illuminant", default=None, help="colour-science illuminant name or CSV (default D65)")
+    p.add_argument("--reflectances", default=None, help="chart name or CSV (default BabelColor Average)")
+    p.add_argument("--step", type=float, default=None,
+                   help="wavelength step in nm (default 1: the package grid, 400-700 nm; 10 when "
+                        "--wl-min or --wl-max is given)")
+    p.add_argument("--wl-min", type=float, default=400.0, help="first wavelength, nm (default 400)")
+    p.add_argument("--wl-max", type=float, default=700.0, help="last wavelength, nm (default 700)")
+    add_water_options(p)
+
+
+def add_water_options(p) -> None:
+    """Add the water-model options (fields of ``forward.Water``; defaults: the paper's).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser; an argument group with ``--path-model``, ``--cdom-slope``
+        (nm^-1), ``--nap-slope`` (nm^-1) and ``--b-k`` (m^-1) is added.
+
+    Returns
+    -------
+    None
+    """
+    g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
+    g.add_argument("--path-model", default="beam", choices=["beam", "absorption"],
+                   help="k = exp(-L c) (beam, default) or exp(-L a) (eq 13 as printed)")
+    g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
+    g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
+    g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
+
+
+def add_photo_options(p) -> None:
+    """Add the options of the commands that read a photograph (``calibrate``, ``measure``).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser; ``--camera``, ``--quantal``, ``--corners`` (required, pixels),
+        ``--layout``, ``--illuminant``, ``--black-level`` and ``--white-level`` (raw units) are
+        added.
+
+    Returns
+    -------
+    None
+    """
+    p.add_argument("--camera", default="Nikon 5100 (NPL)",
+                   help="colour-science camera name or CSV (wavelength,red,green,blue)")
+    p.add_argument("--quantal", action="store_true",
+                   help="the camera curves act on photons (quantum efficiency): convert to energy")
+    p.add_argument("--corners", required=True,
+                   help='the chart\'s outer corners in pixels, "x1,y1 x2,y2 x3,y3 x4,y4": next to '
+                        "patch 1 (dark skin), patch 6 (bluish green), patch 24 (black), patch 19 "
+                        "(white)")
+    p.add_argument("--layout", default="patches", choices=["patches", "card"],
+                   help="the corners are those of the patch grid (default) or of the whole card")
+    p.add_argument("--illuminant", default=None, help="surface illuminant name or CSV (default D65)")
+    p.add_argument("--black-level", type=float, default=None, help="override the file's, raw units")
+    p.add_argument("--white-level", type=float, default=None, help="override the file's, raw units")
+
+
+# --------------------------------------------------------------------------- option values
+def wavelengths_from_args(args):
+    """The wavelength grid asked for by ``--step``, ``--wl-min`` and ``--wl-max``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options of :func:`add_setup_options`.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        Wavelengths in nm from ``--wl-min`` to ``--wl-max`` (inclusive) in steps of ``--step``
+        (10 nm when only the range is given), or None -- the package's default grid, 400-700 nm
+        at 1 nm -- when none of the three options is given.
+
+    Raises
+    ------
+    ValueError
+        ``--step`` is not positive.
+    """
+    if args.step is None and args.wl_min == 400.0 and args.wl_max == 700.0:
+        return None
+    import numpy as np
+
+    step = _RANGE_STEP_NM if args.step is None else args.step
+    if not step > 0:
+        raise ValueError(f"--step: must be > 0, got {step}")
+    return np.arange(args.wl_min, args.wl_max + step / 2, step)
+
+
+def water_from_args(args):
+    """The water model asked for by the options of :func:`add_water_options`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options: ``path_model``, and ``cdom_slope``, ``nap_slope``, ``b_k`` (None: the
+        paper's value).
+
+    Returns
+    -------
+    forward.Water
+
+    Raises
+    ------
+    ValueError
+        A value ``forward.Water`` refuses; the message names the option (``--b-k: ...``).
+    """
+    import forward
+
+    kw = {"path_model": args.path_model}
+    for opt, key in (("cdom_slope", "cdom_slope"), ("nap_slope", "nap_slope"), ("b_k", "b_k")):
+        if getattr(args, opt) is not None:
+            kw[key] = getattr(args, opt)
+    try:
+        return forward.Water(**kw)
+    except ValueError as exc:
+        raise ValueError(f"--{str(exc).replace('_', '-')}") from None
+
+
+def setup_kwargs(args) -> dict:
+    """Keyword arguments of the ``sca`` estimators for the options of :func:`add_setup_options`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options of :func:`add_setup_options`.
+
+    Returns
+    -------
+    dict
+        ``camera``, ``illuminant``, ``reflectances``, ``wavelengths`` (nm, or None) and
+        ``water`` (a ``forward.Water``).
+    """
+    return dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
+                wavelengths=wavelengths_from_args(args), water=water_from_args(args))
+
+
+def read_photo(args, image):
+    """Read a photograph with the black and white levels of ``--black-level``/``--white-level``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options of :func:`add_photo_options`.
+    image : str or pathlib.Path
+        RAW (any LibRaw format) or linear 16-bit TIFF file.
+
+    Returns
+    -------
+    measure.image.Photo
+        What ``measure.read_image`` returns.
+    """
+    import measure
+
+    return measure.read_image(image, black_level=args.black_level, white_level=args.white_level)
+
+
+# --------------------------------------------------------------------------- output
+def write_file(path, text, err) -> None:
+    """Write ``text`` to the ``--out`` file and say so on ``err``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write (UTF-8).
+    text : str
+        Its content.
+    err : text stream
+        Where ``wrote <path>`` is reported.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        The file cannot be written; the message names ``--out`` and the reason.
+    """
+    p = Path(path)
+    try:
+        p.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        why = "its folder does not exist" if not p.parent.is_dir() else exc.strerror
+        raise ValueError(f"--out: cannot write {p}: {why}") from None
+    err.write(f"wrote {p}\n")
+
+
+def json_text(obj) -> str:
+    """Strict JSON text: an open interval end (inf) is written "inf", an untested value (NaN) null.
+
+    Parameters
+    ----------
+    obj : object
+        Anything ``measure.output.strict_json`` accepts (dicts, lists, numbers, numpy arrays).
+
+    Returns
+    -------
+    str
+        Indented JSON followed by a newline.
+    """
+    from measure.output import strict_json
+
+    return json.dumps(strict_json(obj), indent=1, allow_nan=False) + "\n"
