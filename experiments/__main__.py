@@ -14,6 +14,8 @@ from pathlib import Path
 
 from .grids import SETTINGS
 
+__all__ = ["main", "FIGURES", "STUDIES"]
+
 #: Figure scripts, in order (made at every setting).
 FIGURES = [
     "fig05_06_appearance_sites",

@@ -13,6 +13,8 @@ import forward  # noqa: E402
 from .common import figures_dir, save_figure, style, write_csv  # noqa: E402
 from .grids import setting as get_setting  # noqa: E402
 
+__all__ = ["SEED", "sensor_of", "simulate", "render_conditions", "chromaticity_spread"]
+
 #: Noise seed of all appearance figures (fixed: reruns give identical images).
 SEED = 2016
 

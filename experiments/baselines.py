@@ -14,6 +14,8 @@ import cvxpy as cp
 import sca
 from sca.subproblem import Subproblem
 
+__all__ = ["RebuildEstimator", "constant_problem"]
+
 
 def constant_problem(sub: Subproblem, AE, r0):
     """The same QP as ``sub`` written as a CVX user would: the full least-squares residual
@@ -36,7 +38,6 @@ def constant_problem(sub: Subproblem, AE, r0):
         cons.append(v[sub.n_free:] >= sub.s_lo.value)
     problem = cp.Problem(cp.Minimize(cp.sum_squares(r0 - AE @ v)), cons)
     return problem, v
-
 
 
 class RebuildEstimator(sca.Estimator):

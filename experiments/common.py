@@ -10,8 +10,12 @@ import matplotlib
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
 
-#: Default output folder: ``figures/`` in the current directory (override with UW3P_FIGURES).
+__all__ = ["figures_dir", "save_figure", "write_csv", "style", "DPI", "MIN_FONT_PT"]
+
+
 def figures_dir(outdir=None) -> Path:
+    """The output folder, created if missing: ``outdir``, else the environment variable
+    UW3P_FIGURES, else ``figures/`` in the current directory."""
     path = Path(outdir or os.environ.get("UW3P_FIGURES", "figures"))
     path.mkdir(parents=True, exist_ok=True)
     return path

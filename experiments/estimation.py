@@ -9,6 +9,9 @@ import numpy as np
 from . import sweep
 from .grids import grid as get_grid
 
+__all__ = ["fig10_conditions", "fig12_conditions", "mean_se", "resolve", "fit_header",
+           "fit_row"]
+
 
 def fig10_conditions(g, illuminance_lux=20000.0, exposure="capped"):
     return [sweep.condition(c, a, d, r, s, illuminance_lux=illuminance_lux, exposure=exposure)

@@ -20,6 +20,8 @@ import sca
 
 from .common import figures_dir, write_csv
 
+__all__ = ["run", "main", "CHLS", "CDOMS", "DEPTHS", "DISTANCES"]
+
 CHLS = np.logspace(-2, np.log10(20), 5)
 CDOMS = np.logspace(-2, 0, 4)
 DEPTHS = (1.0, 5.0, 10.0, 20.0)

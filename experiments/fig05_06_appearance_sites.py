@@ -8,6 +8,8 @@ reproducible here.
 
 from .appearance import render_conditions
 
+__all__ = ["SITES", "main"]
+
 SITES = [
     dict(chl=1.0, cdom=0.05, depth=5.0, distance=1.0,
          label="Fig 5: Fanning Island\nC = 1 mg m$^{-3}$, a$_{CDOM}$ = 0.05 m$^{-1}$"),

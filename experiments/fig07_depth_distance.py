@@ -2,6 +2,8 @@
 
 from .appearance import render_conditions
 
+__all__ = ["DEPTHS_M", "DISTANCES_M", "conditions", "main"]
+
 DEPTHS_M = (1.0, 5.0, 10.0, 20.0)
 DISTANCES_M = (0.5, 1.0, 5.0, 10.0)
 

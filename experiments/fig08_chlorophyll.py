@@ -8,6 +8,8 @@ shows the hue moving from blue to green as the paper describes.
 
 from .appearance import render_conditions
 
+__all__ = ["CHL_MG_M3", "conditions", "main"]
+
 CHL_MG_M3 = (0.01, 0.1, 1.0, 10.0, 100.0)
 
 

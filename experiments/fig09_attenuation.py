@@ -12,6 +12,8 @@ from .common import figures_dir, save_figure, style, write_csv
 from .grids import FIG9
 from .grids import setting as get_setting
 
+__all__ = ["main"]
+
 
 def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
     s = get_setting(setting)
@@ -41,7 +43,8 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
               comment=(f"Fig 9 ({s['name']}: {s['illuminance_lux']:g} lx, {s['exposure']} exposure): "
                        f"seed {res['seed']}, C_hat {res['chl_hat']:.6g}, CDOM_hat "
                        f"{res['cdom_hat']:.6g}, RRMSE (eq 19, 31 bands) {res['rrmse_k']:.6g}, "
-                       f"without sqrt(q) {res['rrmse_k'] * np.sqrt(31):.6g}, converged "
+                       "without sqrt(q) "
+                       f"{res['rrmse_k'] * np.sqrt(sweep.RRMSE_BANDS_NM.size):.6g}, converged "
                        f"{res['converged']} ({res['status']})"))
     return res
 

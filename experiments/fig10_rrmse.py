@@ -13,6 +13,8 @@ from .common import figures_dir, save_figure, style, write_csv
 from .estimation import fig10_conditions, fit_header, fit_row, mean_se, resolve
 from .grids import setting as get_setting
 
+__all__ = ["summarise", "main", "SQRT_Q"]
+
 SQRT_Q = float(np.sqrt(sweep.RRMSE_BANDS_NM.size))
 
 

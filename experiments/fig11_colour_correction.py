@@ -18,18 +18,20 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import forward
+from forward.spectra import WHITE_PATCH
 
 from . import sweep
 from .common import figures_dir, save_figure, style, write_csv
 from .grids import FIG11
 from .grids import setting as get_setting
 
-WHITE = 18  # index of the white patch of the ColorChecker
+__all__ = ["main", "correct", "baseline", "delta_e", "METHODS"]
+
 METHODS = ("captured", "von Kries (estimated k)", "grey-world", "white-patch")
 
 
 def _normalise(xyz, ref):
-    return xyz * (ref[WHITE, 1] / xyz[WHITE, 1])
+    return xyz * (ref[WHITE_PATCH, 1] / xyz[WHITE_PATCH, 1])
 
 
 def delta_e(xyz, ref, white_xyz):
@@ -58,7 +60,7 @@ def baseline(rgb, setup, method):
     if method == "grey-world":
         gains = air.mean(axis=1) / rgb.mean(axis=1)
     else:
-        gains = air[:, WHITE] / rgb[:, WHITE]
+        gains = air[:, WHITE_PATCH] / rgb[:, WHITE_PATCH]
     return (forward.camera_to_xyz_matrix(setup) @ (gains[:, None] * rgb)).T
 
 
@@ -70,7 +72,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     setup = forward.chart_setup()
     M = forward.camera_to_xyz_matrix(setup)
     ref = forward.chart_xyz(setup)
-    white = ref[WHITE] / ref[WHITE, 1]
+    white = ref[WHITE_PATCH] / ref[WHITE_PATCH, 1]
     air = _normalise((M @ (setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances))).T, ref)
     floor = float(np.mean(delta_e(air, ref, white)))
     conds = [sweep.condition(FIG11["chl"], FIG11["cdom"], d, FIG11["distance"], 0,

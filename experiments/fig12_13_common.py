@@ -15,6 +15,8 @@ from .common import figures_dir, save_figure, style, write_csv
 from .estimation import fig12_conditions, fit_header, fit_row, resolve
 from .grids import setting as get_setting
 
+__all__ = ["make", "correlations", "group_r", "LABEL", "PLAIN"]
+
 LABEL = {"chl": "C (mg m$^{-3}$)", "cdom": "a$_{CDOM}$(440) (m$^{-1}$)"}
 PLAIN = {"chl": "C", "cdom": "a_CDOM(440)"}
 

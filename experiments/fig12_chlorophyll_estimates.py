@@ -2,6 +2,8 @@
 
 from .fig12_13_common import make
 
+__all__ = ["main"]
+
 
 def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
     return make("chl", "fig12_chlorophyll", "cdom", outdir, grid_name, cache_dir, workers,

@@ -2,6 +2,8 @@
 
 from .fig12_13_common import make
 
+__all__ = ["main"]
+
 
 def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
     return make("cdom", "fig13_cdom", "chl", outdir, grid_name, cache_dir, workers,

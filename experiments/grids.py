@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import os
 
+__all__ = ["GRIDS", "FIG9", "FIG11", "SETTINGS", "BASE_SEED", "grid", "setting"]
+
 GRIDS = {
     "paper": {
         # Fig 10: RRMSE(k) vs depth and distance, averaged over C x CDOM x seeds

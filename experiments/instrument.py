@@ -109,10 +109,10 @@ def validation() -> list:
         b = sca.estimate_batch(np.array([s.rgb for s in sims]), depth=d, distance=r,
                                sigma=np.array([s.rgb_sigma for s in sims]), intervals=False)
         rows.append(dict(water=water, chl=c, cdom=a, depth=d, lux=lux,
-                         chl_sd_bound=float(p.chl_sd[0]), chl_sd_estimator=float(b.chl.std(ddof=1)),
-                         chl_ratio=float(b.chl.std(ddof=1) / p.chl_sd[0]),
-                         cdom_ratio=float(b.cdom.std(ddof=1) / p.cdom_sd[0]),
-                         attained=bool(p.attained[0]), flags=" ".join(p.flags[0])))
+                         chl_sd_bound=float(p.chl_sd), chl_sd_estimator=float(b.chl.std(ddof=1)),
+                         chl_ratio=float(b.chl.std(ddof=1) / p.chl_sd),
+                         cdom_ratio=float(b.cdom.std(ddof=1) / p.cdom_sd),
+                         attained=bool(p.attained), flags=" ".join(p.flags)))
     return rows
 
 

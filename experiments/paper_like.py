@@ -39,10 +39,28 @@ from .common import figures_dir, write_csv
 from .grids import grid as get_grid
 from .sweep import RRMSE_BANDS_NM, pearson, rrmse_bands
 
+__all__ = ["search", "evaluate", "criteria", "photon_budget", "plot", "best", "main",
+           "EXPOSURES", "READINGS", "SEED", "PHOTON_BUDGET"]
+
 EXPOSURES = ("capped", "iset")
 #: eq 19 as printed, and without its 1/sqrt(q)
 READINGS = ("eq19", "eq19_without_sqrt_q")
+#: Noise seeds: SEED + the chart's index for the Fig 10 grid, + FIG12_SEED_OFFSET for Fig 12's
 SEED = 4242
+FIG12_SEED_OFFSET = 10000
+#: The criteria (each a reading of the paper's words; see the module docstring):
+#: "about 2 %": the mean of the Fig 10 cells within ABOUT_2_PERCENT, ranked by closeness to
+#: TARGET_RRMSE
+ABOUT_2_PERCENT = (0.01, 0.04)
+TARGET_RRMSE = 0.02
+#: "increases slightly": the deepest cells at most MAX_DEPTH_RATIO x the shallowest
+MAX_DEPTH_RATIO = 3.0
+#: "r^2 varies between 1 and 0.7": r^2 at the shallowest depth at least R2_SHALLOW_MIN and the
+#: lowest r^2 within R2_LOWEST_RANGE, ranked by closeness to TARGET_R2 (floored at R2_FLOOR)
+R2_SHALLOW_MIN = 0.9
+R2_LOWEST_RANGE = (0.6, 0.85)
+TARGET_R2 = 0.7
+R2_FLOOR = 1e-6
 
 
 def _charts(g):
@@ -106,7 +124,7 @@ def evaluate(lux, exposure, g):
     d0, d1 = min(g["fig10_depths_m"]), max(g["fig10_depths_m"])
     ratio = (np.mean([v for (d, _), v in cells.items() if d == d1])
              / np.mean([v for (d, _), v in cells.items() if d == d0]))
-    sims12, b12 = _fit(f12, sensor, SEED + 10000)
+    sims12, b12 = _fit(f12, sensor, SEED + FIG12_SEED_OFFSET)
     r2 = {}
     for q, truth_idx in (("chl", 0), ("cdom", 1)):
         for d in g["fig12_depths_m"]:
@@ -133,16 +151,16 @@ def criteria(row, g) -> dict:
     d = g["fig12_depths_m"]
     r2 = [row[f"r2_{q}_{x:g}m"] for q in ("chl", "cdom") for x in d]
     crit = dict(
-        about_2_percent=0.01 <= row["cell_mean"] <= 0.04,
-        rises_slightly=1.0 <= row["depth_ratio"] <= 3.0,
-        r2_from_1_to_0_7=(min(row[f"r2_chl_{d[0]:g}m"], row[f"r2_cdom_{d[0]:g}m"]) >= 0.9
-                          and 0.6 <= min(r2) <= 0.85),
+        about_2_percent=ABOUT_2_PERCENT[0] <= row["cell_mean"] <= ABOUT_2_PERCENT[1],
+        rises_slightly=1.0 <= row["depth_ratio"] <= MAX_DEPTH_RATIO,
+        r2_from_1_to_0_7=(min(row[f"r2_chl_{d[0]:g}m"], row[f"r2_cdom_{d[0]:g}m"]) >= R2_SHALLOW_MIN
+                          and R2_LOWEST_RANGE[0] <= min(r2) <= R2_LOWEST_RANGE[1]),
         r2_falls_with_depth=all(row[f"r2_{q}_{d[-1]:g}m"] < row[f"r2_{q}_{d[0]:g}m"]
                                 for q in ("chl", "cdom")),
     )
     crit["score"] = int(sum(crit.values()))
-    crit["distance"] = float(abs(np.log(row["cell_mean"] / 0.02))
-                             + abs(np.log(max(min(r2), 1e-6) / 0.7)))
+    crit["distance"] = float(abs(np.log(row["cell_mean"] / TARGET_RRMSE))
+                             + abs(np.log(max(min(r2), R2_FLOOR) / TARGET_R2)))
     return crit
 
 

@@ -19,13 +19,18 @@ from pathlib import Path
 import numpy as np
 
 import forward
+from forward.spectra import WHITE_PATCH
 
 from .appearance import chromaticity_spread
 from .fig07_depth_distance import DEPTHS_M, DISTANCES_M
 from .grids import SETTINGS
 
+__all__ = ["markdown", "write_report", "claims", "setting_numbers", "appearance",
+           "search_table", "verdict_level", "verdict_slight", "verdict_r2_range",
+           "main", "BEGIN", "END"]
+
+#: The markers around the generated text in REPRODUCTION.md
 BEGIN, END = "<!-- generated:begin -->", "<!-- generated:end -->"
-WHITE = 18
 
 
 def _read(path):
@@ -48,7 +53,7 @@ def _spearman(x, y):
 # --------------------------------------------------------------------------- appearance claims
 def _white_srgb(path):
     """sRGB (r, g, b) of the white patch of every chart in an appearance CSV, in file order."""
-    rows = [r for r in _read(path) if int(r["patch"]) == WHITE + 1]
+    rows = [r for r in _read(path) if int(r["patch"]) == WHITE_PATCH + 1]
     return [(float(r["srgb_r"]), float(r["srgb_g"]), float(r["srgb_b"])) for r in rows]
 
 
@@ -110,22 +115,36 @@ def _pct(x):
     return f"{100 * x:.2g} %"
 
 
+#: Fig 10's "about 2 %": yes within LEVEL_YES, partly within LEVEL_PARTLY (the rule's text)
+LEVEL_YES = (0.01, 0.04)
+LEVEL_PARTLY = (0.005, 0.08)
+#: Fig 10's "increases slightly": yes if it rises by at most this factor
+SLIGHT_MAX_RATIO = 3
+#: Figs 12-13's "r^2 varies between 1 and 0.7": the largest r^2 at least R2_TOP, the smallest
+#: within R2_LOW_RANGE
+R2_TOP = 0.95
+R2_LOW_RANGE = (0.6, 0.8)
+
+
 def verdict_level(mean):
-    if 0.01 <= mean <= 0.04:
+    """Verdict on Fig 10's level: "yes", "partly" or "no"."""
+    if LEVEL_YES[0] <= mean <= LEVEL_YES[1]:
         return "yes"
-    return "partly" if 0.005 <= mean <= 0.08 else "no"
+    return "partly" if LEVEL_PARTLY[0] <= mean <= LEVEL_PARTLY[1] else "no"
 
 
 def verdict_slight(ratio_d, ratio_r):
+    """Verdict on Fig 10's trend with depth and distance."""
     if ratio_d <= 1 and ratio_r <= 1:
         return "no"
-    return "yes" if max(ratio_d, ratio_r) <= 3 else "partly"
+    return "yes" if max(ratio_d, ratio_r) <= SLIGHT_MAX_RATIO else "partly"
 
 
 def verdict_r2_range(r2):
-    if max(r2) >= 0.95 and 0.6 <= min(r2) <= 0.8:
+    """Verdict on the range of r^2 over depths of Figs 12-13."""
+    if max(r2) >= R2_TOP and R2_LOW_RANGE[0] <= min(r2) <= R2_LOW_RANGE[1]:
         return "yes"
-    return "partly" if max(r2) >= 0.95 else "no"
+    return "partly" if max(r2) >= R2_TOP else "no"
 
 
 def claims(nums) -> list:

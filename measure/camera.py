@@ -25,17 +25,48 @@ from scipy import stats
 import forward
 from forward.imaging import ChartSetup
 
-__all__ = ["Profile", "camera_setup", "calibrate", "load_profile", "CALIBRATION_MISFIT_P"]
+__all__ = ["Profile", "camera_setup", "calibrate", "load_profile", "CALIBRATION_MISFIT_P",
+           "MIN_CALIBRATION_PATCHES"]
 
 #: A calibration whose chi^2 p-value is below this is reported as a misfit (the curves or the
 #: illuminant do not describe the photo); as sca.assess.MISFIT_P.
 CALIBRATION_MISFIT_P = 1e-3
+#: Fewest unclipped patches a channel needs for its gain (half the chart): fewer, and the
+#: channel is flagged ``few-patches-<R|G|B>``.
+MIN_CALIBRATION_PATCHES = 12
 
 
 @dataclass
 class Profile:
-    """A camera's channel balance from :func:`calibrate`: ``gains`` (3,) relative, largest 1;
-    ``gains_raw`` (3,) raw units per model unit of the calibration photo; goodness of fit."""
+    """A camera's channel balance, as fitted by :func:`calibrate` (``uw3p calibrate``'s JSON).
+
+    Attributes
+    ----------
+    camera : str
+        The colour-science camera name, or ``"custom"`` for curves given as an array or CSV.
+    quantal : bool
+        The curves were taken as quantum efficiencies (converted to act on energy).
+    illuminant : str
+        The illuminant of the calibration photo (``"D65"`` by default, ``"custom"``).
+    gains : list of float, (3,)
+        Relative channel gains (R, G, B), dimensionless, the largest 1.
+    gains_se : list of float, (3,)
+        Their standard errors, same scale.
+    gains_raw : list of float, (3,)
+        The gains in raw units (DN) per model unit of the calibration photo.
+    chi2_dof : list of float, (3,)
+        Reduced chi^2 of each channel's fit, dimensionless.
+    fit_rms : list of float, (3,)
+        Relative RMS residual of each channel, ||M - g G|| / ||M||.
+    reliable : bool
+        No flag was raised.
+    flags : list of str
+        ``misfit-<R|G|B>``, ``few-patches-<R|G|B>``.
+    image : str
+        Path of the calibration photo.
+    version : str
+        uw3p's version that wrote it.
+    """
 
     camera: str
     quantal: bool
@@ -51,11 +82,28 @@ class Profile:
     version: str = ""
 
     def to_json(self) -> str:
+        """The profile as indented JSON text (what ``uw3p calibrate`` writes)."""
         return json.dumps(asdict(self), indent=1) + "\n"
 
 
 def load_profile(path) -> Profile:
-    """Read a profile written by ``uw3p calibrate`` (ValueError naming the file if it is not)."""
+    """Read a profile written by ``uw3p calibrate``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The profile's JSON file.
+
+    Returns
+    -------
+    Profile
+        The profile, its gains checked to be three positive finite numbers.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, when it is missing, not JSON, not a profile, or its gains are invalid.
+    """
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
@@ -70,9 +118,34 @@ def load_profile(path) -> Profile:
 
 def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=None,
                  illuminant=None, wavelengths=None) -> ChartSetup:
-    """The :class:`forward.ChartSetup` of ``camera`` (a colour-science name or a CSV of
-    wavelength, red, green, blue), its curves converted from photons to energy if ``quantal``,
-    each channel scaled by ``gains`` (a profile's balance; default: the curves as they are)."""
+    """The chart set-up (camera, illuminant, chart on a grid) of a camera with a known balance.
+
+    Parameters
+    ----------
+    camera : str, path or array, optional
+        A colour-science camera name, a CSV of wavelength (nm), red, green, blue, or an array
+        (q, 3) on the grid; default :data:`forward.DEFAULT_CAMERA`.
+    quantal : bool, optional
+        The curves act on photons (quantum efficiencies): they are converted to act on energy,
+        S_E(lambda) = S_Q(lambda) lambda, before use.
+    gains : array_like, (3,), optional
+        Channel gains (a :class:`Profile`'s ``gains``, dimensionless, positive); default: the
+        curves' own balance.
+    illuminant : str, path or array, optional
+        The surface illuminant (default D65).
+    wavelengths : array_like, optional
+        The grid in nm (default 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    forward.ChartSetup
+        Sensitivities, illuminant and ColorChecker reflectances on the grid.
+
+    Raises
+    ------
+    ValueError
+        When the camera has not three channels or ``gains`` are not three positive numbers.
+    """
     wl = forward.wavelength_grid(wavelengths)
     sens = forward.camera_sensitivities(camera, wl)
     if sens.shape[1] != 3:
@@ -88,13 +161,34 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
 
 def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, illuminant=None,
               image: str = "") -> Profile:
-    """Fit the per-channel gains of ``camera`` from a chart photographed in air
-    (:class:`measure.PatchSample` in raw units) under ``illuminant`` (default D65).
+    """Fit the per-channel gains of ``camera`` from a chart photographed in air.
 
-    Per channel: g_c = sum(w M G) / sum(w G^2), w = 1 / sigma^2, its standard error, the
-    reduced chi^2 and fit_rms. Clipped patch values are left out. ``reliable`` is False (with
-    ``flags``) when a channel misfits (chi^2 p-value below CALIBRATION_MISFIT_P) or fewer than
-    12 patches remain in a channel.
+    Per channel, weighted least squares through the origin (in air there is no veiling light):
+    g_c = sum(w M G) / sum(w G^2), w = 1 / sigma^2, with G = P^T diag(i) R the model's patch
+    values, its standard error 1 / sqrt(sum(w G^2)), the reduced chi^2 and fit_rms. Clipped
+    patch values are left out.
+
+    Parameters
+    ----------
+    sample : measure.PatchSample
+        The chart's patch values and standard errors in raw units (DN), from
+        :func:`measure.sample_patches` of a photo in air.
+    camera : str, path or array, optional
+        As :func:`camera_setup`.
+    quantal : bool, optional
+        As :func:`camera_setup`.
+    illuminant : str, path or array, optional
+        The illuminant of the photo in air (default D65).
+    image : str, optional
+        Path of the photo, recorded in the profile.
+
+    Returns
+    -------
+    Profile
+        Gains relative to the largest (and in raw units per model unit), their standard errors
+        and goodness of fit. ``reliable`` is False (with ``flags``) when a channel misfits
+        (chi^2 p-value below :data:`CALIBRATION_MISFIT_P`) or fewer than
+        :data:`MIN_CALIBRATION_PATCHES` patches remain in a channel.
     """
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant)
     G = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (3, 24)
@@ -103,7 +197,7 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
     gains, se, chi2, rms, flags = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), []
     for c in range(3):
         u = use[c]
-        if u.sum() < 12:
+        if u.sum() < MIN_CALIBRATION_PATCHES:
             flags.append(f"few-patches-{'RGB'[c]}")
             gains[c] = se[c] = chi2[c] = rms[c] = np.nan
             continue

@@ -21,10 +21,21 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
-           "sample_patches", "orientations", "grey_row_ok", "ORIENTATIONS"]
+           "sample_patches", "orientations", "grey_row_ok", "ORIENTATIONS", "CLIP_SIGMA",
+           "MIN_PIXELS", "GREY_STEP_SE", "MAX_BOX_PIXELS"]
 
-#: Iterative clipping of a patch's pixels at this many robust standard deviations (MAD x 1.4826)
+#: Iterative clipping of a patch's pixels at this many robust standard deviations (MAD x
+#: MAD_TO_SD)
 CLIP_SIGMA = 4.0
+#: The median absolute deviation times this is the standard deviation of a normal sample
+#: (1 / Phi^-1(3/4); Rousseeuw & Croux 1993)
+MAD_TO_SD = 1.4826
+#: At most this many rounds of clipping per patch and channel (it stops earlier when a round
+#: removes nothing)
+MAX_CLIP_ROUNDS = 5
+#: Four corners closer to a line than this (smallest singular value of the DLT system relative
+#: to the largest) are refused as degenerate
+DEGENERATE_SV = 1e-9
 #: Fewest pixels of one channel in a patch's sampled box
 MIN_PIXELS = 4
 #: The grey row's steps must exceed this many standard errors to count as a fall
@@ -38,10 +49,20 @@ MAX_BOX_PIXELS = 40000
 
 @dataclass(frozen=True)
 class ChartLayout:
-    """Geometry of a 6 x 4 patch chart in units of the patch pitch: the given corners are the
-    outer corners of a frame ``margin_x`` / ``margin_y`` pitches wider than the patch grid on
-    each side; ``sample`` is the side of the centred square sampled in each patch (fraction of
-    the pitch)."""
+    """Geometry of a 6 x 4 patch chart in units of the patch pitch.
+
+    The given corners are the outer corners of a frame ``margin_x`` / ``margin_y`` pitches wider
+    than the patch grid on each side.
+
+    Attributes
+    ----------
+    columns, rows : int
+        Patches per row and rows (6 x 4 for the ColorChecker Classic).
+    margin_x, margin_y : float
+        Frame beyond the patch grid on each side, in patch pitches.
+    sample : float
+        Side of the centred square sampled in each patch, fraction of the pitch.
+    """
 
     columns: int = 6
     rows: int = 4
@@ -51,6 +72,7 @@ class ChartLayout:
 
     @property
     def size(self):
+        """(width, height) of the framed chart in patch pitches."""
         return (self.columns + 2 * self.margin_x, self.rows + 2 * self.margin_y)
 
 
@@ -66,7 +88,23 @@ ORIENTATIONS = {"as given": (0, 1, 2, 3), "rotated 180°": (2, 3, 0, 1),
 
 
 def parse_corners(text) -> np.ndarray:
-    """'x1,y1 x2,y2 x3,y3 x4,y4' (or a (4, 2) array) -> (4, 2) float array."""
+    """Parse the chart's four corners.
+
+    Parameters
+    ----------
+    text : str or array_like
+        ``'x1,y1 x2,y2 x3,y3 x4,y4'`` (pixels; ``;`` also separates) or a (4, 2) array.
+
+    Returns
+    -------
+    numpy.ndarray, (4, 2)
+        The corners (x, y) in pixels, float.
+
+    Raises
+    ------
+    ValueError
+        Naming ``corners``, when there are not four finite (x, y) pairs.
+    """
     if isinstance(text, str):
         try:
             pts = [tuple(float(v) for v in tok.split(",")) for tok in text.replace(";", " ").split()]
@@ -86,13 +124,34 @@ def parse_corners(text) -> np.ndarray:
 
 
 def homography(src, dst) -> np.ndarray:
-    """3 x 3 projective map H with dst ~ H src for four point pairs (direct linear transform)."""
+    """The projective map (homography) taking four points to four others.
+
+    Parameters
+    ----------
+    src, dst : array_like, (4, 2)
+        Corresponding points (any units, e.g. chart pitches and pixels).
+
+    Returns
+    -------
+    numpy.ndarray, (3, 3)
+        H with dst ~ H src in homogeneous coordinates, normalised to H[2, 2] = 1.
+
+    Raises
+    ------
+    ValueError
+        When the points are degenerate (three on a line, or repeated).
+
+    References
+    ----------
+    R. Hartley and A. Zisserman, *Multiple View Geometry in Computer Vision*, 2nd ed.,
+    Cambridge University Press, 2004, Sec. 4.1 (the direct linear transform).
+    """
     A = []
     for (x, y), (u, v) in zip(np.asarray(src, float), np.asarray(dst, float)):
         A.append([x, y, 1, 0, 0, 0, -u * x, -u * y, -u])
         A.append([0, 0, 0, x, y, 1, -v * x, -v * y, -v])
     _, sv, vt = np.linalg.svd(np.array(A))
-    if sv[-2] < 1e-9 * sv[0]:
+    if sv[-2] < DEGENERATE_SV * sv[0]:
         raise ValueError("corners: degenerate (three of them on a line, or repeated)")
     H = vt[-1].reshape(3, 3)
     return H / H[2, 2]
@@ -129,9 +188,23 @@ def _long_side_first(corners):
 
 @dataclass
 class PatchSample:
-    """Sampled patch values, ColorChecker order: ``rgb``, ``sigma`` (3, 24) raw units (robust
-    mean and its standard error), ``n_pixels`` (3, 24), ``clipped`` (3, 24) fraction of the
-    sampled pixels at the white level, ``boxes`` (24, 4, 2) the sampled squares in pixels."""
+    """Sampled patch values, ColorChecker order (row by row from patch 1).
+
+    Attributes
+    ----------
+    rgb : numpy.ndarray, (3, 24)
+        Robust mean of each patch and channel, raw units (DN above the black level).
+    sigma : numpy.ndarray, (3, 24)
+        Its standard error from the pixel spread, raw units.
+    n_pixels : numpy.ndarray, (3, 24)
+        Pixels kept after clipping.
+    clipped : numpy.ndarray, (3, 24)
+        Fraction of the sampled pixels at the white level (0-1).
+    boxes : numpy.ndarray, (24, 4, 2)
+        The sampled squares' corners in pixels.
+
+    Patches not sampled (``sample_patches(..., patches=...)``) are NaN.
+    """
 
     rgb: np.ndarray
     sigma: np.ndarray
@@ -143,9 +216,9 @@ class PatchSample:
 def _robust_mean(v):
     """Mean and standard error after iterative clipping at CLIP_SIGMA robust SDs."""
     keep = v
-    for _ in range(5):
+    for _ in range(MAX_CLIP_ROUNDS):
         med = np.median(keep)
-        mad = 1.4826 * np.median(np.abs(keep - med))
+        mad = MAD_TO_SD * np.median(np.abs(keep - med))
         if not mad > 0:
             break
         new = v[np.abs(v - med) <= CLIP_SIGMA * mad]
@@ -159,8 +232,42 @@ def _robust_mean(v):
 
 def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
                    patches=None) -> PatchSample:
-    """Sample the 24 patches of ``photo`` (:class:`measure.Photo`) inside ``corners`` (only
-    the indices ``patches`` if given; the others are NaN)."""
+    """Sample the patches of a chart in a photograph.
+
+    The homography from the layout to ``corners`` places each patch; the centred square of side
+    ``layout.sample`` is read (on an odd-stride lattice when it holds more than
+    :data:`MAX_BOX_PIXELS` pixels), each channel from its own CFA pixels for a RAW photo. Per
+    patch and channel: the mean after iterative clipping at :data:`CLIP_SIGMA` robust standard
+    deviations (median absolute deviation x :data:`MAD_TO_SD`), its standard error, the pixel
+    count and the clipped fraction.
+
+    Parameters
+    ----------
+    photo : measure.Photo
+        The photograph (raw units).
+    corners : str or array_like, (4, 2)
+        The chart's corners in pixels, next to patch 1, 6, 24, 19 (:func:`parse_corners`).
+    layout : ChartLayout, optional
+        The chart's geometry (default ``LAYOUTS["patches"]``: the corners of the patch grid).
+    patches : iterable of int, optional
+        0-based indices to sample (default all); the others are NaN.
+
+    Returns
+    -------
+    PatchSample
+        Patch values and standard errors in raw units, pixel counts, clipped fractions, boxes.
+
+    Raises
+    ------
+    ValueError
+        Naming ``corners``, when they lie outside the image, are not a convex quadrilateral in
+        order, or a patch covers fewer than :data:`MIN_PIXELS` pixels of a channel.
+
+    References
+    ----------
+    P. J. Rousseeuw and C. Croux, "Alternatives to the median absolute deviation", J. Amer.
+    Statist. Assoc. 88(424), 1273-1283, 1993 (the MAD as a robust scale).
+    """
     corners = parse_corners(corners)
     _check_geometry(corners, photo.size)
     Wc, Hc = layout.size
@@ -209,8 +316,21 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
 
 
 def grey_row_ok(sample: PatchSample, layout: ChartLayout = LAYOUTS["patches"]) -> bool:
-    """True when the bottom row (patches 19-24) falls from white to black in every channel by
-    more than GREY_STEP_SE standard errors at each step (clipped values count as falling)."""
+    """Whether the bottom row (patches 19-24) falls from white to black in every channel.
+
+    Parameters
+    ----------
+    sample : PatchSample
+        At least the bottom row sampled (raw units).
+    layout : ChartLayout, optional
+        The chart's geometry.
+
+    Returns
+    -------
+    bool
+        True when each step along the row falls by more than :data:`GREY_STEP_SE` standard
+        errors in every channel (a clipped value counts as falling).
+    """
     row = slice(layout.columns * (layout.rows - 1), layout.columns * layout.rows)
     v, se = sample.rgb[:, row], sample.sigma[:, row]
     clip = sample.clipped[:, row] > 0
@@ -220,9 +340,29 @@ def grey_row_ok(sample: PatchSample, layout: ChartLayout = LAYOUTS["patches"]) -
 
 
 def orientations(photo, corners, layout: ChartLayout = LAYOUTS["patches"]):
-    """The grey row sampled for every corner order of :data:`ORIENTATIONS`: {name: (corners,
-    PatchSample of the grey row only, grey_row_ok)}. Corners given starting at the wrong short
-    side (the chart turned 90°) are refused."""
+    """The grey row sampled in every corner order of :data:`ORIENTATIONS`.
+
+    Parameters
+    ----------
+    photo : measure.Photo
+        The photograph.
+    corners : str or array_like, (4, 2)
+        The corners in pixels, as given (:func:`parse_corners`).
+    layout : ChartLayout, optional
+        The chart's geometry.
+
+    Returns
+    -------
+    dict
+        {name: (corners (4, 2) in that order, :class:`PatchSample` of the grey row only,
+        :func:`grey_row_ok` of it)}.
+
+    Raises
+    ------
+    ValueError
+        Naming ``corners``, when the first side is the short one (the chart turned 90°), or as
+        :func:`sample_patches`.
+    """
     corners = parse_corners(corners)
     _check_geometry(corners, photo.size)
     if not _long_side_first(corners):

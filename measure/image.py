@@ -11,13 +11,27 @@ tags where it has them (tifffile: DNG and most RAW formats are TIFF containers).
 
 from __future__ import annotations
 
+import os
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 from numba import njit, prange
 
-__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS", "TIFF_EXTENSIONS"]
+# The demosaic is the package's one parallel compiled kernel. numba's 'workqueue' threading
+# layer is fork-safe; GNU OpenMP (numba's default here) is not: after a demosaic, a process pool
+# started by fork (``uw3p measure FOLDER``) has its workers killed ("fork() called from a
+# process already using GNU OpenMP"). 'workqueue' is not safe for concurrent launches from
+# several threads, which :func:`demosaic` serialises with a lock. A user's
+# NUMBA_THREADING_LAYER still wins. (sca set this while it had a numba kernel.)
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    numba.config.THREADING_LAYER = "workqueue"
+#: One demosaic kernel runs at a time (it already uses every core).
+_KERNEL_LOCK = threading.Lock()
+
+__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS", "TIFF_EXTENSIONS", "UINT16_MAX"]
 
 #: Extensions read as TIFF (demosaiced RGB); everything else goes to LibRaw.
 TIFF_EXTENSIONS = (".tif", ".tiff")
@@ -27,17 +41,33 @@ RAW_EXTENSIONS = (".dng", ".nef", ".cr2", ".cr3", ".arw", ".orf", ".rw2", ".raf"
 EXIF_TAGS = {33434: "exposure_s", 33437: "f_number", 34855: "iso"}
 #: LibRaw's colour letters -> the model's channel index (both greens of a Bayer CFA are green)
 CHANNEL_OF_LETTER = {"R": 0, "G": 1, "B": 2}
+#: Full scale of a 16-bit image (the ``uint16`` output of :func:`demosaic`)
+UINT16_MAX = 65535
 
 
 @dataclass
 class Photo:
     """A photograph in linear raw units (black level subtracted).
 
-    ``kind`` 'raw': ``data`` (H, W) is the CFA mosaic and ``channel`` (H, W) the channel index
-    (0, 1, 2) of every pixel; 'rgb': ``data`` (H, W, 3) and ``channel`` None. ``clipped`` marks
-    pixels (any channel for 'rgb') at or above the white level; ``white`` is the clip level
-    after black subtraction (per channel, (3,)); ``black`` the black level that was subtracted
-    (per channel).
+    Attributes
+    ----------
+    path : str
+        The file read.
+    kind : {'raw', 'rgb'}
+        'raw': a colour-filter-array mosaic; 'rgb': a demosaiced (TIFF) image.
+    data : numpy.ndarray, float32
+        (H, W) the mosaic for 'raw', (H, W, 3) for 'rgb'; raw units (DN above the black level).
+    channel : numpy.ndarray or None
+        (H, W) the channel index (0 red, 1 green, 2 blue) of every pixel for 'raw'; None for
+        'rgb'.
+    clipped : numpy.ndarray, bool, (H, W)
+        Pixels (any channel for 'rgb') at or above the white level.
+    white : numpy.ndarray, (3,)
+        The clip level after black subtraction per channel, raw units.
+    black : numpy.ndarray, (3,)
+        The black level that was subtracted per channel, raw units.
+    exposure : dict
+        ``exposure_s`` (s), ``f_number``, ``iso`` where the file has them.
     """
 
     path: str
@@ -86,9 +116,27 @@ def _exif(path) -> dict:
 def read_image(path, *, black_level=None, white_level=None) -> Photo:
     """Read a camera RAW (any LibRaw format, DNG included) or a linear 16-bit TIFF.
 
-    ``black_level`` / ``white_level`` (raw units, scalar or per channel) override the file's
-    (for a TIFF: default 0 and the type's maximum). Raises ValueError naming the file when it
-    cannot be read.
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image; ``.tif`` / ``.tiff`` are read as demosaiced linear RGB (tifffile), anything
+        else as RAW (rawpy / LibRaw).
+    black_level : float or array_like, (3,), optional
+        Black level in raw units (DN), scalar or per channel (R, G, B); default the file's
+        (a TIFF: 0).
+    white_level : float, optional
+        White (clip) level in raw units (DN); default the file's (a TIFF: its type's maximum).
+
+    Returns
+    -------
+    Photo
+        The image in raw units with the black level subtracted, its clip mask and exposure.
+
+    Raises
+    ------
+    ValueError
+        Naming the file (``image: ...``) when it is missing or cannot be read, or the
+        argument when a level is negative or not finite.
     """
     p = Path(path)
     if not p.is_file():
@@ -161,21 +209,44 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
 
 
 def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> np.ndarray:
-    """Linear (H, W, 3) camera RGB of ``photo`` with the per-channel affine map
-    gains * (value - offset) applied first (default identity). A RAW mosaic is demosaiced by
-    bilinear interpolation (normalised convolution of each channel's pixels with the 3 x 3
-    kernel [1 2 1] x [1 2 1], edges mirrored: exact on a smooth image, and it works for any CFA
-    whose every 3 x 3 neighbourhood holds all three channels), compiled (numba, parallel over
-    rows); an RGB photo is only mapped. ``uint16``: rounded and clipped to 0..65535."""
+    """Linear camera RGB of a photo, with a per-channel affine map applied first.
+
+    A RAW mosaic is demosaiced by bilinear interpolation: normalised convolution of each
+    channel's pixels with the 3 x 3 kernel [1 2 1] x [1 2 1], edges mirrored (exact on a smooth
+    image; it works for any CFA whose every 3 x 3 neighbourhood holds all three channels),
+    compiled (numba, parallel over rows). An RGB photo is only mapped.
+
+    Parameters
+    ----------
+    photo : Photo
+        The photograph (raw units).
+    gains : array_like, (3,), optional
+        Per-channel factors (dimensionless; default 1).
+    offset : array_like, (3,), optional
+        Per-channel offsets subtracted before the gains, raw units (default 0).
+    uint16 : bool, optional
+        Round and clip the result to 0..UINT16_MAX.
+
+    Returns
+    -------
+    numpy.ndarray, (H, W, 3)
+        gains * (value - offset): float32 in (mapped) raw units, or uint16.
+
+    References
+    ----------
+    R. Ramanath, W. E. Snyder, G. L. Bilbro and W. A. Sander, "Demosaicking methods for Bayer
+    color arrays", J. Electron. Imaging 11(3), 306-315, 2002 (bilinear interpolation).
+    """
     gains = np.ones(3) if gains is None else np.asarray(gains, float)
     offset = np.zeros(3) if offset is None else np.asarray(offset, float)
     if photo.kind == "rgb":
         out = (photo.data - offset.astype(np.float32)) * gains.astype(np.float32)
-        return np.clip(np.rint(out), 0, 65535).astype(np.uint16) if uint16 else out
+        return np.clip(np.rint(out), 0, UINT16_MAX).astype(np.uint16) if uint16 else out
     H, W = photo.data.shape
     out = np.empty((H, W, 3), np.uint16 if uint16 else np.float32)
-    _bilinear(photo.data, photo.channel, gains.astype(np.float32), offset.astype(np.float32), out,
-              uint16)
+    with _KERNEL_LOCK:
+        _bilinear(photo.data, photo.channel, gains.astype(np.float32),
+                  offset.astype(np.float32), out, uint16)
     return out
 
 

@@ -26,7 +26,7 @@ from scipy import optimize, stats
 
 import sca
 
-__all__ = ["FIELDS", "LIGHT_FIELD_ALPHA", "field_basis", "fit_light_field"]
+__all__ = ["FIELDS", "LIGHT_FIELD_ALPHA", "FIELD_FLOOR", "field_basis", "fit_light_field"]
 
 #: The nested light-field models and their number of parameters.
 FIELDS = {"none": 0, "plane": 2, "plane+radial": 3}
@@ -35,11 +35,29 @@ FIELDS = {"none": 0, "plane": 2, "plane+radial": 3}
 LIGHT_FIELD_ALPHA = 0.01
 #: The field may not fall below this anywhere on the chart (a factor, not a physical limit).
 FIELD_FLOOR = 0.2
+#: The chi^2 returned for a field below FIELD_FLOOR (Nelder-Mead then steps away from it)
+INFEASIBLE_CHI2 = 1e300
+#: Nelder-Mead's tolerances: on the field coefficients (dimensionless) and on chi^2
+NM_XATOL = 1e-5
+NM_FATOL = 1e-4
+#: Nelder-Mead's iteration cap: this many per field parameter
+NM_ITERATIONS_PER_PARAMETER = 400
 
 
 def field_basis(columns=6, rows=4) -> np.ndarray:
-    """(n, 3): x, y and the centred x^2 + y^2 of every patch centre, chart coordinates in
-    [-1, 1], ColorChecker order (row-major from patch 1)."""
+    """The light field's basis at the patch centres.
+
+    Parameters
+    ----------
+    columns, rows : int, optional
+        The chart's patch grid (6 x 4 for the ColorChecker Classic).
+
+    Returns
+    -------
+    numpy.ndarray, (columns * rows, 3)
+        x, y and the centred x^2 + y^2 of every patch centre, chart coordinates scaled to
+        [-1, 1] (dimensionless), ColorChecker order (row by row from patch 1).
+    """
     r, c = np.divmod(np.arange(columns * rows), columns)
     x = (c - (columns - 1) / 2) / ((columns - 1) / 2)
     y = (r - (rows - 1) / 2) / ((rows - 1) / 2)
@@ -54,7 +72,7 @@ def _setup_with_field(setup, field):
 def _chi2(theta, basis, M, sigma, setup, depth, distance, water):
     field = 1.0 + basis[:, :theta.size] @ theta
     if np.any(field < FIELD_FLOOR):
-        return 1e300
+        return INFEASIBLE_CHI2
     b = sca.estimate_batch(M[None], depth=depth, distance=distance, sigma=sigma,
                            setup=_setup_with_field(setup, field), water=water, gain="free",
                            intervals=False)
@@ -63,10 +81,44 @@ def _chi2(theta, basis, M, sigma, setup, depth, distance, water):
 
 def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FIELD_ALPHA,
                     models=tuple(FIELDS)):
-    """Fit the nested light-field models to patch values ``M`` (3, 24, any units, noise
-    ``sigma``); returns a dict: ``model`` (the chosen name), ``field`` (24,) its f_p,
-    ``coefficients``, ``setup`` (reflectances scaled by f_p), and per model its chi^2 and the
-    likelihood-ratio p-value against the previous model."""
+    """Fit the nested light-field models and choose the smallest the data support.
+
+    For each model of ``models`` in turn, the field coefficients minimise the chi^2 of the
+    free-gain batch fit of the water on a chart with reflectances f_p R_p (Nelder-Mead, started
+    at the previous model's coefficients); a larger model is chosen only while its
+    likelihood-ratio test against the previous one has a p-value below ``alpha``.
+
+    Parameters
+    ----------
+    M : numpy.ndarray, (3, 24)
+        Patch values (any units, e.g. raw DN above the black level).
+    sigma : numpy.ndarray, (3, 24)
+        Their standard errors, same units.
+    setup : forward.ChartSetup
+        Camera, illuminant and chart.
+    depth, distance : float
+        The chart's depth and the camera-to-chart distance, m.
+    water : forward.Water, optional
+        The water model (default the paper's).
+    alpha : float, optional
+        Significance level of the likelihood-ratio tests (default :data:`LIGHT_FIELD_ALPHA`).
+    models : tuple of str, optional
+        Names of :data:`FIELDS` in nesting order (default all: none, plane, plane+radial).
+
+    Returns
+    -------
+    dict
+        ``model`` the chosen name; ``field`` (24,) its factors f_p (dimensionless);
+        ``coefficients`` (a, b[, c]); ``setup`` the set-up with reflectances scaled by f_p;
+        ``tests`` {model: {``chi2``, ``p_value`` against the previous model}}; ``alpha``.
+
+    References
+    ----------
+    S. S. Wilks, "The large-sample distribution of the likelihood ratio for testing composite
+    hypotheses", Ann. Math. Statist. 9(1), 60-62, 1938 (the likelihood-ratio test).
+    J. A. Nelder and R. Mead, "A simplex method for function minimization", Comput. J. 7(4),
+    308-313, 1965.
+    """
     basis = field_basis()
     fits = {}
     prev = None
@@ -82,7 +134,8 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
             res = optimize.minimize(_chi2, start, args=(basis, M, sigma, setup, depth, distance,
                                                         water),
                                     method="Nelder-Mead",
-                                    options=dict(xatol=1e-5, fatol=1e-4, maxiter=400 * k))
+                                    options=dict(xatol=NM_XATOL, fatol=NM_FATOL,
+                                                 maxiter=NM_ITERATIONS_PER_PARAMETER * k))
             theta, chi2 = res.x, float(res.fun)
         p = None
         if prev is not None:

@@ -18,6 +18,7 @@ import numpy as np
 import forward
 import sca
 from forward import validate
+from forward.spectra import WHITE_PATCH
 from forward.water import resolve_water
 from sca.assess import BLOCKING
 
@@ -44,12 +45,46 @@ WHITE_TARGET = 0.8
 #: When several orientations pass the grey-row test, the best fit must beat the others by this
 #: chi^2 (else the orientation is not verified).
 ORIENTATION_CHI2 = 25.0
-WHITE = 18  # ColorChecker index of the white patch (patch 19)
 
 
 @dataclass
 class Measurement:
-    """The result of :func:`measure` (see ``to_dict`` for measurement.json)."""
+    """The result of :func:`measure` (``to_dict`` gives measurement.json).
+
+    Attributes
+    ----------
+    estimate : sca.Estimate
+        The fit: C (mg m^-3), a_CDOM(440) (m^-1), the exposure gain (raw units per model unit),
+        the veiling light (raw units), k on the grid, intervals and flags.
+    sample : PatchSample
+        The sampled patch values (raw units) in the chosen orientation.
+    orientation : str
+        A name of :data:`measure.chart.ORIENTATIONS`.
+    corners : numpy.ndarray, (4, 2)
+        The corners in pixels, in the chosen order.
+    gains, offset : numpy.ndarray, (3,)
+        The colour correction corrected = gains * (raw - offset) (:func:`correction`; offset in
+        raw units).
+    fitted : numpy.ndarray, (3, 24)
+        The model's patch values at the estimate, raw units.
+    attenuation_band : numpy.ndarray, (2, q)
+        k (dimensionless) at the corners of the C and a_CDOM intervals (NaN if unbounded).
+    camera : dict
+        The camera, its profile and the illuminant used.
+    photo : Photo
+        The photograph.
+    setup : forward.ChartSetup
+        Camera, illuminant and chart as used (the profile's balance applied).
+    flags : tuple of str
+        The estimate's flags and the measurement's own (:data:`MEASURE_BLOCKING`,
+        ``clipped-patches``, ``light-field``, ``orientation-corrected``).
+    reliable : bool
+        No blocking flag.
+    notes : list of str
+        Sentences for the user.
+    light_field : dict
+        The light-field model chosen and its tests (:mod:`measure.lightfield`).
+    """
 
     estimate: sca.Estimate
     sample: PatchSample
@@ -69,6 +104,8 @@ class Measurement:
     light_field: dict = field(default_factory=dict)
 
     def to_dict(self, version: str = "") -> dict:
+        """measurement.json's content (numbers as Python lists; units in ``estimate.units``),
+        ``version`` the writer's."""
         e = self.estimate
         return {
             "estimate": {
@@ -162,11 +199,36 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water):
 
 
 def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535.0):
-    """(gains (3,), offset (3,)) of corrected = gains * (raw - offset): offset the estimated
-    veiling light (raw units), gains the von Kries ratio (P^T i) / (P^T diag(i) k) of a white's
-    response in air to its response through the water, times one common factor that puts the
-    corrected white patch's brightest channel (``white_value``: its raw values (3,)) at
-    WHITE_TARGET x ``full_scale``."""
+    """The paper's von Kries colour correction from the estimated attenuation.
+
+    corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
+    (P^T i) / (P^T diag(i) k) of a white's response in air to its response through the water,
+    times one common factor that puts the corrected white patch's brightest channel at
+    :data:`WHITE_TARGET` x ``full_scale``.
+
+    Parameters
+    ----------
+    estimate : sca.Estimate
+        A fit with ``attenuation`` k (q,) and ``backscatter`` (3,) in raw units.
+    setup : forward.ChartSetup
+        Camera sensitivities P and illuminant i of the fit.
+    white_value : array_like, (3,), optional
+        The white patch's raw values (raw units); without it no common factor is applied.
+    full_scale : float, optional
+        Full scale of the corrected image, raw units (default 65535, 16 bits).
+
+    Returns
+    -------
+    gains : numpy.ndarray, (3,)
+        Channel gains, dimensionless.
+    offset : numpy.ndarray, (3,)
+        Offsets, raw units.
+
+    References
+    ----------
+    H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
+    Electronic Imaging 2016, Fig 11 (von Kries correction with the estimated attenuation).
+    """
     P, i = setup.sensitivities, setup.illuminant
     vk = (P.T @ i) / (P.T @ (i * estimate.attenuation))
     offset = np.asarray(estimate.backscatter, float)
@@ -195,21 +257,55 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
             white_level=None, light_field: str = "auto") -> Measurement:
     """Measure the water from a photograph of a ColorChecker Classic underwater.
 
+    Samples the chart in every corner order and keeps the one whose grey row falls from white
+    to black, fits C, a_CDOM(440), the veiling light and the unknown exposure gain with
+    :func:`sca.estimate` (``gain="free"``, weighted by the patches' standard errors; clipped
+    values left out), models uneven light if the data need it, and assesses the result.
+
     Parameters
     ----------
-    image : path of a RAW (any LibRaw format) or linear 16-bit TIFF, or a :class:`measure.Photo`.
-    corners : 'x1,y1 x2,y2 x3,y3 x4,y4' pixels: next to patch 1, 6, 24, 19 (see measure.chart).
-    depth, distance : m, the chart's depth and the camera-to-chart distance.
-    camera : colour-science camera name or CSV (wavelength, red, green, blue).
-    quantal : the curves act on photons (converted to energy).
-    profile : a :class:`measure.Profile` or the path of ``uw3p calibrate``'s JSON. Without it the
+    image : str, os.PathLike or Photo
+        A RAW (any LibRaw format) or linear 16-bit TIFF, or a :class:`measure.Photo`.
+    corners : str or array_like, (4, 2)
+        'x1,y1 x2,y2 x3,y3 x4,y4' pixels: next to patch 1, 6, 24, 19 (see
+        :mod:`measure.chart`).
+    depth, distance : float
+        The chart's depth and the camera-to-chart distance, m.
+    camera : str, path or array, optional
+        Colour-science camera name or CSV (wavelength nm, red, green, blue).
+    quantal : bool, optional
+        The curves act on photons (converted to energy).
+    profile : Profile, str or os.PathLike, optional
+        A :class:`measure.Profile` or the path of ``uw3p calibrate``'s JSON. Without it the
         curves' own balance is used and the result is flagged ``uncalibrated-camera``.
-    illuminant : the surface illuminant (default D65).
-    layout : 'patches' (corners of the patch grid), 'card' or a :class:`measure.ChartLayout`.
-    water : :class:`forward.Water` (default the paper's).
-    black_level, white_level : override the file's (raw units).
-    light_field : 'auto' (default: the smallest of none < plane < plane+radial that the
-        likelihood-ratio test supports, :mod:`measure.lightfield`), or one of them to force it.
+    illuminant : str, path or array, optional
+        The surface illuminant (default D65).
+    layout : str or ChartLayout, optional
+        'patches' (corners of the patch grid), 'card' or a :class:`measure.ChartLayout`.
+    water : forward.Water, optional
+        The water model (default the paper's).
+    black_level, white_level : float or array_like, optional
+        Override the file's, raw units (DN).
+    light_field : str, optional
+        'auto' (default: the smallest of none < plane < plane+radial that the likelihood-ratio
+        test supports, :mod:`measure.lightfield`), or one of them to force it.
+
+    Returns
+    -------
+    Measurement
+        The estimate (C mg m^-3, a_CDOM(440) m^-1, gain, veiling light, k), its band, the
+        colour correction, flags, ``reliable`` and notes.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
+        ``light_field``, ...) when it is wrong.
+
+    References
+    ----------
+    H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
+    Electronic Imaging 2016, eqs 15-18 (the estimator), Fig 11 (the correction).
     """
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
@@ -264,7 +360,7 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     G = forward.camera_response(fit_setup.sensitivities, fit_setup.illuminant, est.attenuation,
                                 fit_setup.reflectances)
     fitted = est.gain * G + est.backscatter[:, None]
-    gains, offset = correction(est, setup, sample.rgb[:, WHITE])
+    gains, offset = correction(est, setup, sample.rgb[:, WHITE_PATCH])
     band = _band(est, water, depth, distance, setup.wavelengths) if np.all(
         np.isfinite(est.chl_ci)) else np.vstack([est.attenuation, est.attenuation]) * np.nan
     cam = {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),

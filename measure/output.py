@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 import forward
+from forward.spectra import WHITE_PATCH
 
 from .image import demosaic
 
@@ -17,10 +18,25 @@ __all__ = ["strict_json", "write_outputs", "corrected_image", "srgb_preview", "P
 PREVIEW_PIXELS = 1000
 #: PNG compression level of the previews (zlib 1: fast; they are previews)
 PNG_OPTIONS = {"compress_level": 1}
+#: Without a given white, the preview's white (Y = 1) is this percentile of the image's Y
+WHITE_PERCENTILE = 99.5
 
 
 def strict_json(x):
-    """``x`` with inf written \"inf\", NaN null and numpy scalars as Python ones (strict JSON)."""
+    """A copy of ``x`` that ``json.dumps(..., allow_nan=False)`` accepts.
+
+    Parameters
+    ----------
+    x : object
+        Nested dicts, lists and tuples of numbers, strings, booleans and None (numpy scalars
+        allowed).
+
+    Returns
+    -------
+    object
+        The same structure (tuples as lists) with inf written ``"inf"`` / ``"-inf"``, NaN as
+        None and numpy scalars as Python ones.
+    """
     if isinstance(x, dict):
         return {k: strict_json(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
@@ -39,7 +55,18 @@ def strict_json(x):
 
 
 def corrected_image(meas) -> np.ndarray:
-    """The whole photo, demosaiced and corrected (gains * (raw - offset)), uint16 (H, W, 3)."""
+    """The whole photo, demosaiced and colour-corrected.
+
+    Parameters
+    ----------
+    meas : Measurement
+        A result of :func:`measure.measure` (its photo, gains and offset).
+
+    Returns
+    -------
+    numpy.ndarray, uint16, (H, W, 3)
+        gains * (raw - offset), rounded and clipped to 0..65535.
+    """
     return demosaic(meas.photo, meas.gains, meas.offset, uint16=True)
 
 
@@ -48,10 +75,33 @@ def _stride(shape):
 
 
 def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
-    """8-bit sRGB (h, w, 3) of linear camera RGB, subsampled to PREVIEW_PIXELS: the camera's
-    3 x 3 matrix to XYZ (forward.camera_to_xyz_matrix) and colour-science's sRGB matrix
-    (XYZ -> linear sRGB, D65) as one matrix, then colour-science's sRGB encoding; scaled so that
-    ``white`` (camera RGB (3,), default the 99.5th percentile of Y) is Y = 1."""
+    """An 8-bit sRGB preview of linear camera RGB.
+
+    The image is subsampled to at most :data:`PREVIEW_PIXELS` on its long side, mapped by the
+    camera's 3 x 3 matrix to XYZ (:func:`forward.camera_to_xyz_matrix`) and colour-science's
+    XYZ -> linear sRGB matrix (D65) as one matrix, scaled so that ``white`` has Y = 1, clipped
+    to 0-1 and encoded with the sRGB transfer function.
+
+    Parameters
+    ----------
+    rgb_linear : numpy.ndarray, (H, W, 3)
+        Linear camera RGB (any units).
+    setup : forward.ChartSetup
+        The camera and illuminant (for the XYZ matrix).
+    white : array_like, (3,), optional
+        Camera RGB shown as white (Y = 1); default the :data:`WHITE_PERCENTILE`-th percentile
+        of Y.
+
+    Returns
+    -------
+    numpy.ndarray, uint8, (h, w, 3)
+        sRGB, 0-255.
+
+    References
+    ----------
+    IEC 61966-2-1:1999, Multimedia systems and equipment - Colour measurement and management -
+    Default RGB colour space - sRGB.
+    """
     import colour
 
     s = _stride(rgb_linear.shape)
@@ -62,7 +112,7 @@ def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
     if white is not None:
         ref = float((to_xyz @ np.asarray(white, float))[1])
     else:
-        ref = float(np.percentile(small.reshape(-1, 3) @ to_xyz[1], 99.5))
+        ref = float(np.percentile(small.reshape(-1, 3) @ to_xyz[1], WHITE_PERCENTILE))
     lin = small @ (A / (ref if ref > 0 else 1.0)).T.astype(np.float32)
     enc = srgb.cctf_encoding(np.clip(lin, 0.0, 1.0))
     return (enc * 255 + 0.5).astype(np.uint8)
@@ -152,7 +202,30 @@ def _report(meas, path, raw_preview):
 
 
 def write_outputs(meas, outdir, version: str = "", report: bool = True) -> dict:
-    """Write the four files into ``outdir`` (created if missing); returns {name: path}."""
+    """Write the files of ``uw3p measure``.
+
+    Parameters
+    ----------
+    meas : Measurement
+        A result of :func:`measure.measure`.
+    outdir : str or os.PathLike
+        The folder (created if missing).
+    version : str, optional
+        uw3p's version, recorded in measurement.json.
+    report : bool, optional
+        Also draw report.png (the photo with the sampled boxes, the fit, k and the estimate).
+
+    Returns
+    -------
+    dict
+        {file name: path} of measurement.json, corrected.tiff (16-bit linear, corrected),
+        corrected.png (sRGB preview) and report.png.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out``, when the folder cannot be created.
+    """
     import matplotlib.pyplot as plt
     import tifffile
 
@@ -168,12 +241,12 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True) -> dict:
         encoding="utf-8")
     img = corrected_image(meas)
     tifffile.imwrite(paths["corrected.tiff"], img, photometric="rgb")
-    white = meas.gains * (meas.sample.rgb[:, 18] - meas.offset)  # the corrected white patch
+    white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white patch
     plt.imsave(paths["corrected.png"], srgb_preview(img, meas.setup, white),
                pil_kwargs=PNG_OPTIONS)
     if report:
         _report(meas, paths["report.png"], srgb_preview(_quick_rgb(meas.photo), meas.setup,
-                                                        meas.sample.rgb[:, 18]))
+                                                        meas.sample.rgb[:, WHITE_PATCH]))
     else:
         paths.pop("report.png")
     return {k: str(v) for k, v in paths.items()}

@@ -6,7 +6,11 @@ noise-free, with the given camera -- e.g. one with a channel balance unlike its 
 curves) into an RGGB Bayer mosaic: black level per CFA position, an exposure gain (raw units per
 model unit), vignetting and a light gradient across the chart (both achromatic), Poisson and
 read noise, rounding and clipping at the white level (14 bits by default).
-:func:`write_dng` writes it as a DNG with ``pidng`` (a test dependency) that rawpy reads back.
+:func:`write_dng` writes it as a DNG with ``pidng`` that rawpy reads back.
+
+This module lives on the replication side (``experiments``), not in ``measure``: ``pidng`` is a
+test dependency (the ``[test]`` extra, which ``make install`` installs), and the production
+package must not need it.
 """
 
 from __future__ import annotations
@@ -16,10 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 import forward
+from measure.chart import LAYOUTS, ChartLayout, homography
 
-from .chart import LAYOUTS, ChartLayout, homography
-
-__all__ = ["Scene", "render_mosaic", "write_dng", "default_corners"]
+__all__ = ["Scene", "render_mosaic", "write_dng", "default_corners", "BLACK_LEVELS_DN",
+           "WHITE_LEVEL_DN"]
 
 #: the RGGB Bayer pattern: channel of each position of the 2 x 2 tile
 RGGB = np.array([[0, 1], [1, 2]])
@@ -27,6 +31,13 @@ RGGB = np.array([[0, 1], [1, 2]])
 FRAME_REFLECTANCE = 0.03
 #: side of a painted patch, fraction of the pitch
 PATCH_SIDE = 0.85
+#: Black level (DN) at the RGGB positions (0,0) (0,1) (1,0) (1,1): deliberately unequal, so that
+#: a reader that takes one black level for all positions is caught
+BLACK_LEVELS_DN = (512, 510, 514, 516)
+#: White level (DN) of a 14-bit sensor
+WHITE_LEVEL_DN = 2 ** 14 - 1
+#: TIFF/EXIF tag ISOSpeedRatings (not among pidng's named tags)
+ISO_SPEED_RATINGS_TAG = 34855
 
 
 @dataclass
@@ -40,8 +51,8 @@ class Scene:
     width: int = 360
     height: int = 240
     gain: float = 8000.0  # DN per model unit (the unknown exposure)
-    black: tuple = (512, 510, 514, 516)  # DN at the RGGB positions (0,0) (0,1) (1,0) (1,1)
-    white: int = 2 ** 14 - 1
+    black: tuple = BLACK_LEVELS_DN  # DN at the RGGB positions (0,0) (0,1) (1,0) (1,1)
+    white: int = WHITE_LEVEL_DN
     electrons_per_dn: float = 2.0
     read_noise_dn: float = 2.0
     vignetting: float = 0.0  # relative fall of the light at the image corners (r = 1)
@@ -110,7 +121,7 @@ def render_mosaic(scene: Scene, corners, *, setup=None, water=None,
     return np.clip(np.rint(dn + black), 0, scene.white).astype(np.uint16)
 
 
-def write_dng(mosaic, path, *, black=(512, 510, 514, 516), white=2 ** 14 - 1,
+def write_dng(mosaic, path, *, black=BLACK_LEVELS_DN, white=WHITE_LEVEL_DN,
               exposure_s=1 / 125, f_number=5.6, iso=400) -> str:
     """Write an RGGB mosaic as an uncompressed 16-bit DNG (pidng); returns the path written
     (pidng appends '.dng')."""
@@ -141,7 +152,7 @@ def write_dng(mosaic, path, *, black=(512, 510, 514, 516), white=2 ** 14 - 1,
     t.set(Tag.UniqueCameraModel, "uw3p synthetic")
     t.set(Tag.ExposureTime, [[1, int(round(1 / exposure_s))]])
     t.set(Tag.FNumber, [[int(round(f_number * 10)), 10]])
-    t.set((34855, Type.Short), int(iso))  # ISOSpeedRatings (not among pidng's named tags)
+    t.set((ISO_SPEED_RATINGS_TAG, Type.Short), int(iso))
     t.set(Tag.DNGVersion, DNGVersion.V1_4)
     t.set(Tag.DNGBackwardVersion, DNGVersion.V1_2)
     r = RAW2DNG()
