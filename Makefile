@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test reproduce-figures bench clean
+.PHONY: install test test-fast reproduce-figures bench clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -13,8 +13,13 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
+# the whole suite (what CI runs)
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not slow"
 
 reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md

@@ -12,31 +12,19 @@ from __future__ import annotations
 import cvxpy as cp
 
 import sca
-from sca.subproblem import Subproblem
+from sca.subproblem import Subproblem, constraints
 
 __all__ = ["RebuildEstimator", "constant_problem"]
 
 
 def constant_problem(sub: Subproblem, AE, r0):
     """The same QP as ``sub`` written as a CVX user would: the full least-squares residual
-    ``r0 - AE v`` (m n rows, not QR-compressed) and every bound as a constant, in a fresh
-    problem that cvxpy must canonicalise from scratch (the benchmark's baseline).
-    Returns (problem, v)."""
-    nv = sub.n_free + sub.n_s
-    v = cp.Variable(nv)
-    cons = []
-    if sub.lo is not None:
-        cons.append(v[:sub.lo.value.size] >= sub.lo.value)
-    if sub.hi is not None:
-        cons += [v[:sub.n_free] <= sub.hi.value, v[:sub.n_free] >= -sub.hi.value]
-    if sub.TDw is not None:
-        w0 = sub.n_free - sub.TDw.value.shape[1]
-        cons.append(sub.TDw.value @ v[w0:sub.n_free] >= sub.Tw_rhs.value)
-    if sub.a_eq is not None:
-        cons.append(sub.a_eq.value @ v[:sub.n_free] == sub.b_eq.value)
-    if sub.s_lo is not None:
-        cons.append(v[sub.n_free:] >= sub.s_lo.value)
-    problem = cp.Problem(cp.Minimize(cp.sum_squares(r0 - AE @ v)), cons)
+    ``r0 - AE v`` (m n rows, not QR-compressed) and every constraint of
+    :func:`sca.subproblem.constraints` as a constant, in a fresh problem that cvxpy must
+    canonicalise from scratch (the benchmark's baseline). Returns (problem, v)."""
+    v = cp.Variable(sub.n_free + sub.n_s)
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(r0 - AE @ v)),
+                         constraints(sub, v, numeric=True))
     return problem, v
 
 

@@ -8,7 +8,7 @@ thin wrappers of these functions.
 from .camera import Profile, calibrate, camera_setup, load_profile
 from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, parse_corners, sample_patches
 from .image import Photo, demosaic, read_image
-from .measure import MEASURE_BLOCKING, Measurement, correction, measure
+from .measurement import MEASURE_BLOCKING, Measurement, correction, measure
 from .output import corrected_image, srgb_preview, write_outputs
 
 __all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSample",

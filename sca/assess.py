@@ -21,6 +21,15 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
+from forward.spectra import WHITE_PATCH
+
+from .model import CDOM_MAX, CHL_MAX  # where a profile interval is open (one definition)
+
+__all__ = ["CONFIDENCE", "MISFIT_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
+           "BLOCKING", "INFORMATIVE", "profile_delta", "gain_wald", "goodness",
+           "input_flag_table", "input_flags", "estimate_flag_table", "estimate_flags",
+           "flag_tuples", "is_reliable", "EXACT_SIGMA_FLOOR", "ORDER_FRACTION"]
+
 #: Confidence level of ``chl_ci`` and ``cdom_ci``.
 CONFIDENCE = 0.95
 #: A fit whose chi^2 p-value is below this is a ``misfit`` (one in a thousand false alarms).
@@ -31,11 +40,11 @@ DARK_SNR = 10.0
 #: A patch-order check tolerance: a grey-row step may rise by at most this many standard
 #: deviations (noise) before the order is called wrong.
 ORDER_SIGMAS = 4.0
-#: Profile upper ends beyond these are open (``inf``): C in mg m^-3, a_CDOM(440) in m^-1 (far
-#: beyond natural waters: Mobley 1994 lists C up to ~100, a_CDOM(440) up to ~10).
-CHL_MAX, CDOM_MAX = 1e4, 1e3
+#: Without sigma, a grey-row step may rise by this fraction of white before the order is
+#: called wrong; EXACT_SIGMA_FLOOR keeps the test defined on an all-black row.
+ORDER_FRACTION, EXACT_SIGMA_FLOOR = 1e-2, 1e-300
 #: ColorChecker grey row (0-based patch indices, white to black).
-GREY_ROW = tuple(range(18, 24))
+GREY_ROW = tuple(range(WHITE_PATCH, WHITE_PATCH + 6))
 
 #: Flags that make an estimate unreliable; any other flag is information.
 BLOCKING = ("not-converged", "misfit", "noise-unknown", "unbounded-chl", "unbounded-cdom",
@@ -105,7 +114,7 @@ def input_flag_table(M, sigma=None, saturation=None) -> dict:
                                                                        + sg[:, :, -1] ** 2)
             dark = contrast.max(axis=1) < DARK_SNR
         else:
-            noise = 1e-2 * np.abs(grey[:, :, :1]) / ORDER_SIGMAS + 1e-300  # 1 % of white
+            noise = ORDER_FRACTION * np.abs(grey[:, :, :1]) / ORDER_SIGMAS + EXACT_SIGMA_FLOOR
         order = np.any(steps > ORDER_SIGMAS * noise, axis=(1, 2)) & ~dark
     return {"saturated": saturated, "dark": dark, "patch-order": order}
 

@@ -48,6 +48,8 @@ CHL_DERIVATIVE_FLOOR = 1e-6
 CHL_MAX, CDOM_MAX, LENGTH_MAX = 1e4, 1e3, 1e4
 #: A free Water constant's interval is open beyond this many times its default magnitude.
 CONSTANT_SPAN = 1e3
+#: Largest condition number of the (unit-diagonal) information matrix that is inverted.
+COND_MAX = 1e14
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
 
@@ -347,12 +349,14 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     return gain, np.where(act, s, s0), act
 
 
-def covariance(J, sigma2=1.0, *, cond_max: float = 1e14):
+def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
     """Gauss-Newton covariance sigma^2 (J^T J)^-1 of whitened Jacobians J (..., rows, p).
 
-    The one covariance of the package: the estimators' standard errors and Wald intervals and
-    :func:`sca.precision`'s Cramér-Rao bound (there J is whitened by the sensor's noise and
-    sigma^2 = 1). Singular (undetermined) problems give infinite variances.
+    The one covariance of the package (through :func:`profiled_covariance`): the estimators'
+    standard errors and Wald intervals and :func:`sca.precision`'s Cramér-Rao bound (there J is
+    whitened by the sensor's noise and sigma^2 = 1). The information is inverted after Jacobi
+    scaling (unit diagonal), so whether it counts as singular does not depend on the units of
+    the parameters; singular (undetermined) problems give infinite variances.
     """
     J = np.asarray(J, float)
     F = np.swapaxes(J, -1, -2) @ J
@@ -360,10 +364,13 @@ def covariance(J, sigma2=1.0, *, cond_max: float = 1e14):
     flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
     if F.shape[-1]:
         with np.errstate(all="ignore"):
-            ok = np.isfinite(flat_F).all(axis=(1, 2))
-            ok[ok] = np.linalg.cond(flat_F[ok]) < cond_max
+            d = np.sqrt(np.diagonal(flat_F, axis1=1, axis2=2))
+            ok = np.isfinite(flat_F).all(axis=(1, 2)) & np.all(d > 0, axis=1)
+            D = np.where(ok[:, None], d, 1.0)
+            scaled = flat_F / (D[:, :, None] * D[:, None, :])
+            ok[ok] = np.linalg.cond(scaled[ok]) < cond_max
         if ok.any():
-            flat_out[ok] = np.linalg.inv(flat_F[ok])
+            flat_out[ok] = np.linalg.inv(scaled[ok]) / (D[ok][:, :, None] * D[ok][:, None, :])
     return out.reshape(F.shape) * np.asarray(sigma2, float)[..., None, None]
 
 

@@ -39,6 +39,9 @@ import numpy as np
 
 @dataclass
 class Subproblem:
+    """One compiled QP: the problem, its variable v = (delta, ds), its parameters, and
+    ``blocks``, the one description of its constraints (see :func:`constraints`)."""
+
     problem: cp.Problem
     v: cp.Variable
     R: cp.Parameter
@@ -52,7 +55,14 @@ class Subproblem:
     b_eq: cp.Parameter | None
     n_free: int
     n_s: int
+    #: the constraints, each (kind, slice of v, parameters): 'lower' v[sl] >= p; 'box'
+    #: -p <= v[sl] <= p; 'rows' A v[sl] >= p2; 'equal' a . v[sl] == p2
+    blocks: tuple = ()
 
+
+__all__ = ["Subproblem", "compiled_subproblem", "thread_builds", "build_subproblem",
+           "constraints", "polish", "equality_step", "POLISH_ACTIVE_TOL", "POLISH_FEAS_TOL",
+           "POLISH_ROUNDS"]
 
 _LOCAL = threading.local()
 
@@ -76,14 +86,51 @@ def thread_builds() -> int:
     return getattr(_LOCAL, "builds", 0)
 
 
+def constraints(sub: Subproblem, v, numeric: bool = False) -> list:
+    """The QP's constraints on ``v`` from ``sub.blocks``: with the parameters themselves (the
+    DPP problem) or, ``numeric``, with their current values as constants (a problem rebuilt
+    from scratch, the benchmark's baseline)."""
+    def val(p):
+        return p.value if numeric else p
+
+    out = []
+    for kind, sl, *params in sub.blocks:
+        x = v[sl]
+        if kind == "lower":
+            out.append(x >= val(params[0]))
+        elif kind == "box":
+            out += [x <= val(params[0]), x >= -val(params[0])]
+        elif kind == "rows":
+            out.append(val(params[0]) @ x >= val(params[1]))
+        else:  # equal
+            out.append(val(params[0]) @ x == val(params[1]))
+    return out
+
+
 def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s: int,
                      trust_region: bool, has_equality: bool) -> Subproblem:
     """Build the DPP QP above (a new problem; :func:`compiled_subproblem` caches it per thread).
 
-    ``n_free``: number of free entries of delta, the first ``n_pos`` of which (C, a_CDOM) are
-    bounded below; ``w_slice``: (start, stop) of the w entries inside delta (None if w is not
-    free); ``n_s``: number of free backscatter entries (m, or 0 when s is fixed);
-    ``has_equality``: whether eq 17 constrains delta.
+    Parameters
+    ----------
+    n_free : int
+        Number of entries of delta; the first ``n_pos`` are bounded below (C, a_CDOM, ...).
+    n_pos : int
+    w_slice : (start, stop) or None
+        The w entries inside delta where eq 16 needs q rows (None: w not free, or bounded
+        among the first ``n_pos``).
+    q : int
+        Number of wavelengths.
+    n_s : int
+        Number of free backscatter entries (m, or 0 when s is fixed).
+    trust_region : bool
+        Bound |delta| by a radius.
+    has_equality : bool
+        Eq 17 constrains delta.
+
+    Returns
+    -------
+    Subproblem
     """
     nv = n_free + n_s
     if nv == 0:
@@ -92,61 +139,74 @@ def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s
     R = cp.Parameter((nv, nv), name="R")
     b = cp.Parameter(nv, name="b")
     lo = s_lo = hi = TDw = Tw_rhs = a_eq = b_eq = None
-    cons = []
-    delta = v[:n_free]
+    blocks = []
     if n_pos:
         lo = cp.Parameter(n_pos, name="lo")
-        cons.append(v[:n_pos] >= lo)
+        blocks.append(("lower", slice(0, n_pos), lo))
     if trust_region and n_free:
         hi = cp.Parameter(n_free, nonneg=True, name="hi")
-        cons += [delta <= hi, delta >= -hi]
+        blocks.append(("box", slice(0, n_free), hi))
     if w_slice is not None:
         zf = w_slice[1] - w_slice[0]
         TDw = cp.Parameter((q, zf), name="TDw")
         Tw_rhs = cp.Parameter(q, name="Tw_rhs")
-        cons.append(TDw @ v[w_slice[0]:w_slice[1]] >= Tw_rhs)
+        blocks.append(("rows", slice(*w_slice), TDw, Tw_rhs))
     if has_equality:
         a_eq = cp.Parameter(n_free, name="a_eq")
         b_eq = cp.Parameter(name="b_eq")
-        cons.append(a_eq @ delta == b_eq)
+        blocks.append(("equal", slice(0, n_free), a_eq, b_eq))
     if n_s:
         s_lo = cp.Parameter(n_s, name="s_lo")
-        cons.append(v[n_free:] >= s_lo)
-    problem = cp.Problem(cp.Minimize(cp.sum_squares(R @ v - b)), cons)
-    return Subproblem(problem, v, R, b, lo, s_lo, hi, TDw, Tw_rhs, a_eq, b_eq, n_free, n_s)
+        blocks.append(("lower", slice(n_free, nv), s_lo))
+    sub = Subproblem(None, v, R, b, lo, s_lo, hi, TDw, Tw_rhs, a_eq, b_eq, n_free, n_s,
+                     tuple(blocks))
+    sub.problem = cp.Problem(cp.Minimize(cp.sum_squares(R @ v - b)), constraints(sub, v))
+    return sub
 
 
-def _inequalities(sub: Subproblem):
-    """Every inequality of ``sub`` as rows of (A, lb) with A v >= lb."""
-    n_free, nv = sub.n_free, sub.n_free + sub.n_s
-    rows, lbs = [], []
-    eye = np.eye(nv)
-    if sub.lo is not None:
-        for i, l_val in enumerate(sub.lo.value):
-            rows.append(eye[i])
-            lbs.append(l_val)
-    if sub.s_lo is not None:
-        for i, l_val in zip(range(n_free, nv), sub.s_lo.value):
-            rows.append(eye[i])
-            lbs.append(l_val)
-    if sub.hi is not None:
-        for i in range(n_free):
-            rows += [-eye[i], eye[i]]
-            lbs += [-sub.hi.value[i], -sub.hi.value[i]]
-    if sub.TDw is not None:
-        w0 = n_free - sub.TDw.value.shape[1]  # the w block: trailing z entries of delta
-        for j in range(sub.TDw.value.shape[0]):
-            e = np.zeros(nv)
-            e[w0:n_free] = sub.TDw.value[j]
-            rows.append(e)
-            lbs.append(sub.Tw_rhs.value[j])
-    if not rows:
-        return np.zeros((0, nv)), np.zeros(0)
-    return np.array(rows), np.array(lbs)
+def _rows(sub: Subproblem):
+    """Every constraint of ``sub`` at its current values as rows: inequalities (A, lb) with
+    A v >= lb, and equalities (C, d) with C v = d."""
+    nv = sub.n_free + sub.n_s
+    ineq, lbs, eq, rhs = [], [], [], []
+    for kind, sl, *params in sub.blocks:
+        idx = np.arange(nv)[sl]
+        if kind in ("lower", "box"):
+            val = np.broadcast_to(params[0].value, idx.shape)
+            for i, l_val in zip(idx, val):
+                e = np.zeros(nv)
+                e[i] = 1.0
+                if kind == "lower":
+                    ineq.append(e)
+                    lbs.append(l_val)
+                else:
+                    ineq += [-e, e]
+                    lbs += [-l_val, -l_val]
+            continue
+        A = np.zeros((np.atleast_2d(params[0].value).shape[0], nv))
+        A[:, idx] = np.atleast_2d(params[0].value)
+        if kind == "rows":
+            ineq += list(A)
+            lbs += list(np.atleast_1d(params[1].value))
+        else:
+            eq += list(A)
+            rhs += list(np.atleast_1d(params[1].value))
+    as_array = (lambda rows: np.array(rows).reshape(-1, nv))
+    return as_array(ineq), np.array(lbs, float), as_array(eq), np.array(rhs, float)
 
 
-def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol: float = 1e-9,
-           f_ref: float | None = None, max_rounds: int = 10):
+#: The active-set polish: constraints within this (relative) distance of their bound are taken
+#: as active; a result must meet every constraint to POLISH_FEAS_TOL; at most POLISH_ROUNDS
+#: rounds of adding violated constraints.
+POLISH_ACTIVE_TOL, POLISH_FEAS_TOL, POLISH_ROUNDS = 1e-4, 1e-9, 10
+#: A polished step is kept when its objective is not above the interior point's by more than
+#: this (relative) amount.
+POLISH_SLACK = 1e-14
+
+
+def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = POLISH_ACTIVE_TOL,
+           feas_tol: float = POLISH_FEAS_TOL, f_ref: float | None = None,
+           max_rounds: int = POLISH_ROUNDS):
     """Active-set polish of an approximate solution ``v`` of ``sub`` (in its units).
 
     Interior-point methods stop a little inside the bounds that are active at the solution,
@@ -155,27 +215,37 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol
     at their iteration limit. Here the constraints within ``active_tol`` of their bound are
     taken as active, the equality-constrained least-squares problem (with eq 17) is solved
     exactly (KKT system), and constraints the result violates are added to the active set
-    (up to ``max_rounds`` times). The result is returned if it satisfies every constraint to
-    ``feas_tol`` and its objective is not above ``f_ref`` (default: that of ``v``); otherwise
-    ``v`` itself. Returns (v, polished: bool).
+    (up to ``max_rounds`` times).
+
+    Parameters
+    ----------
+    sub : Subproblem
+        Its parameters hold the QP solved.
+    v : ndarray
+        The approximate solution.
+    active_tol, feas_tol : float
+        Relative distance to a bound taken as active; feasibility required of the result.
+    f_ref : float, optional
+        The objective the result must not exceed (default: that of ``v``).
+    max_rounds : int
+
+    Returns
+    -------
+    v : ndarray
+        The polished step, or ``v`` itself where the polish fails.
+    polished : bool
     """
     R, b = sub.R.value, sub.b.value
     nv = R.shape[1]
     scale = 1.0 + float(np.max(np.abs(v)))
-    A_in, lb = _inequalities(sub)
-    eq_rows, eq_rhs = [], []
-    if sub.a_eq is not None:
-        e = np.zeros(nv)
-        e[:sub.n_free] = sub.a_eq.value
-        eq_rows.append(e)
-        eq_rhs.append(float(sub.b_eq.value))
+    A_in, lb, C_eq, d_eq = _rows(sub)
     norms = 1.0 + np.abs(A_in).sum(axis=1)
     active = (A_in @ v - lb) <= active_tol * scale * norms
     H, g = R.T @ R, R.T @ b
     vp = None
     for _ in range(max_rounds):
-        C = np.vstack([np.array(eq_rows).reshape(-1, nv), A_in[active]])
-        d = np.concatenate([eq_rhs, lb[active]])
+        C = np.vstack([C_eq, A_in[active]])
+        d = np.concatenate([d_eq, lb[active]])
         if C.shape[0]:
             k = C.shape[0]
             K = np.block([[H, C.T], [C, np.zeros((k, k))]])
@@ -191,13 +261,13 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = 1e-4, feas_tol
         active |= bad
     else:
         return v, False
-    if eq_rows and abs(eq_rows[0] @ vp - eq_rhs[0]) > feas_tol * scale:
+    if C_eq.shape[0] and np.any(np.abs(C_eq @ vp - d_eq) > feas_tol * scale):
         return v, False
     if np.any(lb - A_in @ vp > feas_tol * scale * norms):
         return v, False
     f_v = float(np.sum((R @ v - b) ** 2)) if f_ref is None else f_ref
     f_p = float(np.sum((R @ vp - b) ** 2))
-    if f_p <= f_v + 1e-14 * max(1.0, f_v):
+    if f_p <= f_v + POLISH_SLACK * max(1.0, f_v):
         return vp, True
     return v, False
 

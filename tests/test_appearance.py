@@ -1,10 +1,12 @@
 """The appearance figure scripts (Figs 5-8) and their trends."""
 
 import numpy as np
+import pytest
 
 import forward
 
 
+@pytest.mark.slow
 def test_appearance_figures_and_hue_trend(tmp_path):
     from experiments import fig05_06_appearance_sites, fig07_depth_distance, fig08_chlorophyll
 

@@ -28,6 +28,7 @@ def _reference(M, depth, distance):
     return [sca.estimate(M[i], depth=depth[i], distance=distance[i]) for i in range(len(M))]
 
 
+@pytest.mark.slow
 def test_noise_free_same_optimum_as_sca(charts):
     stacks, depth, distance = charts
     M = stacks[False]
@@ -41,6 +42,7 @@ def test_noise_free_same_optimum_as_sca(charts):
         np.testing.assert_allclose(b.attenuation[i], e.attenuation, rtol=1e-6, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_noisy_objective_equal_or_lower_than_sca(charts):
     stacks, depth, distance = charts
     M = stacks[True]
@@ -56,6 +58,7 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
     np.testing.assert_allclose(few.objective, b.objective[:3], rtol=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("noise", [False, True])
 def test_batch_reaches_the_loops_optimum(charts, noise):
     """The batch (variable projection + LM) and the cvxpy loop minimise the same objective."""

@@ -173,6 +173,7 @@ def test_estimate_batch_ids_json_and_refusals(tmp_path):
     assert code == 2 and "--distance" in err
 
 
+@pytest.mark.slow
 def test_output_cut_short_by_reader_is_quiet(tmp_path):
     # an output larger than a pipe's buffer, read only to its first line
     rgb = forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb
@@ -222,6 +223,7 @@ def _start_sweep(tmp_path):
     return proc, kids
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 def test_killed_sweep_leaves_no_workers(tmp_path):
     proc, kids = _start_sweep(tmp_path)
@@ -233,6 +235,7 @@ def test_killed_sweep_leaves_no_workers(tmp_path):
     assert not any(_alive(k) for k in kids), "pool workers outlived the killed run"
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs /proc")
 def test_ctrl_c_stops_sweep_quickly_without_traceback(tmp_path):
     proc, kids = _start_sweep(tmp_path)

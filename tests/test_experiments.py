@@ -13,6 +13,9 @@ import pytest
 from experiments import estimation, grids, sweep
 from experiments.__main__ import main as run_all
 
+#: the whole module is in the slow tier (make test-fast skips it)
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[1]
 ESTIMATION_FIGURES = ["fig09_attenuation", "fig10_rrmse", "fig11_colour_correction",
                       "fig12_chlorophyll", "fig13_cdom"]

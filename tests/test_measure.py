@@ -15,6 +15,9 @@ from experiments.synthetic_photo import Scene, default_corners, render_mosaic, w
 from forward.spectra import WHITE_PATCH
 from uw3p.cli import main
 
+#: the whole module is in the slow tier (make test-fast skips it)
+pytestmark = pytest.mark.slow
+
 #: the synthetic camera's true channel balance (the NPL curves are peak-normalised: 1, 1, 1)
 TRUE_BALANCE = (0.55, 1.0, 0.7)
 W, H = 360, 240

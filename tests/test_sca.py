@@ -35,6 +35,7 @@ def test_subproblem_is_dpp_and_compiled_once(trust_region):
     assert thread_builds() == before  # the same compiled problem served every fit
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("depth,distance", list(itertools.product(DEPTHS, DISTANCES)))
 def test_noise_free_round_trip_grid(depth, distance):
     for chl, cdom in itertools.product(CHLS, CDOMS):
@@ -122,6 +123,7 @@ def test_zero_chlorophyll_never_nan():
     assert est.chl < 1e-6 and abs(est.cdom - 0.1) < 1e-4
 
 
+@pytest.mark.slow
 def test_noisy_estimates_unbiased_at_5m():
     chl, cdom, depth, distance = 1.0, 0.1, 5.0, 2.0
     est = [sca.estimate(forward.simulate_chart(chl, cdom, depth, distance, seed=s).rgb,
@@ -226,6 +228,7 @@ def test_scipy_reference_reaches_the_same_optimum():
     assert lsq.objective <= ref.objective * (1 + 1e-9)
 
 
+@pytest.mark.slow
 def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
     fits = [sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, seed=s).rgb, depth=5.0,
                          distance=2.0) for s in range(30)]

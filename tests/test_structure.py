@@ -1,11 +1,18 @@
-"""Estimators are safe to share between threads; packages import only downwards."""
+"""Estimators are safe to share between threads; packages import only downwards; no module
+shares its name with a function; every module declares its public names (``__all__``)."""
 
 import ast
+import importlib
 import itertools
+import json
+import pkgutil
+import subprocess
+import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import forward
 import sca
@@ -28,6 +35,7 @@ def _charts():
             for i, (c, a, d, r) in enumerate(conds)]
 
 
+@pytest.mark.slow
 def test_estimate_from_threads_equals_serial():
     charts = _charts()
 
@@ -99,3 +107,57 @@ def test_console_script_is_above_forward():
     text = (ROOT / "pyproject.toml").read_text()
     assert 'uw3p = "uw3p.cli:main"' in text
     assert not (ROOT / "forward" / "cli.py").exists()
+
+
+#: The packages whose structure is tested (the layers, lowest first).
+PACKAGES = list(LAYERS)
+
+#: Run in a fresh interpreter, so that no earlier import (of a test or of another package) has
+#: already replaced a package's function by its same-named submodule or vice versa: each package
+#: is imported alone, in layer order, and each name of a submodule that the package binds to
+#: anything but that submodule is printed.
+_CLASH_SCRIPT = """
+import importlib, json, pkgutil, sys
+out = {}
+for name in sys.argv[1:]:
+    pkg = importlib.import_module(name)
+    subs = [m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name != "__main__"]
+    out[name] = {s: type(vars(pkg)[s]).__name__ for s in subs
+                 if s in vars(pkg) and vars(pkg)[s] is not sys.modules.get(f"{name}.{s}")}
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.slow
+def test_no_submodule_shares_its_name_with_an_attribute_of_its_package():
+    """``measure.measure`` must mean one thing: a package's public attribute (a function, a
+    class, a constant) never has the name of one of its submodules."""
+    proc = subprocess.run([sys.executable, "-c", _CLASH_SCRIPT, *PACKAGES], cwd=ROOT,
+                          capture_output=True, text=True, check=True)
+    found = json.loads(proc.stdout.strip().splitlines()[-1])
+    clashes = [f"{pkg}.{sub} is a submodule and a {kind}"
+               for pkg, subs in found.items() for sub, kind in subs.items()]
+    assert not clashes, "\n".join(clashes)
+
+
+def _modules():
+    """Every module of PACKAGES (each package itself included, ``__main__`` scripts not)."""
+    for name in PACKAGES:
+        pkg = importlib.import_module(name)
+        yield pkg
+        for info in pkgutil.walk_packages(pkg.__path__, prefix=f"{name}."):
+            if info.name.rsplit(".", 1)[-1] != "__main__":
+                yield importlib.import_module(info.name)
+
+
+def test_every_module_declares_all_and_every_name_in_it_exists():
+    no_all, missing = [], []
+    for mod in _modules():
+        names = vars(mod).get("__all__")
+        if names is None:
+            no_all.append(mod.__name__)
+            continue
+        missing += [f"{mod.__name__}.{n}" for n in names if not hasattr(mod, n)]
+    problems = ([f"no __all__: {', '.join(no_all)}"] if no_all else []) + \
+        ([f"in __all__ but not defined: {', '.join(missing)}"] if missing else [])
+    assert not problems, "\n".join(problems)
