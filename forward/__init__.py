@@ -1,6 +1,11 @@
 """uw3p forward model: what a camera records of a Macbeth chart underwater.
 
 Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model" (eqs 1-14, Table 1).
+
+Units throughout: wavelengths in nm, absorption / scattering / attenuation coefficients in
+m^-1, chlorophyll ``chl`` (C) in mg m^-3, ``cdom`` = a_CDOM(440 nm) in m^-1, lengths
+(``depth``, ``distance``) in m; camera values in model units (a white reflector in air = 1 in
+the most sensitive channel).
 """
 
 from . import validate
@@ -52,4 +57,60 @@ from .water import (
     scattering,
 )
 
-__all__ = [name for name in dir() if not name.startswith("_")]
+__all__ = [
+    "CDOM_SLOPE",
+    "CHL_TERMS",
+    "DEFAULT_CAMERA",
+    "LAMBDA_0_NM",
+    "MODEL_RANGE_NM",
+    "NAP_SLOPE",
+    "PAPER_WATER",
+    "PATH_MODELS",
+    "ChartSetup",
+    "ChartSimulation",
+    "SensorSettings",
+    "Water",
+    "WaterTerms",
+    "absorption",
+    "attenuation",
+    "attenuation_coefficient",
+    "backscattering",
+    "camera_response",
+    "camera_sensitivities",
+    "camera_to_xyz_matrix",
+    "capture",
+    "cdom_absorption",
+    "chart_image",
+    "chart_reflectances",
+    "chart_setup",
+    "chart_xyz",
+    "cie_1931_cmfs",
+    "illuminant_spd",
+    "imaging",
+    "nap_absorption",
+    "nap_absorption_440",
+    "particle_scattering",
+    "patch_srgb",
+    "patches_image",
+    "path_length",
+    "phytoplankton_absorption",
+    "phytoplankton_absorption_440",
+    "phytoplankton_basis",
+    "pure_water_absorption",
+    "pure_water_scattering",
+    "quadrature_weights",
+    "render",
+    "resolve_setup",
+    "resolve_water",
+    "scattering",
+    "sensor",
+    "sensor_noise",
+    "simulate",
+    "simulate_chart",
+    "spectra",
+    "table1",
+    "validate",
+    "veiling_light",
+    "water",
+    "wavelength_grid",
+]

@@ -20,16 +20,68 @@ from .spectra import (
     quadrature_weights,
     wavelength_grid,
 )
-from .water import PATH_MODELS, Water, resolve_water  # noqa: F401  (PATH_MODELS: re-exported)
+from .water import PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
+
+__all__ = [
+    "PATH_MODELS",
+    "ChartSetup",
+    "attenuation",
+    "camera_response",
+    "chart_setup",
+    "length",
+    "path_length",
+    "resolve_setup",
+    "veiling_light",
+]
 
 
 def length(name: str, value) -> np.ndarray:
-    """A path length in m (scalar or array): finite and >= 0, else ``ValueError`` naming it."""
+    """Check a path length in m (scalar or array): finite and >= 0, else ``ValueError`` naming it.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (e.g. ``'depth'``), used at the start of the error message.
+    value : float or array_like
+        The length, m.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``value`` as a float array (0-d for a scalar), m.
+
+    Raises
+    ------
+    ValueError
+        If any element is negative or not finite.
+    """
     return validate.nonnegative(name, value, unit="m")
 
 
 def path_length(depth, distance) -> np.ndarray:
-    """Total path L = depth + distance in m: down to the chart, then to the camera (eq 3's d)."""
+    """Total path L = depth + distance in m: down to the chart, then to the camera (eq 3's d).
+
+    Parameters
+    ----------
+    depth : float or array_like
+        Depth of the chart below the surface, m (the daylight's path down).
+    distance : float or array_like
+        Camera-to-chart distance, m (horizontal view at the chart's depth).
+
+    Returns
+    -------
+    numpy.ndarray
+        L, m (broadcast shape of ``depth`` and ``distance``; 0-d for scalars).
+
+    Raises
+    ------
+    ValueError
+        If a length is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 3, 13 and 14 (the path length d); DECISIONS.md ("Geometry").
+    """
     return length("depth", depth) + length("distance", distance)
 
 
@@ -40,7 +92,45 @@ def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *
 
     ``water`` (:class:`forward.Water`, default the paper's) gives c; its path model 'absorption'
     (or ``path_model='absorption'``) uses the paper's literal eq 13, exp(-d a(lambda)).
-    Broadcasts over array ``chl``/``cdom``/``depth``/``distance`` (all of one shape S): (S..., q).
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    cdom : float or array_like, shape S
+        a_CDOM(440 nm), m^-1 (default 0.1).
+    depth : float or array_like, shape S
+        Depth of the chart below the surface, m (default 10).
+    distance : float or array_like, shape S
+        Camera-to-chart distance, m (default 5).
+    path_model : {'beam', 'absorption'}, optional
+        Replaces ``water.path_model``.
+    water : Water, optional
+        The water model (default: the paper's).
+    basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+        The phytoplankton basis T of eq 9 (default: the water's table).
+    weights : array_like, shape (z,), optional
+        The shape w of eq 9 for z > 1 basis functions.
+    cdom_slope : float, optional
+        S of eq 6, nm^-1; replaces ``water.cdom_slope``.
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        k, dimensionless. Broadcasts over array ``chl``/``cdom``/``depth``/
+        ``distance`` (all of one shape S).
+
+    Raises
+    ------
+    ValueError
+        For negative or non-finite concentrations or lengths, or an invalid grid or water.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 3, 4, 13 and 14; DECISIONS.md ("Geometry", "Beam vs absorption
+    only").
     """
     wl = wavelength_grid(wavelengths)
     L = path_length(depth, distance)
@@ -63,6 +153,46 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
     the classical veiling-light form (b_b / c is the asymptote of an infinitely long ray).
     Uses the beam attenuation c (eq 4) and b_b of :meth:`forward.WaterTerms.backscattering`,
     whatever the path model.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    cdom : float or array_like, shape S
+        a_CDOM(440 nm), m^-1 (default 0.1).
+    depth : float or array_like, shape S
+        Depth of the chart (and camera) below the surface, m (default 10).
+    distance : float or array_like, shape S
+        Camera-to-chart distance, m (default 5).
+    illuminant : optional
+        The surface illuminant, as for :func:`forward.illuminant_spd` (default D65; scaled to
+        maximum 1).
+    water : Water, optional
+        The water model (default: the paper's); its path model is ignored here.
+    basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+        The phytoplankton basis T of eq 9 (default: the water's table).
+    weights : array_like, shape (z,), optional
+        The shape w of eq 9 for z > 1 basis functions.
+    cdom_slope : float, optional
+        S of eq 6, nm^-1; replaces ``water.cdom_slope``.
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        rho_b, in the units of i(lambda) x reflectance (the units of the direct term i k r).
+
+    Raises
+    ------
+    ValueError
+        For negative or non-finite concentrations or lengths, or an invalid grid, illuminant
+        or water.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 2 (which leaves rho_b unmodelled) and eq 4; DECISIONS.md ("Veiling
+    light / backscatter").
     """
     wl = wavelength_grid(wavelengths)
     i = illuminant_spd(illuminant, wl)
@@ -79,15 +209,29 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
 class ChartSetup:
     """The fixed matrices of eq 15 on one wavelength grid.
 
-    Attributes
+    Build one with :func:`chart_setup`; every parameter is also a (read-only) attribute.
+
+    Parameters
     ----------
-    wavelengths : (q,) nm
-    sensitivities : (q, m) the matrix P of eq 15: camera sensitivities times the quadrature
-        weights of eq 1, scaled so that a perfect white reflector in air under the illuminant
-        gives 1 in the most sensitive channel. Model signals are in these units.
-    illuminant : (q,) relative SPD i of the surface illuminant (max 1).
-    reflectances : (q, n) R.
-    camera : the camera's name (or 'custom').
+    wavelengths : numpy.ndarray, shape (q,)
+        The grid, nm.
+    sensitivities : numpy.ndarray, shape (q, m)
+        The matrix P of eq 15: camera sensitivities times the quadrature weights of eq 1 (nm),
+        scaled so that a perfect white reflector in air under the illuminant gives 1 in the
+        most sensitive channel. Model signals are in these units.
+    illuminant : numpy.ndarray, shape (q,)
+        Relative SPD i of the surface illuminant (max 1).
+    reflectances : numpy.ndarray, shape (q, n)
+        R, reflectance factors of the n patches.
+    camera : str
+        The camera's name (or 'custom').
+    raw_sensitivities : numpy.ndarray, shape (q, m)
+        The camera's peak-normalised sensitivities times ``channel_gains`` (if any), before
+        the quadrature weights and the scaling of P (used by the sensor to count photons).
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1 and 15.
     """
 
     wavelengths: np.ndarray
@@ -99,7 +243,17 @@ class ChartSetup:
 
     @property
     def white_response(self) -> np.ndarray:
-        """Model signal (m,) of a perfect white reflector in air: P^T i."""
+        """Model signal of a perfect white reflector in air: P^T i.
+
+        Returns
+        -------
+        numpy.ndarray, shape (m,)
+            In model units; 1 in the most sensitive channel.
+
+        References
+        ----------
+        Blasinski & Farrell, eq 15 with k = 1, R = 1, s = 0.
+        """
         return self.sensitivities.T @ self.illuminant
 
 
@@ -107,9 +261,38 @@ def chart_setup(camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavel
                 channel_gains=None) -> ChartSetup:
     """Build the P, i, R of eq 15 on a grid; used by both the simulator and the estimator.
 
-    ``channel_gains`` (m,): the camera's channel balance, multiplying its peak-normalised curves
-    (:func:`camera_sensitivities`) before P is scaled (a calibrated camera; default: none).
     Named (string) inputs are cached, so repeated calls return the same object.
+
+    Parameters
+    ----------
+    camera : optional
+        As for :func:`forward.camera_sensitivities` (default 'Nikon 5100 (NPL)').
+    illuminant : optional
+        As for :func:`forward.illuminant_spd` (default D65).
+    reflectances : optional
+        As for :func:`forward.chart_reflectances` (default the 24 'BabelColor Average'
+        patches).
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    channel_gains : array_like, shape (m,), optional
+        The camera's channel balance (positive, dimensionless), multiplying its peak-normalised
+        curves (:func:`camera_sensitivities`) before P is scaled (a calibrated camera;
+        default: none).
+
+    Returns
+    -------
+    ChartSetup
+        The matrices P (scaled: white in air = 1 in the most sensitive channel), i and R; all
+        arrays read-only.
+
+    Raises
+    ------
+    ValueError
+        For an invalid grid, camera, illuminant, chart or ``channel_gains``.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1 and 15.
     """
     wl = wavelength_grid(wavelengths)
     if channel_gains is None and all(
@@ -146,8 +329,28 @@ def _build_setup(camera, illuminant, reflectances, wl, channel_gains=None) -> Ch
 
 def resolve_setup(setup, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,
                   wavelengths=None) -> ChartSetup:
-    """``setup`` if given (checking that ``wavelengths``, if also given, is its grid), else
-    :func:`chart_setup` of the other arguments."""
+    """Return ``setup`` if given, else :func:`chart_setup` of the other arguments.
+
+    Parameters
+    ----------
+    setup : ChartSetup or None
+        A prebuilt setup; when given, ``camera``, ``illuminant`` and ``reflectances`` are
+        ignored.
+    camera, illuminant, reflectances : optional
+        As for :func:`chart_setup`.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm; with ``setup``, checked to be its grid.
+
+    Returns
+    -------
+    ChartSetup
+        ``setup`` or a new (possibly cached) one.
+
+    Raises
+    ------
+    ValueError
+        If ``setup`` is not a :class:`ChartSetup`, or ``wavelengths`` differ from its grid.
+    """
     if setup is None:
         return chart_setup(camera, illuminant, reflectances, wavelengths)
     if not isinstance(setup, ChartSetup):
@@ -160,8 +363,28 @@ def resolve_setup(setup, camera=DEFAULT_CAMERA, illuminant=None, reflectances=No
 def camera_response(sensitivities, illuminant, attenuation, reflectances, backscatter=None) -> np.ndarray:
     """m = P^T diag(i) diag(k) R + s 1^T (eqs 1, 15): the noise-free (m, n) patch values.
 
-    ``attenuation`` may be (q,) or (N, q) (then the result is (N, m, n)); ``backscatter`` is
-    (m,) or (N, m).
+    Parameters
+    ----------
+    sensitivities : array_like, shape (q, m)
+        P (:attr:`ChartSetup.sensitivities`).
+    illuminant : array_like, shape (q,)
+        i, relative (max 1).
+    attenuation : array_like, shape (q,) or (N, q)
+        k, dimensionless (:func:`attenuation`).
+    reflectances : array_like, shape (q, n)
+        R.
+    backscatter : array_like, shape (m,) or (N, m), optional
+        s, the veiling light per channel in model units (default: none).
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, n) or (N, m, n)
+        Patch values in model units (a white reflector in air = 1 in the most sensitive
+        channel).
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1, 2, 3 and 15.
     """
     P = np.asarray(sensitivities, dtype=float)
     i = np.asarray(illuminant, dtype=float)

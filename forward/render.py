@@ -15,11 +15,29 @@ import numpy as np
 from .imaging import ChartSetup
 from .spectra import cie_1931_cmfs, quadrature_weights
 
+__all__ = ["camera_to_xyz_matrix", "chart_image", "chart_xyz", "patch_srgb", "patches_image"]
+
 
 @functools.lru_cache(maxsize=16)
 def chart_xyz(setup: ChartSetup) -> np.ndarray:
-    """CIE 1931 XYZ (n, 3) of the setup's chart under its illuminant in air (Y of a perfect
-    white = 1): the colorimetric truth."""
+    """CIE 1931 XYZ of the setup's chart under its illuminant in air: the colorimetric truth.
+
+    Cached per setup.
+
+    Parameters
+    ----------
+    setup : forward.ChartSetup
+        The grid (nm), illuminant i and reflectances R.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 3)
+        X, Y, Z of each patch, normalised so that Y of a perfect white = 1; read-only.
+
+    References
+    ----------
+    CIE 1931 2-degree standard observer; the integral of eq 1 by the trapezoid rule.
+    """
     cmfs = cie_1931_cmfs(setup.wavelengths)
     light = setup.illuminant * quadrature_weights(setup.wavelengths)
     xyz = (cmfs.T @ (light[:, None] * setup.reflectances)).T
@@ -30,8 +48,21 @@ def chart_xyz(setup: ChartSetup) -> np.ndarray:
 
 @functools.lru_cache(maxsize=16)
 def camera_to_xyz_matrix(setup: ChartSetup) -> np.ndarray:
-    """3 x m matrix from the camera's model-unit values to CIE XYZ (Y of a white in air = 1),
-    least-squares fitted on the setup's chart under its illuminant in air."""
+    """The 3 x m matrix from the camera's model-unit values to CIE XYZ (Y of a white in air = 1).
+
+    Least-squares fitted on the setup's chart under its illuminant in air (a standard camera
+    characterisation); cached per setup.
+
+    Parameters
+    ----------
+    setup : forward.ChartSetup
+        The camera's P, the illuminant i and the chart R.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3, m)
+        XYZ = M @ camera values; read-only.
+    """
     cam = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (m, n)
     M, *_ = np.linalg.lstsq(cam.T, chart_xyz(setup), rcond=None)
     out = np.ascontiguousarray(M.T)  # (3, m)
@@ -42,11 +73,35 @@ def camera_to_xyz_matrix(setup: ChartSetup) -> np.ndarray:
 def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.ndarray:
     """sRGB values (n, 3) in [0, 1] of a :class:`forward.ChartSimulation`'s patches.
 
-    ``normalise='exposure'``: the raw codes over full scale (what the camera recorded, so deep
-    scenes whose exposure hit its cap get darker); ``'absolute'``: the exposure-normalised
-    ``rgb`` (a white reflector in air = 1), so everything fades with depth; ``'max'``: scaled so
-    the brightest patch value is 1. ``encode=False`` gives linear sRGB (the paper's Figs 5-6
-    are "not gamma encoded").
+    The camera values are mapped to XYZ with :func:`camera_to_xyz_matrix` and encoded with
+    colour-science (``colour.XYZ_to_sRGB``); no white balance. Values are clipped to [0, 1].
+
+    Parameters
+    ----------
+    sim : forward.ChartSimulation
+        The simulated capture.
+    normalise : {'exposure', 'absolute', 'max'}, optional
+        ``'exposure'`` (default): the raw codes over full scale (what the camera recorded, so
+        deep scenes whose exposure hit its cap get darker); ``'absolute'``: the
+        exposure-normalised ``rgb`` (a white reflector in air = 1), so everything fades with
+        depth; ``'max'``: scaled so the brightest patch value is 1.
+    encode : bool, optional
+        Apply the sRGB transfer function (default True); ``False`` gives linear sRGB (the
+        paper's Figs 5-6 are "not gamma encoded").
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 3)
+        sRGB in [0, 1], one row per patch.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``normalise``.
+
+    References
+    ----------
+    IEC 61966-2-1 (sRGB); Blasinski & Farrell, Figs 5-8.
     """
     import colour
 
@@ -65,14 +120,55 @@ def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.n
 
 def chart_image(sim, *, rows: int = 4, cols: int = 6, patch_px: int = 20, gap_px: int = 3,
                 **kwargs) -> np.ndarray:
-    """An image (H, W, 3) of the chart, patches in reading order, black gaps between them."""
+    """An image (H, W, 3) of the chart, patches in reading order, black gaps between them.
+
+    Parameters
+    ----------
+    sim : forward.ChartSimulation
+        The simulated capture.
+    rows, cols : int, optional
+        The chart's layout (default 4 x 6, a ColorChecker); rows x cols must be its patch count.
+    patch_px : int, optional
+        Side of a patch, pixels (default 20).
+    gap_px : int, optional
+        Width of the black gaps and border, pixels (default 3).
+    **kwargs
+        Passed to :func:`patch_srgb` (``normalise``, ``encode``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows * (patch_px + gap_px) + gap_px, cols * (patch_px + gap_px) + gap_px, 3)
+        sRGB image in [0, 1].
+    """
     return patches_image(patch_srgb(sim, **kwargs), rows=rows, cols=cols, patch_px=patch_px,
                          gap_px=gap_px)
 
 
 def patches_image(srgb, *, rows: int = 4, cols: int = 6, patch_px: int = 20,
                   gap_px: int = 3) -> np.ndarray:
-    """Lay out patch colours (n, 3) as a chart image (H, W, 3)."""
+    """Lay out patch colours (n, 3) as a chart image (H, W, 3).
+
+    Parameters
+    ----------
+    srgb : array_like, shape (n, 3)
+        Patch colours in reading order (row by row), n = rows x cols.
+    rows, cols : int, optional
+        The layout (default 4 x 6).
+    patch_px : int, optional
+        Side of a patch, pixels (default 20).
+    gap_px : int, optional
+        Width of the black gaps and border, pixels (default 3).
+
+    Returns
+    -------
+    numpy.ndarray, shape (rows * (patch_px + gap_px) + gap_px, cols * (patch_px + gap_px) + gap_px, 3)
+        The image (black background, patches filled with their colour).
+
+    Raises
+    ------
+    ValueError
+        If rows x cols is not the number of patches.
+    """
     srgb = np.asarray(srgb, dtype=float)
     if srgb.shape[0] != rows * cols:
         raise ValueError(f"rows, cols: {rows} x {cols} does not match {srgb.shape[0]} patches")

@@ -30,18 +30,79 @@ import numpy as np
 from . import validate
 from .spectra import cie_1931_cmfs, quadrature_weights
 
+__all__ = [
+    "EXPOSURE_MODES",
+    "ISET_EXPOSURE_FRACTION",
+    "LUMINOUS_EFFICACY",
+    "PLANCK_H",
+    "SPEED_OF_LIGHT",
+    "SensorSettings",
+    "auto_exposure",
+    "capture",
+    "electrons_per_second",
+    "noise_model",
+    "pixel_variance_e2",
+    "sensor_noise",
+]
+
+#: Planck's constant, J s (SI 2019, exact).
 PLANCK_H = 6.62607015e-34  # J s
+#: Speed of light in vacuum, m s^-1 (exact).
 SPEED_OF_LIGHT = 2.99792458e8  # m s^-1
+#: Maximum luminous efficacy of photopic vision, lm W^-1 (at 555 nm).
 LUMINOUS_EFFICACY = 683.0  # lm W^-1
 #: Exposure modes: 'capped' (target_fraction, at most max_exposure_s) and 'iset' (the brightest
 #: value at ISET_EXPOSURE_FRACTION of full well, no time limit; Farrell et al. 2012, ref. [13]).
 EXPOSURE_MODES = ("capped", "iset")
+#: Fraction of full well that the brightest expected value reaches in 'iset' exposure mode.
 ISET_EXPOSURE_FRACTION = 0.95
 
 
 @dataclass(frozen=True)
 class SensorSettings:
-    """Camera and scene-light settings (SI units in the names). Defaults: DECISIONS.md."""
+    """Camera and scene-light settings (SI units in the names). Defaults: DECISIONS.md.
+
+    The defaults describe a consumer APS-C Bayer camera (pixel pitch of a 16 MP APS-C sensor,
+    f/4 lens) in daylight. Immutable; every parameter is also an attribute.
+
+    Parameters
+    ----------
+    illuminance_lux : float
+        Surface illuminance of the daylight, lx (default 20000).
+    f_number : float
+        Lens f-number N (default 4).
+    optics_transmittance : float
+        Lens transmittance T, in (0, 1] (default 0.9).
+    pixel_pitch_um : float
+        Pixel pitch, micrometres (default 4.8: 16 MP APS-C, e.g. Nikon D5100).
+    peak_quantum_efficiency : float
+        Quantum efficiency at the reference channel's peak, including the colour filter, in
+        (0, 1] (default 0.4).
+    full_well_e : float
+        Full-well capacity, electrons (default 40000).
+    read_noise_e : float
+        Read noise standard deviation, electrons (default 3; >= 0).
+    adc_bits : int
+        ADC resolution, bits, 1-24 (default 14).
+    target_fraction : float
+        Auto-exposure: brightest value to this fraction of full well, in (0, 1] (default 0.8).
+    max_exposure_s : float
+        Longest exposure, s (default 1/30).
+    pixels_per_patch : int
+        Pixels averaged per patch (default 100: a 10 x 10 pixel window at each patch centre).
+    exposure_mode : {'capped', 'iset'}
+        'capped' (default: ``target_fraction``, at most ``max_exposure_s``) or 'iset'
+        (:data:`ISET_EXPOSURE_FRACTION` of full well, no time limit); :data:`EXPOSURE_MODES`.
+
+    Raises
+    ------
+    ValueError
+        Naming the setting, for an unknown exposure mode or a value out of range.
+
+    References
+    ----------
+    Farrell et al., "Digital camera simulation", Appl. Opt. 51:A80-A90, 2012 (ISET, ref. [13]).
+    """
 
     illuminance_lux: float = 20000.0  # surface illuminance of the daylight (lx)
     f_number: float = 4.0
@@ -73,11 +134,24 @@ class SensorSettings:
             raise ValueError(f"pixels_per_patch: must be a positive integer, got {self.pixels_per_patch}")
 
     def to_dict(self) -> dict:
+        """The settings as a dict (JSON-ready).
+
+        Returns
+        -------
+        dict
+            Field name -> value, in the units of the names.
+        """
         return asdict(self)
 
     @property
     def lsb_e(self) -> float:
-        """Electrons per ADC code."""
+        """Electrons per ADC code: full_well_e / (2^adc_bits - 1).
+
+        Returns
+        -------
+        float
+            The least significant bit, electrons.
+        """
         return self.full_well_e / (2 ** int(self.adc_bits) - 1)
 
 
@@ -88,7 +162,25 @@ def electrons_per_second(setup, settings: SensorSettings) -> float:
     The illuminant i (relative) is scaled to ``illuminance_lux`` with the CIE 1931 V(lambda) on
     the model grid; a Lambertian white patch seen through an f/N lens gives the sensor-plane
     irradiance E T / (4 N^2); photons are counted at each wavelength and weighted by the
-    reference channel's sensitivity times the peak quantum efficiency.
+    reference channel's sensitivity times the peak quantum efficiency. The reference channel is
+    the most sensitive one (largest :attr:`ChartSetup.white_response`). Cached per (setup,
+    settings).
+
+    Parameters
+    ----------
+    setup : forward.ChartSetup
+        The wavelength grid (nm), illuminant and camera sensitivities.
+    settings : SensorSettings
+        Illuminance (lx), optics, pixel size and quantum efficiency.
+
+    Returns
+    -------
+    float
+        G, electrons per second per pixel per model unit.
+
+    References
+    ----------
+    Farrell et al. 2012 (ISET, ref. [13]); CIE 1931 V(lambda).
     """
     wl = setup.wavelengths
     v = cie_1931_cmfs(wl)[:, 1]
@@ -104,10 +196,26 @@ def electrons_per_second(setup, settings: SensorSettings) -> float:
 
 
 def auto_exposure(expected, gain: float, settings: SensorSettings):
-    """Exposure time in s: brightest expected value to ``target_fraction`` of full well, capped
-    at ``max_exposure_s`` ('capped'); or to 95 % of full well with no cap ('iset').
+    """Exposure time in s that brings the brightest expected value near full well.
 
-    ``expected`` (m, n) gives a float; a stack (..., m, n) gives one time per chart (...)."""
+    'capped' mode: brightest expected value to ``target_fraction`` of full well, capped at
+    ``max_exposure_s``; 'iset' mode: to 95 % of full well with no cap. A chart with no signal
+    gets ``max_exposure_s`` ('capped') or 1 s ('iset').
+
+    Parameters
+    ----------
+    expected : array_like, shape (m, n) or (..., m, n)
+        Noise-free model signals of one chart or a stack of charts.
+    gain : float
+        G, electrons s^-1 per model unit (:func:`electrons_per_second`).
+    settings : SensorSettings
+        Exposure mode, target fraction, full well and longest exposure.
+
+    Returns
+    -------
+    float or numpy.ndarray, shape (...)
+        Exposure time, s: a float for one chart, one time per chart for a stack.
+    """
     peak = np.max(np.asarray(expected, float), axis=(-2, -1)) * gain
     with np.errstate(divide="ignore"):
         if settings.exposure_mode == "iset":
@@ -123,7 +231,21 @@ def sensor_noise(expected_e, settings: SensorSettings, rng: np.random.Generator)
     """Mean ADC code over ``pixels_per_patch`` noisy pixels for each expected electron count.
 
     Shot noise (Poisson), read noise (Gaussian, e-), full-well clipping and rounding to
-    ``adc_bits`` codes, pixel by pixel; returns codes as floats, same shape as ``expected_e``.
+    ``adc_bits`` codes, pixel by pixel.
+
+    Parameters
+    ----------
+    expected_e : array_like
+        Expected electrons per pixel (any shape).
+    settings : SensorSettings
+        Read noise, full well, ADC bits and pixels per patch.
+    rng : numpy.random.Generator
+        The random generator.
+
+    Returns
+    -------
+    numpy.ndarray
+        Mean codes as floats (in [0, 2^adc_bits - 1]), same shape as ``expected_e``.
     """
     lam = np.asarray(expected_e, dtype=float)
     n = int(settings.pixels_per_patch)
@@ -135,18 +257,53 @@ def sensor_noise(expected_e, settings: SensorSettings, rng: np.random.Generator)
 
 
 def pixel_variance_e2(expected_e, settings: SensorSettings) -> np.ndarray:
-    """Variance (e^2) of one pixel's value: shot noise (Poisson: the mean), read noise and the
-    ADC's rounding (uniform over one code: LSB^2 / 12)."""
+    """Variance (e^2) of one pixel's value: shot noise, read noise and the ADC's rounding.
+
+    Shot noise is Poisson (variance = the mean), read noise ``read_noise_e^2``, and rounding
+    uniform over one code (LSB^2 / 12).
+
+    Parameters
+    ----------
+    expected_e : array_like
+        Expected electrons per pixel (any shape).
+    settings : SensorSettings
+        Read noise, full well and ADC bits.
+
+    Returns
+    -------
+    numpy.ndarray
+        Variance, electrons^2, same shape as ``expected_e``.
+    """
     return (np.asarray(expected_e, dtype=float) + settings.read_noise_e ** 2
             + settings.lsb_e ** 2 / 12.0)
 
 
 def noise_model(expected, setup, settings: SensorSettings):
-    """The sensor's noise on model signals ``expected`` ((m, n) or a stack (..., m, n)):
-    (sigma, saturation, exposure_s, gain_e_per_s) -- the standard deviation of each patch value
-    (:func:`pixel_variance_e2` over ``pixels_per_patch`` pixels, model units), the model-unit
-    value of a full well, the exposure time(s) and the gain. Used by :func:`capture` and by the
-    precision bound (``sca.precision``)."""
+    """The sensor's noise on model signals ``expected``: sigma, saturation, exposure and gain.
+
+    Used by :func:`capture` and by the precision bound (``sca.precision``).
+
+    Parameters
+    ----------
+    expected : array_like, shape (m, n) or (..., m, n)
+        Noise-free model signals of one chart or a stack.
+    setup : forward.ChartSetup
+        The chart setup (for the gain, :func:`electrons_per_second`).
+    settings : SensorSettings
+        The sensor.
+
+    Returns
+    -------
+    sigma : numpy.ndarray, shape of ``expected``
+        The standard deviation of each patch value (:func:`pixel_variance_e2` over
+        ``pixels_per_patch`` pixels), model units.
+    saturation : numpy.ndarray, shape (...)
+        The model-unit value of a full well (0-d for one chart).
+    exposure_s : numpy.ndarray, shape (...)
+        The exposure time(s), s (:func:`auto_exposure`; 0-d for one chart).
+    gain_e_per_s : float
+        G, electrons s^-1 per model unit.
+    """
     gain = electrons_per_second(setup, settings)
     t = np.asarray(auto_exposure(expected, gain, settings))
     gt = (gain * t)[..., None, None]
@@ -159,12 +316,34 @@ def noise_model(expected, setup, settings: SensorSettings):
 def capture(expected, setup, settings: SensorSettings, *, noise: bool = True, rng=None) -> dict:
     """Expose and read out model signals ``expected`` (m, n).
 
-    Returns a dict with ``rgb`` (exposure-normalised, model units), ``sigma`` (the standard
-    deviation of each ``rgb`` value under this sensor: :func:`pixel_variance_e2` over
-    ``pixels_per_patch`` pixels, in model units), ``saturation`` (the model-unit value of a full
-    well: values there are clipped), ``codes`` (mean raw codes per patch), ``exposure_s``,
-    ``gain_e_per_s`` and ``expected_e`` (expected electrons per pixel). With ``noise=False``
-    ``rgb`` is ``expected`` itself and ``codes`` its noise-free code value; ``sigma`` is the same.
+    Parameters
+    ----------
+    expected : array_like, shape (m, n)
+        Noise-free model signals of one chart (:func:`forward.camera_response`).
+    setup : forward.ChartSetup
+        The chart setup (for the gain).
+    settings : SensorSettings
+        The sensor.
+    noise : bool, optional
+        Add the sensor's noise (default True).
+    rng : numpy.random.Generator, optional
+        The random generator (default: a fresh ``numpy.random.default_rng()``).
+
+    Returns
+    -------
+    dict
+        ``rgb`` (exposure-normalised, model units), ``sigma`` (the standard deviation of each
+        ``rgb`` value under this sensor: :func:`pixel_variance_e2` over ``pixels_per_patch``
+        pixels, in model units), ``saturation`` (the model-unit value of a full well: values
+        there are clipped), ``codes`` (mean raw codes per patch), ``exposure_s`` (s),
+        ``gain_e_per_s`` and ``expected_e`` (expected electrons per pixel). With
+        ``noise=False`` ``rgb`` is ``expected`` itself and ``codes`` its noise-free code value
+        (not rounded; clipped at full well); ``sigma`` is the same.
+
+    References
+    ----------
+    Farrell et al. 2012 (ISET, ref. [13]); the signal chain is in this module's
+    docstring.
     """
     sigma, saturation, t, gain = noise_model(expected, setup, settings)
     t = float(t)

@@ -13,17 +13,78 @@ from .sensor import SensorSettings, capture
 from .spectra import DEFAULT_CAMERA
 from .water import Water, resolve_water
 
+__all__ = ["ChartSimulation", "simulate_chart"]
+
 
 @dataclass
 class ChartSimulation:
-    """One simulated chart capture.
+    """One simulated chart capture (returned by :func:`simulate_chart`).
 
     ``rgb`` (m, n) are exposure-normalised patch values in model units: noise-free they equal
     ``P^T diag(i) diag(k) R + s`` with ``camera`` = P, ``illuminant`` = i, ``reflectances`` = R,
     ``attenuation`` = k and ``backscatter`` = s. ``rgb_sigma`` (m, n) is the standard deviation
     of each value under the sensor's noise (also when ``noise=False``), the ``sigma=`` of
     :func:`sca.estimate`; ``saturation`` is the value (model units) of a full pixel well: values
-    there are clipped.
+    there are clipped. Every parameter is also an attribute of the same name.
+
+    Parameters
+    ----------
+    rgb : numpy.ndarray, shape (m, n)
+        Recorded patch values, exposure-normalised, model units (a white reflector in air = 1
+        in the most sensitive channel).
+    rgb_sigma : numpy.ndarray, shape (m, n)
+        Standard deviation of each ``rgb`` value under the sensor's noise, model units.
+    saturation : float
+        Model-unit value of a full pixel well.
+    rgb_expected : numpy.ndarray, shape (m, n)
+        Noise-free patch values P^T diag(i) diag(k) R + s 1^T (eq 15), model units.
+    attenuation : numpy.ndarray, shape (q,)
+        Path attenuation k = exp(-(depth + distance) c), dimensionless (c or a by the path
+        model; eqs 3, 13, 14).
+    backscatter : numpy.ndarray, shape (m,)
+        Veiling light per channel s = P^T rho_b, model units (zero with ``backscatter=False``).
+    wavelengths : numpy.ndarray, shape (q,)
+        The grid, nm.
+    camera : numpy.ndarray, shape (q, m)
+        P of eq 15 (:attr:`forward.ChartSetup.sensitivities`).
+    illuminant : numpy.ndarray, shape (q,)
+        Relative SPD i of the surface illuminant (max 1).
+    reflectances : numpy.ndarray, shape (q, n)
+        R.
+    chl : float
+        Chlorophyll concentration C, mg m^-3.
+    cdom : float
+        a_CDOM(440 nm), m^-1.
+    depth : float
+        Depth of the chart below the surface, m.
+    distance : float
+        Camera-to-chart distance, m.
+    camera_name : str
+        The camera's name (or 'custom').
+    attenuation_coefficient : numpy.ndarray, shape (q,)
+        Beam attenuation coefficient c = a + b (eq 4), m^-1, whatever the path model.
+    veiling_light : numpy.ndarray, shape (q,)
+        rho_b of eq 2 (:func:`forward.veiling_light`), in the units of i x reflectance.
+    exposure_s : float
+        Exposure time, s.
+    codes : numpy.ndarray, shape (m, n)
+        Mean raw ADC codes per patch.
+    noise : bool
+        Whether sensor noise was added.
+    seed : int or None
+        Seed of the noise generator.
+    path_model : str
+        The path model used for k ('beam' or 'absorption').
+    sensor : forward.SensorSettings
+        The sensor.
+    setup : forward.ChartSetup
+        The P, i, R of eq 15.
+    water : forward.Water, optional
+        The water model (every constant of eqs 4-12).
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1-15.
     """
 
     rgb: np.ndarray
@@ -53,7 +114,18 @@ class ChartSimulation:
     water: Water = field(repr=False, default=None)
 
     def to_dict(self) -> dict:
-        """A JSON-ready dict of the inputs and results (arrays as nested lists)."""
+        """A JSON-ready dict of the inputs and results (arrays as nested lists).
+
+        Returns
+        -------
+        dict
+            ``chl``, ``cdom``, ``depth``, ``distance``, ``camera_name``, ``noise``, ``seed``,
+            ``path_model``, ``exposure_s``, ``saturation``; the arrays ``wavelengths``,
+            ``rgb``, ``rgb_sigma``, ``rgb_expected``, ``attenuation``, ``backscatter``,
+            ``attenuation_coefficient``, ``codes`` as lists; ``sensor``
+            (:meth:`forward.SensorSettings.to_dict`) and ``water``
+            (:meth:`forward.Water.constants`). Units as the attributes.
+        """
         out = {}
         for key in ("chl", "cdom", "depth", "distance", "camera_name", "noise", "seed",
                     "path_model", "exposure_s"):
@@ -67,6 +139,13 @@ class ChartSimulation:
         return out
 
     def to_json(self) -> str:
+        """The simulation as JSON text (:meth:`to_dict`, indented by 1).
+
+        Returns
+        -------
+        str
+            The JSON document.
+        """
         return json.dumps(self.to_dict(), indent=1)
 
 
@@ -80,21 +159,50 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
 
     Parameters
     ----------
-    chl : chlorophyll concentration C, mg m^-3.
-    cdom : CDOM absorption at 440 nm, m^-1.
-    depth, distance : m; light travels ``depth`` down and ``distance`` to the camera.
-    camera, illuminant, reflectances, wavelengths : see :func:`forward.imaging.chart_setup`
-        (defaults Nikon 5100 (NPL), D65, BabelColor Average, 400-700 nm at 1 nm). A prebuilt
-        ``setup`` replaces all four.
-    noise : sensor noise on (default) or the exact expectation.
-    seed : seed of the noise generator (``numpy.random.default_rng``).
-    basis, weights : phytoplankton basis T (eq 9) on the grid and weights for z > 1.
-    water : :class:`forward.Water`, every constant and table of eqs 4-12 and the path model
-        (default: the paper's).
-    path_model, cdom_slope : shortcuts that replace those fields of ``water``: 'beam'
-        (k = exp(-L c), default) or 'absorption' (the literal eq 13); eq 6's slope, nm^-1.
-    backscatter : include the veiling light of eq 2 (default True).
-    sensor : :class:`forward.sensor.SensorSettings` (defaults in DECISIONS.md).
+    chl : float
+        Chlorophyll concentration C, mg m^-3.
+    cdom : float
+        CDOM absorption at 440 nm, a_CDOM(440), m^-1.
+    depth, distance : float
+        Lengths in m; light travels ``depth`` down and ``distance`` to the camera.
+    camera, illuminant, reflectances, wavelengths : optional
+        See :func:`forward.imaging.chart_setup` (defaults Nikon 5100 (NPL), D65, BabelColor
+        Average, 400-700 nm at 1 nm). A prebuilt ``setup`` replaces all four.
+    noise : bool, optional
+        Sensor noise on (default) or the exact expectation.
+    seed : int, optional
+        Seed of the noise generator (``numpy.random.default_rng``), >= 0.
+    basis, weights : array_like, optional
+        Phytoplankton basis T (eq 9) on the grid and weights for z > 1.
+    water : forward.Water, optional
+        Every constant and table of eqs 4-12 and the path model (default: the paper's).
+    cdom_slope : float, optional
+        Shortcut that replaces that field of ``water``: eq 6's slope, nm^-1.
+    path_model : {'beam', 'absorption'}, optional
+        Shortcut that replaces that field of ``water``: 'beam' (k = exp(-L c), default) or
+        'absorption' (the literal eq 13).
+    backscatter : bool, optional
+        Include the veiling light of eq 2 (default True).
+    sensor : forward.SensorSettings, optional
+        The sensor (defaults in DECISIONS.md).
+    setup : forward.ChartSetup, optional
+        Prebuilt P, i, R (:func:`forward.chart_setup`); replaces ``camera``, ``illuminant``,
+        ``reflectances`` (``wavelengths``, if given, must be its grid).
+
+    Returns
+    -------
+    ChartSimulation
+        The recorded values, their noise, and every intermediate (k, s, rho_b, c).
+
+    Raises
+    ------
+    ValueError
+        Naming the argument, for an invalid or out-of-range input.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1-15 (k and the water of eqs 3-14, the chart model of eq 15, the
+    veiling light of eq 2 as in DECISIONS.md); the sensor after ISET (Farrell et al. 2012).
     """
     chl = validate.scalar("chl", chl)
     cdom = validate.scalar("cdom", cdom)

@@ -25,6 +25,28 @@ import numpy as np
 
 from . import validate
 
+__all__ = [
+    "DEFAULT_CAMERA",
+    "DEFAULT_CHART",
+    "DEFAULT_ILLUMINANT",
+    "DEFAULT_STEP_NM",
+    "LAMBDA_0_NM",
+    "MODEL_RANGE_NM",
+    "WHITE_PATCH",
+    "camera_sensitivities",
+    "chart_reflectances",
+    "cie_1931_cmfs",
+    "illuminant_spd",
+    "is_path",
+    "on_grid",
+    "quadrature_weights",
+    "read_spectral_csv",
+    "read_spectral_table",
+    "read_table",
+    "resample",
+    "wavelength_grid",
+]
+
 #: Model wavelength range in nm (inclusive); the basis and pure-water tables cover it.
 MODEL_RANGE_NM = (400.0, 700.0)
 #: Default grid: 400-700 nm in 1 nm steps (q = 301): the finest the data support, so that the
@@ -34,8 +56,11 @@ DEFAULT_STEP_NM = 1.0
 #: Reference wavelength of eqs 6, 7, 8, 10, 17 (nm).
 LAMBDA_0_NM = 440.0
 
+#: Default camera: a name of ``colour.MSDS_CAMERA_SENSITIVITIES``.
 DEFAULT_CAMERA = "Nikon 5100 (NPL)"
+#: Default surface illuminant: a name of ``colour.SDS_ILLUMINANTS`` (CIE D65 daylight).
 DEFAULT_ILLUMINANT = "D65"
+#: Default chart: a name of ``colour.SDS_COLOURCHECKERS`` (24 ColorChecker patches).
 DEFAULT_CHART = "BabelColor Average"
 #: 0-based index of the white patch in ColorChecker reading order (the default chart's 24
 #: patches): the ColorChecker Classic is 4 rows x 6 columns read row by row, and patch 19 --
@@ -49,8 +74,25 @@ WHITE_PATCH = 18
 def wavelength_grid(wavelengths=None) -> np.ndarray:
     """Return the model wavelength grid in nm as a read-only float array.
 
-    ``None`` gives 400-700 nm at 1 nm (:data:`DEFAULT_STEP_NM`). Any strictly increasing grid of at least 3 points inside
-    400-700 nm is accepted (uniform or not).
+    Any strictly increasing grid of at least 3 points inside 400-700 nm
+    (:data:`MODEL_RANGE_NM`) is accepted, uniform or not.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm. ``None`` (default) gives 400-700 nm at 1 nm
+        (:data:`DEFAULT_STEP_NM`, q = 301); ``np.arange(400, 701, 10)`` gives the paper's 31
+        bands.
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        The grid in nm, read-only (a copy of ``wavelengths``).
+
+    Raises
+    ------
+    ValueError
+        If the grid has fewer than 3 points, is not strictly increasing or leaves 400-700 nm.
     """
     if wavelengths is None:
         wl = np.arange(MODEL_RANGE_NM[0], MODEL_RANGE_NM[1] + 0.5 * DEFAULT_STEP_NM, DEFAULT_STEP_NM)
@@ -71,7 +113,23 @@ def wavelength_grid(wavelengths=None) -> np.ndarray:
 
 
 def quadrature_weights(wavelengths) -> np.ndarray:
-    """Trapezoid weights (nm) that turn the integral of eq 1 into a sum over the grid."""
+    """Trapezoid weights (nm) that turn the integral of eq 1 into a sum over the grid.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,)
+        Strictly increasing wavelengths in nm (at least 2).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        Weights in nm: half the step at the ends, the mean of the two neighbouring steps
+        inside, so that ``sum(w * f)`` approximates the integral of f d lambda.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 1 (m = integral of p(lambda) rho(lambda) d lambda).
+    """
     wl = np.asarray(wavelengths, dtype=float)
     w = np.empty_like(wl)
     d = np.diff(wl)
@@ -88,8 +146,25 @@ def _data_dir():
 
 @functools.lru_cache(maxsize=None)
 def read_table(filename: str) -> tuple[tuple[str, ...], tuple[tuple[str, ...], ...]]:
-    """Read a CSV table of ``data/``: returns (column names, rows of strings), both immutable
-    tuples (the result is cached); '#' lines are the header."""
+    """Read a CSV table of ``data/`` as column names and rows of strings.
+
+    Lines starting with '#' (the header comments) and blank lines are skipped; the first
+    remaining line gives the column names. The result is cached.
+
+    Parameters
+    ----------
+    filename : str
+        File name inside the ``uw3p_data`` package (the repository's ``data/``), e.g.
+        ``'particle_scattering_table1.csv'``.
+
+    Returns
+    -------
+    names : tuple of str
+        Column names (stripped).
+    rows : tuple of tuple of str
+        The data rows, each a tuple of the raw (unstripped) fields; immutable, as the result is
+        shared by every caller.
+    """
     text = (_data_dir() / filename).read_text(encoding="utf-8")
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     names = tuple(s.strip() for s in lines[0].split(","))
@@ -99,7 +174,24 @@ def read_table(filename: str) -> tuple[tuple[str, ...], tuple[tuple[str, ...], .
 
 @functools.lru_cache(maxsize=None)
 def read_spectral_table(filename: str) -> tuple[np.ndarray, np.ndarray]:
-    """Return (wavelength_nm, values) of a spectral table of ``data/`` (values 2-D, one column each)."""
+    """Return the wavelengths and values of a spectral table of ``data/``.
+
+    The result is cached and its arrays are read-only.
+
+    Parameters
+    ----------
+    filename : str
+        File name inside the ``uw3p_data`` package; first column wavelength in nm, further
+        columns values (read with :func:`read_table`).
+
+    Returns
+    -------
+    wavelengths : numpy.ndarray, shape (n,)
+        Wavelengths in nm.
+    values : numpy.ndarray, shape (n, k)
+        One column per value column of the table (2-D even for one column), in the table's unit
+        (e.g. m^-1 for pure-water absorption).
+    """
     _, rows = read_table(filename)
     arr = np.array(rows, dtype=float)
     wl, vals = arr[:, 0], arr[:, 1:]
@@ -109,9 +201,30 @@ def read_spectral_table(filename: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """Read a user CSV: first column wavelength in nm, further columns values; '#' lines ignored.
+    """Read a user CSV: first column wavelength in nm, further columns values.
 
-    A first non-comment line that is not numeric is taken as a header.
+    Lines starting with '#' and blank lines are ignored; ';' is accepted as a separator like
+    ','. A first non-comment line that is not numeric is taken as a header.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV file.
+    name : str
+        The argument's name, used at the start of every error message.
+
+    Returns
+    -------
+    wavelengths : numpy.ndarray, shape (n,)
+        Strictly increasing wavelengths in nm.
+    values : numpy.ndarray, shape (n, k)
+        The value columns (k >= 1), in the file's unit.
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, has no numeric rows, a non-numeric row after the first, rows of
+        unequal length, no value column, non-finite values or non-increasing wavelengths.
     """
     p = Path(path)
     if not p.is_file():
@@ -141,7 +254,29 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
 def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
     """Resample tabulated spectra (rows = wavelengths) onto ``wavelengths`` with colour-science.
 
-    Raises ``ValueError`` naming ``name`` when the table does not cover the grid.
+    Each column is evaluated as a :class:`colour.SpectralDistribution` with a linear
+    interpolator: exact at the table's nodes, never overshooting.
+
+    Parameters
+    ----------
+    src_wavelengths : array_like, shape (n,)
+        The table's wavelengths in nm, strictly increasing.
+    values : array_like, shape (n,) or (n, k)
+        The table's values (any unit; kept).
+    wavelengths : array_like, shape (q,)
+        The target grid in nm; must lie inside the table's range.
+    name : str
+        The argument's name, used at the start of the error message.
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,) or (q, k)
+        The values on ``wavelengths`` (1-D when ``values`` is).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, when the table does not cover the grid.
     """
     import colour
 
@@ -174,13 +309,44 @@ def _cmfs(wl_key: tuple) -> np.ndarray:
 
 
 def cie_1931_cmfs(wavelengths=None) -> np.ndarray:
-    """CIE 1931 2-degree colour-matching functions (x_bar, y_bar, z_bar) on the grid, (q, 3),
-    from colour-science (cached per grid)."""
+    """CIE 1931 2-degree colour-matching functions (x_bar, y_bar, z_bar) on the grid.
+
+    Taken from colour-science (``colour.MSDS_CMFS['CIE 1931 2 Degree Standard Observer']``),
+    cached per grid.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: :func:`wavelength_grid`'s 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q, 3)
+        The columns x_bar, y_bar, z_bar (y_bar is the photopic luminous efficiency V(lambda)); read-only,
+        shared by every caller with the same grid.
+
+    References
+    ----------
+    CIE 1931 2-degree standard colorimetric observer (CIE 015:2018, Colorimetry).
+    """
     return _cmfs(tuple(wavelength_grid(wavelengths)))
 
 
 # --------------------------------------------------------------------------- user spectra
 def is_path(x) -> bool:
+    """Whether ``x`` names a file: a string or path ending in .csv / .txt, or an existing file.
+
+    Parameters
+    ----------
+    x : object
+        Any argument that may be a name, an array or a file.
+
+    Returns
+    -------
+    bool
+        True for a ``str`` or :class:`os.PathLike` that ends in '.csv' or '.txt' (any case) or
+        names an existing file; False otherwise.
+    """
     return isinstance(x, (str, os.PathLike)) and (
         str(x).lower().endswith((".csv", ".txt")) or Path(x).is_file()
     )
@@ -193,6 +359,30 @@ def _from_colour(obj, wl, name):
 
 
 def on_grid(value, wl, name, ncols):
+    """Check a user array given on the wavelength grid (rows = wavelengths).
+
+    Parameters
+    ----------
+    value : array_like, shape (q,) or (q, ncols)
+        Nonnegative, finite values (a 1-D array is accepted when ``ncols`` is 1).
+    wl : numpy.ndarray, shape (q,)
+        The wavelength grid in nm.
+    name : str
+        The argument's name, used at the start of every error message.
+    ncols : int or None
+        Required number of columns; ``None`` allows any.
+
+    Returns
+    -------
+    numpy.ndarray, shape (q, ncols)
+        ``value`` as a 2-D float array.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not finite and nonnegative or does not have one row per wavelength (and
+        ``ncols`` columns).
+    """
     arr = validate.array(name, value, nonnegative=True)
     if arr.ndim == 1 and ncols == 1:
         arr = arr[:, None]
@@ -226,9 +416,32 @@ def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
 def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     """Camera spectral sensitivities on the grid, (q, m), each channel scaled to peak 1.
 
-    ``camera``: a name of ``colour.MSDS_CAMERA_SENSITIVITIES`` (default 'Nikon 5100 (NPL)'), a
-    :class:`colour.MultiSpectralDistributions`, a CSV file (wavelength, one column per channel)
-    or an array (q, m) on the grid. These are the columns of P in eq 15 (before quadrature).
+    These are the columns of P in eq 15 (before quadrature): the p(lambda) of eq 1. Negative
+    values are clipped to 0; a channel that is zero on the grid stays zero.
+
+    Parameters
+    ----------
+    camera : str, os.PathLike, colour.MultiSpectralDistributions or array_like
+        A name of ``colour.MSDS_CAMERA_SENSITIVITIES`` (default 'Nikon 5100 (NPL)',
+        :data:`DEFAULT_CAMERA`), a :class:`colour.MultiSpectralDistributions`, a CSV file
+        (wavelength in nm, one column per channel) or an array (q, m) on the grid.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q, m)
+        Relative sensitivities (dimensionless), each channel's maximum on the grid 1.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, a table that does not cover the grid, an array of the wrong shape
+        or with negative values, or when every channel is zero on the grid.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 1 and 15 (p(lambda), the matrix P).
     """
     import colour
 
@@ -254,9 +467,32 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
 def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     """Relative spectral power distribution of the surface illuminant i on the grid, (q,).
 
-    ``None`` means CIE D65. A name of ``colour.SDS_ILLUMINANTS``, a
-    :class:`colour.SpectralDistribution`, a CSV file or an array (q,) on the grid. Scaled so
-    that its maximum on the grid is 1 (the absolute level is the sensor's ``illuminance_lux``).
+    Scaled so that its maximum on the grid is 1 (the absolute level is the sensor's
+    ``illuminance_lux``, :class:`forward.SensorSettings`).
+
+    Parameters
+    ----------
+    illuminant : str, os.PathLike, colour.SpectralDistribution or array_like, optional
+        ``None`` (default) means CIE D65 (:data:`DEFAULT_ILLUMINANT`). A name of
+        ``colour.SDS_ILLUMINANTS``, a :class:`colour.SpectralDistribution`, a CSV file
+        (wavelength in nm, values in the first value column) or an array (q,) on the grid.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        The relative SPD i (dimensionless), maximum 1, negative values clipped to 0.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, a table that does not cover the grid, an array of the wrong shape
+        or with negative values, or an illuminant that is zero everywhere on the grid.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 3 and 15 (i(lambda), the diag(i) of eq 15).
     """
     import colour
 
@@ -279,10 +515,34 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
 def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
     """Surface reflectances R on the grid, (q, n); default: the 24 'BabelColor Average' patches.
 
-    A name of ``colour.SDS_COLOURCHECKERS``, a dict or list of
-    :class:`colour.SpectralDistribution`, a :class:`colour.MultiSpectralDistributions`, a CSV
-    file (wavelength, one column per patch) or an array (q, n) on the grid. Patches are in the
-    chart's reading order (row by row, 4 x 6 for a ColorChecker).
+    Patches are in the chart's reading order (row by row, 4 x 6 for a ColorChecker; the white
+    is :data:`WHITE_PATCH`).
+
+    Parameters
+    ----------
+    reflectances : str, os.PathLike, dict, list, colour.MultiSpectralDistributions or array_like, optional
+        ``None`` (default) means 'BabelColor Average' (:data:`DEFAULT_CHART`). A name of
+        ``colour.SDS_COLOURCHECKERS``, a dict or list of :class:`colour.SpectralDistribution`,
+        a :class:`colour.MultiSpectralDistributions`, a CSV file (wavelength in nm, one column
+        per patch) or an array (q, n) on the grid.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q, n)
+        Reflectance factors (dimensionless, 0-1 for real surfaces), one column per patch.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, a table that does not cover the grid, an array of the wrong shape
+        or negative reflectances.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 3 and 15 (r(lambda), the matrix R).
+    McCamy, Marcus & Davidson, "A Color-Rendition Chart", J. Appl. Photogr. Eng. 2(3), 1976.
     """
     import colour
 

@@ -8,9 +8,33 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["array", "nonnegative", "scalar"]
+
 
 def scalar(name: str, value, *, nonnegative: bool = True, positive: bool = False) -> float:
-    """Return ``value`` as a finite float; raise ``ValueError`` naming ``name`` otherwise."""
+    """Return ``value`` as a finite float; raise ``ValueError`` naming ``name`` otherwise.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name; every error message starts with it.
+    value : float or array_like of dimension 0
+        The value to check (any unit; the check is unit-free).
+    nonnegative : bool, optional
+        Require ``value >= 0`` (default True).
+    positive : bool, optional
+        Require ``value > 0`` (default False).
+
+    Returns
+    -------
+    float
+        ``value`` as a Python float.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not a number, not a scalar, not finite, or has the wrong sign.
+    """
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -30,7 +54,29 @@ def scalar(name: str, value, *, nonnegative: bool = True, positive: bool = False
 def array(name: str, value, *, shape=None, ndim=None, nonnegative: bool = False) -> np.ndarray:
     """Return ``value`` as a finite float array, checking its shape and sign.
 
-    ``shape`` may contain ``None`` for a free axis length.
+    Parameters
+    ----------
+    name : str
+        The argument's name; every error message starts with it.
+    value : array_like
+        The values to check (any unit).
+    shape : tuple of int or None, optional
+        Required shape; ``None`` inside the tuple leaves that axis length free. Default: any.
+    ndim : int, optional
+        Required number of dimensions. Default: any.
+    nonnegative : bool, optional
+        Require every element ``>= 0`` (default False).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``value`` as a float array (not copied when it already is one).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not numeric, has the wrong shape or dimension, contains NaN or infinite
+        values, or (with ``nonnegative``) negative values.
     """
     try:
         arr = np.asarray(value, dtype=float)
@@ -53,7 +99,27 @@ def array(name: str, value, *, shape=None, ndim=None, nonnegative: bool = False)
 
 
 def nonnegative(name: str, value, unit: str = "") -> np.ndarray:
-    """``value`` (scalar or any-shape array) as floats, finite and >= 0, else ``ValueError``."""
+    """Return ``value`` (scalar or any-shape array) as floats, finite and >= 0.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name; every error message starts with it.
+    value : float or array_like
+        The values to check, e.g. C in mg m^-3, a_CDOM(440 nm) in m^-1 or a length in m.
+    unit : str, optional
+        Unit named in the error message (e.g. ``'m'``). Default: none.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``value`` as a float array (0-d for a scalar).
+
+    Raises
+    ------
+    ValueError
+        If any element is NaN, infinite or negative.
+    """
     x = np.asarray(value, dtype=float)
     if x.size and not np.all(np.isfinite(x)):
         raise ValueError(f"{name}: must be finite, got {value!r}")

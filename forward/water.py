@@ -4,7 +4,7 @@ Every constant of eqs 6-12 and Table 1, and the two tables they use (pure-water 
 the phytoplankton absorption basis), are fields of :class:`Water`; the paper's values are the
 defaults. :class:`Water` alone assembles the attenuation coefficient c(x) and its derivative
 on a wavelength grid (:meth:`Water.on_grid` -> :class:`WaterTerms`); the simulator and every
-estimator (the cvxpy loop, the scipy path, both batched engines) take their numbers from it.
+estimator (the cvxpy loop, the scipy path, the batch) take their numbers from it.
 
 The model is linear in a few scalar weights:
 
@@ -20,8 +20,8 @@ four chlorophyll terms j (their weights phi_j(C) and spectral shapes S_j):
     3  micro (eq 12)            C - C12 (1 - exp(-S12 C))            b*_p3 (l/l0)^-g3    [beam]
 
 Every weight has the one form phi(C) = p C^e + g (1 - exp(-h C)); :meth:`Water.chl_terms`
-gives the (4, 4) table of (p, e, g, h), so compiled code can evaluate the weights from numbers
-passed in (:mod:`sca.batch`) instead of restating the formulas.
+gives the (4, 4) table of (p, e, g, h), so code can evaluate the weights from numbers
+(:meth:`Water.chl_weights`, :func:`chl_weight`) instead of restating the formulas.
 
 Wavelengths in nm, coefficients in m^-1, chlorophyll ``chl`` (C) in mg m^-3, ``cdom`` is
 a_CDOM(440 nm) in m^-1. ``chl`` and ``cdom`` may be scalars or arrays (shape S); a spectrum then
@@ -51,6 +51,40 @@ from .spectra import (
     wavelength_grid,
 )
 
+__all__ = [
+    "BASIS_TABLE",
+    "CDOM_SLOPE",
+    "CHL_TERMS",
+    "COEFFICIENT_PARAMS",
+    "NAP_SLOPE",
+    "PAPER_WATER",
+    "PATH_MODELS",
+    "PATH_TERMS",
+    "PURE_WATER_TABLE",
+    "TABLE1",
+    "Water",
+    "WaterTerms",
+    "absorption",
+    "attenuation_coefficient",
+    "backscattering",
+    "cdom_absorption",
+    "chl_weight",
+    "chl_weight_derivative",
+    "nap_absorption",
+    "nap_absorption_440",
+    "particle_scattering",
+    "particle_scattering_terms",
+    "particle_scattering_weights",
+    "phytoplankton_absorption",
+    "phytoplankton_absorption_440",
+    "phytoplankton_basis",
+    "pure_water_absorption",
+    "pure_water_scattering",
+    "resolve_water",
+    "scattering",
+    "table1",
+]
+
 #: Path models for the attenuation k: 'beam' uses c = a + b (eqs 3, 4), 'absorption' the
 #: literal eq 13 / 14 (absorption a only).
 PATH_MODELS = ("beam", "absorption")
@@ -61,8 +95,11 @@ NAP_SLOPE = 0.011
 #: Names of the chlorophyll terms (rows of :meth:`Water.chl_terms`, of ``WaterTerms.shapes``).
 CHL_TERMS = ("phytoplankton", "nap", "particles_small", "particles_large")
 
+#: File of ``data/`` with the pure-water absorption a_w of eq 5 (Smith & Baker 1981).
 PURE_WATER_TABLE = "pure_water_absorption_smith_baker_1981.csv"
+#: File of ``data/`` with the phytoplankton absorption basis T of eq 9 (one shape, from ref. [21]).
 BASIS_TABLE = "phytoplankton_absorption_basis.csv"
+#: File of ``data/`` with the Table 1 constants of eq 12 (Brewin et al. 2012).
 TABLE1 = "particle_scattering_table1.csv"
 
 
@@ -92,12 +129,52 @@ def _readonly(a) -> np.ndarray:
 
 # --------------------------------------------------------------------------- the weight form
 def chl_weight(c, p, e, g, h):
-    """phi(C) = p C^e + g (1 - exp(-h C)): the one form of every chlorophyll weight."""
+    """phi(C) = p C^e + g (1 - exp(-h C)): the one form of every chlorophyll weight.
+
+    Parameters
+    ----------
+    c : float or array_like
+        Chlorophyll concentration C, mg m^-3 (>= 0).
+    p, e, g, h : float or array_like
+        The coefficients of one row of :meth:`Water.chl_terms` (broadcast against ``c``):
+        scale p, exponent e (dimensionless), saturation level g (mg m^-3) and rate h
+        (m^3 mg^-1).
+
+    Returns
+    -------
+    numpy.ndarray or float
+        phi(C), broadcast shape of the inputs: m^-1 for the absorption terms (eqs 8, 10),
+        mg m^-3 for the particle weights of eq 12.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 8, 10 and 12 (Bricaud et al. 1998; Brewin et al. 2012).
+    """
     return p * c ** e + g * -np.expm1(-h * c)
 
 
 def chl_weight_derivative(c, p, e, g, h):
-    """d phi / dC = p e C^(e-1) + g h exp(-h C) (infinite at C = 0 where 0 < e < 1 and p > 0)."""
+    """d phi / dC = p e C^(e-1) + g h exp(-h C), the slope of :func:`chl_weight`.
+
+    Infinite at C = 0 where 0 < e < 1 and p > 0 (C^0.627, C^0.724): callers evaluate it at a
+    small floor (:meth:`Water.chl_weights`).
+
+    Parameters
+    ----------
+    c : float or array_like
+        Chlorophyll concentration C, mg m^-3 (>= 0).
+    p, e, g, h : float or array_like
+        The coefficients of one row of :meth:`Water.chl_terms` (see :func:`chl_weight`).
+
+    Returns
+    -------
+    numpy.ndarray or float
+        d phi / dC, broadcast shape of the inputs, in phi's unit per mg m^-3.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 8, 10 and 12 (derivatives of).
+    """
     return p * e * c ** (e - 1.0) + g * h * np.exp(-h * c)
 
 
@@ -107,35 +184,70 @@ class Water:
 
     Two ``Water`` objects are equal when all their numbers are; a ``Water`` is hashable, so
     results computed from it can be cached safely. Change a constant with keywords,
-    ``Water(cdom_slope=0.018)``, or :func:`dataclasses.replace`.
+    ``Water(cdom_slope=0.018)``, or :func:`dataclasses.replace`. Every parameter is also a
+    (read-only) attribute of the same name; the defaults are the paper's (:data:`PAPER_WATER`).
 
-    Attributes
+    Parameters
     ----------
-    path_model : 'beam' (k = exp(-L c), c = a + b, eqs 3-4; default) or 'absorption'
-        (k = exp(-L a), eq 13 as printed). DECISIONS.md.
-    reference_nm : lambda_0 of eqs 6-8, 10 and 17, nm (440).
-    cdom_slope : S of eq 6, a_CDOM = a_CDOM(440) exp(-S (l - 440)), nm^-1 (0.014; Bricaud et al.
-        1981, ref. [19]: 0.014-0.019).
-    nap_slope : slope of eq 7, nm^-1 (0.011; Roesler et al. 1989, ref. [20]: 0.006-0.014).
-    nap_scale, nap_exponent : eq 8, a_NAP(440) = 0.0124 C^0.724 m^-1 (Bricaud et al. 1998, [18]).
-    phyto_scale, phyto_exponent : eq 10 / 17, a_phi(440) = 0.0378 C^0.627 m^-1 ([18]).
-    c_12 : C_12 of eq 12, mg m^-3 (Table 1: 0.78; Brewin et al. 2012, ref. [24]).
-    s_12 : S_12 of eq 12, m^3 mg^-1 (Table 1: 1.1449).
-    b_p12_star : b*_p,1,2 at lambda_0, m^2 mg^-1 (Table 1: 0.0046).
-    b_p3_star : b*_p,3 at lambda_0, m^2 mg^-1 (Table 1: 0.0005).
-    b_k : background b_k at lambda_0 = 470 nm, m^-1 (Table 1: 0.00068).
-    gamma_12, gamma_3, gamma_k : spectral exponents of eq 12 (Table 1: 0.7, -0.2, 1.9).
-    scattering_reference_nm : lambda_0 of eq 12 and Table 1, nm (470).
-    water_scattering, water_scattering_exponent : b_w = 0.00288 (l / 500)^-4.32 m^-1 (eq 11;
-        Morel 1974, ref. [23]).
-    water_backscatter_fraction : b_bw / b_w for the veiling light (0.5: pure water scatters
-        symmetrically).
-    particle_backscatter_fraction : b_bp / b_p for the veiling light (1: eq 12 *is* a
-        backscattering model in its source, Brewin et al. 2012; DECISIONS.md).
-    pure_water_absorption_table : (wavelength nm, a_w m^-1) of eq 5 (Smith & Baker 1981, ref.
-        [16], ``data/pure_water_absorption_smith_baker_1981.csv``), linearly interpolated.
-    phytoplankton_basis_table : (wavelength nm, (n, z) basis T of eq 9)
-        (``data/phytoplankton_absorption_basis.csv``, derived from ref. [21]).
+    path_model : {'beam', 'absorption'}
+        'beam' (k = exp(-L c), c = a + b, eqs 3-4; default) or 'absorption' (k = exp(-L a),
+        eq 13 as printed). DECISIONS.md.
+    reference_nm : float
+        lambda_0 of eqs 6-8, 10 and 17, nm (440).
+    cdom_slope : float
+        S of eq 6, a_CDOM = a_CDOM(440) exp(-S (l - 440)), nm^-1 (0.014; Bricaud et al. 1981,
+        ref. [19]: 0.014-0.019).
+    nap_slope : float
+        Slope of eq 7, nm^-1 (0.011; Roesler et al. 1989, ref. [20]: 0.006-0.014).
+    nap_scale, nap_exponent : float
+        Eq 8, a_NAP(440) = 0.0124 C^0.724 m^-1 with C in mg m^-3 (Bricaud et al. 1998, ref.
+        [18]): the scale is a_NAP(440) in m^-1 at C = 1 mg m^-3, the exponent dimensionless.
+    phyto_scale, phyto_exponent : float
+        Eq 10 / 17, a_phi(440) = 0.0378 C^0.627 m^-1 with C in mg m^-3 (ref. [18]).
+    c_12 : float
+        C_12 of eq 12, mg m^-3 (Table 1: 0.78; Brewin et al. 2012, ref. [24]).
+    s_12 : float
+        S_12 of eq 12, m^3 mg^-1 (Table 1: 1.1449).
+    b_p12_star : float
+        b*_p,1,2 at lambda_0, m^2 mg^-1 (Table 1: 0.0046).
+    b_p3_star : float
+        b*_p,3 at lambda_0, m^2 mg^-1 (Table 1: 0.0005).
+    b_k : float
+        Background b_k at lambda_0 = 470 nm, m^-1 (Table 1: 0.00068).
+    gamma_12, gamma_3, gamma_k : float
+        Spectral exponents of eq 12, dimensionless (Table 1: 0.7, -0.2, 1.9).
+    scattering_reference_nm : float
+        lambda_0 of eq 12 and Table 1, nm (470).
+    water_scattering, water_scattering_exponent : float
+        b_w = 0.00288 (l / 500)^-4.32 m^-1 (eq 11; Morel 1974, ref. [23]): the scale in m^-1
+        at 500 nm, the exponent dimensionless.
+    water_backscatter_fraction : float
+        b_bw / b_w for the veiling light (0.5: pure water scatters symmetrically).
+    particle_backscatter_fraction : float
+        b_bp / b_p for the veiling light (1: eq 12 *is* a backscattering model in its source,
+        Brewin et al. 2012; DECISIONS.md).
+    pure_water_absorption_table : tuple (wavelengths, values) or str or os.PathLike
+        (wavelength nm, a_w m^-1) of eq 5 (Smith & Baker 1981, ref. [16],
+        ``data/pure_water_absorption_smith_baker_1981.csv``), linearly interpolated; or a CSV
+        file with those two columns.
+    phytoplankton_basis_table : tuple (wavelengths, values) or str or os.PathLike
+        (wavelength nm, (n, z) basis T of eq 9) (``data/phytoplankton_absorption_basis.csv``,
+        derived from ref. [21]), or a CSV file (wavelength, one column per basis function).
+
+    Raises
+    ------
+    ValueError
+        Naming the field: an unknown ``path_model``, a non-finite constant or one of the wrong
+        sign (``reference_nm``, ``scattering_reference_nm``, ``phyto_scale`` and the exponents
+        of eqs 8 and 10 must be > 0; ``nap_scale``, the Table 1 constants C_12, S_12, b*_p12,
+        b*_p3, b_k, ``water_scattering`` and the fractions >= 0; the slopes and spectral
+        exponents may have any sign), or a table that is not (strictly increasing wavelengths,
+        one finite nonnegative row per wavelength).
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 3-14 and Table 1; Smith & Baker 1981; Morel 1974; Bricaud et al.
+    1981; Roesler et al. 1989; Bricaud et al. 1998; Brewin et al. 2012; Fujiki & Taguchi 2002.
     """
 
     path_model: str = "beam"
@@ -232,25 +344,79 @@ class Water:
 
     # ------------------------------------------------------------------ constants and tables
     def table1(self) -> dict:
-        """The Table 1 constants of this model (a fresh dict, the CSV's names)."""
+        """The Table 1 constants of this model (a fresh dict, the CSV's names).
+
+        Returns
+        -------
+        dict of str to float
+            'C_12' (mg m^-3), 'S_12' (m^3 mg^-1), 'b_p12_star', 'b_p3_star' (m^2 mg^-1),
+            'b_k' (m^-1), 'gamma_12', 'gamma_3', 'gamma_k' (dimensionless) and 'lambda_0'
+            (nm), as in ``data/particle_scattering_table1.csv``.
+
+        References
+        ----------
+        Blasinski & Farrell, Table 1 and eq 12 (from Brewin et al. 2012).
+        """
         return {"C_12": self.c_12, "S_12": self.s_12, "b_p12_star": self.b_p12_star,
                 "b_p3_star": self.b_p3_star, "b_k": self.b_k, "gamma_12": self.gamma_12,
                 "gamma_3": self.gamma_3, "gamma_k": self.gamma_k,
                 "lambda_0": self.scattering_reference_nm}
 
     def constants(self) -> dict:
-        """Every scalar field (JSON-ready)."""
+        """Every scalar field (JSON-ready): all fields but the two tables.
+
+        Returns
+        -------
+        dict
+            Field name -> value (``path_model`` a str, the constants floats, in the units of
+            the class's parameters).
+        """
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
                 if not isinstance(getattr(self, f.name), tuple)}
 
     def chl_terms(self) -> np.ndarray:
-        """(4, 4) read-only table of (p, e, g, h): phi_j(C) = p C^e + g (1 - exp(-h C)) for the
-        terms of :data:`CHL_TERMS` (eqs 10, 8, 12, 12)."""
+        """The (4, 4) table of (p, e, g, h) of the chlorophyll weights of :data:`CHL_TERMS`.
+
+        Row j gives phi_j(C) = p C^e + g (1 - exp(-h C)) (:func:`chl_weight`).
+
+        Returns
+        -------
+        numpy.ndarray, shape (4, 4)
+            Read-only; rows phytoplankton (eq 10), NAP (eq 8), pico + nano and micro particles
+            (eq 12); columns p, e (dimensionless), g (mg m^-3), h (m^3 mg^-1).
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 8, 10 and 12 (Bricaud et al. 1998; Brewin et al. 2012).
+        """
         return self._chl_terms
 
     def chl_weights(self, chl, *, derivative: bool = False, floor: float = 0.0):
-        """phi(C), shape S + (4,), in the order of :data:`CHL_TERMS`; ``derivative=True`` also
-        returns d phi / dC evaluated at max(C, ``floor``) (``floor=0``: infinite at C = 0)."""
+        """The four chlorophyll weights phi_j(C), in the order of :data:`CHL_TERMS`.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3 (not checked here; >= 0).
+        derivative : bool, optional
+            Also return d phi / dC (default False).
+        floor : float, optional
+            d phi / dC is evaluated at max(C, ``floor``), mg m^-3 (default 0: infinite at
+            C = 0 for the C^0.627 and C^0.724 terms).
+
+        Returns
+        -------
+        phi : numpy.ndarray, shape S + (4,)
+            a_phi(440) and a_NAP(440) in m^-1, then the two particle weights of eq 12 in
+            mg m^-3.
+        dphi : numpy.ndarray, shape S + (4,)
+            d phi / dC (only with ``derivative=True``; then a tuple ``(phi, dphi)`` is
+            returned).
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 8, 10 and 12.
+        """
         c = np.asarray(chl, float)[..., None]
         p, e, g, h = self._chl_terms.T
         val = chl_weight(c, p, e, g, h)
@@ -262,8 +428,30 @@ class Water:
         return val, np.where(p * e == 0, g * h * np.exp(-h * cf), d)
 
     def phytoplankton_440(self, chl, *, derivative: bool = False, floor: float = 0.0):
-        """a_phi(440) = 0.0378 C^0.627 m^-1 (eq 10, the right side of eq 17); with
-        ``derivative``, also d/dC at max(C, floor)."""
+        """a_phi(440) = 0.0378 C^0.627 m^-1 (eq 10, the right side of eq 17).
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3 (not checked here; >= 0).
+        derivative : bool, optional
+            Also return d a_phi(440) / dC (default False).
+        floor : float, optional
+            The derivative is evaluated at max(C, ``floor``), mg m^-3 (default 0: infinite at
+            C = 0).
+
+        Returns
+        -------
+        value : numpy.ndarray, shape S
+            a_phi(440 nm), m^-1.
+        derivative : numpy.ndarray, shape S
+            d a_phi(440) / dC, m^-1 per mg m^-3 (only with ``derivative=True``; then a tuple
+            is returned).
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 10 and 17 (Bricaud et al. 1998).
+        """
         out = self.chl_weights(chl, derivative=derivative, floor=floor)
         return (out[0][..., 0], out[1][..., 0]) if derivative else out[..., 0]
 
@@ -271,8 +459,26 @@ class Water:
     def on_grid(self, wavelengths=None, *, basis=None, weights=None) -> "WaterTerms":
         """The spectral terms of c(x) on ``wavelengths`` (see :class:`WaterTerms`).
 
-        ``basis``: a (q, z) array on the grid or a CSV file replacing this model's basis table;
-        ``weights`` (z,): the shape w of eq 9 for z > 1 (rescaled so that eq 10 holds).
+        Without ``basis`` and ``weights`` the result is cached per (water, grid) and shared.
+
+        Parameters
+        ----------
+        wavelengths : array_like, shape (q,), optional
+            Wavelengths in nm (default: 400-700 nm at 1 nm).
+        basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+            A basis T of eq 9 on the grid, or a CSV file, replacing this model's basis table
+            (see :func:`phytoplankton_basis`).
+        weights : array_like, shape (z,), optional
+            The shape w of eq 9 for z > 1 (rescaled so that eq 10 holds).
+
+        Returns
+        -------
+        WaterTerms
+            The read-only spectral terms of this water on the grid.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12.
         """
         wl = wavelength_grid(wavelengths)
         if basis is None and weights is None:
@@ -291,8 +497,30 @@ PAPER_WATER = Water()
 
 
 def resolve_water(water=None, *, path_model=None, cdom_slope=None) -> Water:
-    """``water`` (default :data:`PAPER_WATER`), with ``path_model`` / ``cdom_slope`` replaced
-    when given (the older keywords of :func:`forward.simulate_chart` and :func:`sca.estimate`)."""
+    """Return ``water`` (default :data:`PAPER_WATER`) with ``path_model`` / ``cdom_slope`` replaced.
+
+    The two keywords are the older ones of :func:`forward.simulate_chart` and
+    :func:`sca.estimate`; a value equal to the water's own changes nothing.
+
+    Parameters
+    ----------
+    water : Water, optional
+        The water model (default: the paper's, :data:`PAPER_WATER`).
+    path_model : {'beam', 'absorption'}, optional
+        Replaces ``water.path_model`` when given.
+    cdom_slope : float, optional
+        Replaces ``water.cdom_slope`` (S of eq 6, nm^-1) when given.
+
+    Returns
+    -------
+    Water
+        ``water`` itself when nothing changes, else a new :class:`Water`.
+
+    Raises
+    ------
+    ValueError
+        If ``water`` is not a :class:`Water`, or a replacement is invalid.
+    """
     if water is None:
         water = PAPER_WATER
     elif not isinstance(water, Water):
@@ -308,11 +536,36 @@ def resolve_water(water=None, *, path_model=None, cdom_slope=None) -> Water:
 def phytoplankton_basis(wavelengths=None, basis=None, *, water: Water | None = None):
     """The phytoplankton absorption basis T of eq 9 on the grid, (q, z), and its row at 440 nm.
 
-    ``None``: the basis table of ``water`` (default: the single shape of
-    ``data/phytoplankton_absorption_basis.csv``), normalised so that t(440 nm) = 1. Otherwise an
-    array (q,) or (q, z) on the grid, or a CSV file (wavelength, one column per basis
-    function). The second value is t(440 nm), (z,), read from the table (or interpolated
-    linearly on the grid), used by eqs 10 and 17.
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+        ``None`` (default): the basis table of ``water`` (default: the single shape of
+        ``data/phytoplankton_absorption_basis.csv``), normalised so that t(440 nm) = 1.
+        Otherwise an array (q,) or (q, z) on the grid (the grid must then span 440 nm), or a
+        CSV file (wavelength in nm, one column per basis function), used as given.
+    water : Water, optional
+        The water model whose table and reference wavelength (440 nm) are used (default: the
+        paper's).
+
+    Returns
+    -------
+    T : numpy.ndarray, shape (q, z)
+        The basis functions on the grid (relative absorption shapes).
+    t440 : numpy.ndarray, shape (z,)
+        t(440 nm), read from the table (or interpolated linearly on the grid), used by eqs 10
+        and 17.
+
+    Raises
+    ------
+    ValueError
+        For a basis with negative values, of the wrong shape, on a grid that does not span
+        440 nm, or with every function zero at 440 nm.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 9, 10 and 17; basis derived from Fujiki & Taguchi 2002 (ref. [21]).
     """
     wl = wavelength_grid(wavelengths)
     water = resolve_water(water)
@@ -345,22 +598,47 @@ class WaterTerms:
     'absorption'); with a free phytoplankton weight vector w (z basis functions, eq 9) the
     phytoplankton row is replaced by T w.
 
-    Attributes
+    Build one with :meth:`Water.on_grid` (cached) or :meth:`build`, not by hand. Every
+    parameter is also an attribute of the same name. In the methods, ``chl`` is C in
+    mg m^-3 and ``cdom`` a_CDOM(440 nm) in m^-1, scalars or arrays of one shape S (not checked
+    here); spectra have shape S + (q,).
+
+    Parameters
     ----------
-    water, wavelengths (q,) nm.
-    pure_water_absorption : a_w (q,) m^-1 (eq 5).
-    pure_water_scattering : b_w (q,) m^-1 (eq 11).
-    background_scattering : b_k (l/l0)^-g_k (q,) m^-1 (eq 12, third term).
-    particle_shapes : (2, q) b*_p12 (l/l0)^-g12 and b*_p3 (l/l0)^-g3 (eq 12), m^2 mg^-1.
-    cdom_shape : exp(-S (l - 440)) (q,) (eq 6).
-    nap_shape : exp(-S_NAP (l - 440)) (q,) (eq 7).
-    T : (q, z) basis of eq 9; t440 : (z,) its value at 440 nm; phyto_shape : (q,) the
-        phytoplankton shape a_phi / a_phi(440) (T w / t440 w).
-    free_only : a z > 1 basis given without weights: only the free-w form (``w=`` given) of
-        the methods below can be used.
-    shapes : (4, q) S_j of the path coefficient (rows of :data:`CHL_TERMS`; the particle rows
-        are zero for the 'absorption' path model).
-    base : (q,) the C- and CDOM-independent part of the path coefficient.
+    water : Water
+        The model these terms belong to.
+    wavelengths : numpy.ndarray, shape (q,)
+        The grid, nm.
+    pure_water_absorption : numpy.ndarray, shape (q,)
+        a_w, m^-1 (eq 5).
+    pure_water_scattering : numpy.ndarray, shape (q,)
+        b_w, m^-1 (eq 11).
+    background_scattering : numpy.ndarray, shape (q,)
+        b_k (l/l0)^-g_k, m^-1 (eq 12, third term).
+    particle_shapes : numpy.ndarray, shape (2, q)
+        b*_p12 (l/l0)^-g12 and b*_p3 (l/l0)^-g3 (eq 12), m^2 mg^-1.
+    cdom_shape : numpy.ndarray, shape (q,)
+        exp(-S (l - 440)), dimensionless (eq 6).
+    nap_shape : numpy.ndarray, shape (q,)
+        exp(-S_NAP (l - 440)), dimensionless (eq 7).
+    T : numpy.ndarray, shape (q, z)
+        Basis of eq 9.
+    t440 : numpy.ndarray, shape (z,)
+        The basis at 440 nm.
+    phyto_shape : numpy.ndarray, shape (q,)
+        The phytoplankton shape a_phi / a_phi(440) (T w / t440 w), dimensionless.
+    shapes : numpy.ndarray, shape (4, q)
+        S_j of the path coefficient (rows of :data:`CHL_TERMS`; the particle rows are zero for
+        the 'absorption' path model).
+    base : numpy.ndarray, shape (q,)
+        The C- and CDOM-independent part of the path coefficient, m^-1.
+    free_only : bool, optional
+        True for a z > 1 basis given without weights: only the free-w form (``w=`` given) of
+        the methods below can be used (default False).
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 4-12 and Table 1.
     """
 
     water: Water
@@ -380,6 +658,34 @@ class WaterTerms:
 
     @classmethod
     def build(cls, water: Water, wl, basis=None, weights=None) -> "WaterTerms":
+        """Compute the spectral terms of ``water`` on the grid ``wl`` (uncached).
+
+        Parameters
+        ----------
+        water : Water
+            The water model.
+        wl : array_like, shape (q,)
+            Wavelengths in nm (checked by :func:`forward.wavelength_grid`).
+        basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+            Replaces the water's phytoplankton basis table (see :func:`phytoplankton_basis`).
+        weights : array_like, shape (z,), optional
+            The shape w of eq 9 (default: equal weights 1/z); rescaled so that eq 10 holds.
+
+        Returns
+        -------
+        WaterTerms
+            The terms, every array read-only.
+
+        Raises
+        ------
+        ValueError
+            For an invalid grid, basis or weights (T w not positive at 440 nm or negative
+            somewhere, eq 16).
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12 and Table 1; Smith & Baker 1981 (a_w); Morel 1974 (b_w).
+        """
         wl = wavelength_grid(wl)
         src_wl, a_w_src = water.pure_water_absorption_table
         a_w = resample(src_wl, a_w_src, wl, name="pure_water_absorption_table")
@@ -441,6 +747,12 @@ class WaterTerms:
         derivatives : dict
             name -> d c / d name, shape S + (q,) (S + (q, z) for 'w').
 
+        Raises
+        ------
+        ValueError
+            For a name of ``values`` outside :data:`COEFFICIENT_PARAMS`, a name of ``wrt``
+            that c(x) does not depend on, or (without ``w``) a z > 1 basis without weights.
+
         References
         ----------
         Blasinski & Farrell, eqs 4-12 and Table 1. Each term of :data:`PATH_TERMS` returns its
@@ -475,15 +787,52 @@ class WaterTerms:
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """The path coefficient (c for 'beam', a for 'absorption'), m^-1, shape S + (q,).
 
-        ``w`` (S + (z,)): free phytoplankton weights (a_phi = T w, eq 9); default: a_phi from
-        eq 10 with this grid's phytoplankton shape (see :meth:`path_coefficient`).
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+        cdom : float or array_like, shape S
+            a_CDOM(440 nm), m^-1.
+        w : array_like, shape S + (z,), optional
+            Free phytoplankton weights (a_phi = T w, eq 9); default: a_phi from eq 10 with
+            this grid's phytoplankton shape (see :meth:`path_coefficient`).
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            c = a + b (eq 4) for the 'beam' path model, a (eq 5) for 'absorption', m^-1; a
+            fresh writable array.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12.
         """
         return np.array(self.path_coefficient(chl, cdom, w=w)[0])
 
     def jacobian(self, chl, cdom, w=None, *, floor: float = 0.0) -> np.ndarray:
-        """d(path coefficient)/dx, shape S + (q, 2) for x = (C, a_CDOM) (w on eq 10) or
-        S + (q, 2 + z) for x = (C, a_CDOM, w) with ``w`` given; dC evaluated at max(C, floor)
-        (see :meth:`path_coefficient`)."""
+        """The derivative of the path coefficient by x = (C, a_CDOM[, w]).
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+        cdom : float or array_like, shape S
+            a_CDOM(440 nm), m^-1.
+        w : array_like, shape S + (z,), optional
+            Free phytoplankton weights (eq 9); default: w on eq 10.
+        floor : float, optional
+            d/dC is evaluated at max(C, ``floor``), mg m^-3 (see :meth:`path_coefficient`).
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q, 2) or S + (q, 2 + z)
+            Columns d/dC (m^-1 per mg m^-3), d/d a_CDOM (dimensionless) and, with ``w`` given,
+            d/dw_i.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12 (derivatives of).
+        """
         wrt = ("chl", "cdom") + (("w",) if w is not None else ())
         _, d = self.path_coefficient(chl, cdom, w=w, wrt=wrt, floor=floor)
         cols = [d["chl"][..., None], d["cdom"][..., None]] + ([d["w"]] if w is not None else [])
@@ -491,7 +840,26 @@ class WaterTerms:
 
     # ---------------------------------------------------------------- individual terms
     def absorption(self, chl, cdom, w=None) -> np.ndarray:
-        """a = a_w + a_phi + a_CDOM + a_NAP (eq 5), m^-1."""
+        """Total absorption a = a_w + a_phi + a_CDOM + a_NAP (eq 5), m^-1.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+        cdom : float or array_like, shape S
+            a_CDOM(440 nm), m^-1.
+        w : array_like, shape S + (z,), optional
+            Free phytoplankton weights (a_phi = T w, eq 9); default: a_phi from eq 10.
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            a, m^-1, whatever the path model.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 5-10.
+        """
         self._check_shape(w)
         phi = self.water.chl_weights(chl)
         a_phi = (phi[..., :1] @ self.shapes[:1] if w is None
@@ -500,20 +868,88 @@ class WaterTerms:
                 + np.multiply.outer(np.asarray(cdom, float), self.cdom_shape))
 
     def particle_scattering(self, chl) -> np.ndarray:
-        """b_p (eq 12), m^-1."""
+        """Particle scattering b_p (eq 12, all three terms), m^-1.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            b_p, m^-1, whatever the path model.
+
+        References
+        ----------
+        Blasinski & Farrell, eq 12 and Table 1 (Brewin et al. 2012).
+        """
         phi = self.water.chl_weights(chl)
         return phi[..., 2:] @ self.particle_shapes + self.background_scattering
 
     def scattering(self, chl) -> np.ndarray:
-        """b = b_w + b_p (eq 11), m^-1."""
+        """Total scattering b = b_w + b_p (eq 11), m^-1.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            b, m^-1, whatever the path model.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 11 and 12; Morel 1974 (b_w).
+        """
         return self.pure_water_scattering + self.particle_scattering(chl)
 
     def beam_coefficient(self, chl, cdom, w=None) -> np.ndarray:
-        """c = a + b (eq 4), m^-1, whatever the path model."""
+        """Beam attenuation coefficient c = a + b (eq 4), m^-1, whatever the path model.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+        cdom : float or array_like, shape S
+            a_CDOM(440 nm), m^-1.
+        w : array_like, shape S + (z,), optional
+            Free phytoplankton weights (eq 9); default: a_phi from eq 10.
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            c, m^-1.
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 4-12.
+        """
         return self.absorption(chl, cdom, w) + self.scattering(chl)
 
     def backscattering(self, chl) -> np.ndarray:
-        """b_b = f_w b_w + f_p b_p, m^-1 (the veiling light's scattering; DECISIONS.md)."""
+        """Backscattering b_b = f_w b_w + f_p b_p, m^-1 (the veiling light's scattering).
+
+        f_w and f_p are ``water.water_backscatter_fraction`` (0.5) and
+        ``water.particle_backscatter_fraction`` (1); DECISIONS.md.
+
+        Parameters
+        ----------
+        chl : float or array_like, shape S
+            Chlorophyll concentration C, mg m^-3.
+
+        Returns
+        -------
+        numpy.ndarray, shape S + (q,)
+            b_b, m^-1.
+
+        References
+        ----------
+        Blasinski & Farrell, eq 2 (rho_b, for which the paper gives no model), eqs 11-12;
+        Morel 1974; Brewin et al. 2012 (eq 12 is their b_bp).
+        """
         wt = self.water
         return (wt.water_backscatter_fraction * self.pure_water_scattering
                 + wt.particle_backscatter_fraction * self.particle_scattering(chl))
@@ -686,8 +1122,23 @@ _conc = validate.nonnegative
 def pure_water_absorption(wavelengths=None, *, water: Water | None = None) -> np.ndarray:
     """Pure-water absorption a_w(lambda) in m^-1, the first term of eq 5.
 
-    Smith & Baker (1981), Appl. Opt. 20(2):177-184, as tabulated by Mobley (1994) p. 90
-    (``data/pure_water_absorption_smith_baker_1981.csv``), linearly interpolated.
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    water : Water, optional
+        The water model whose table is used (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        a_w, m^-1 (a fresh copy).
+
+    References
+    ----------
+    Blasinski & Farrell, eq 5. Smith & Baker (1981), Appl. Opt. 20(2):177-184, as tabulated by
+    Mobley (1994) p. 90 (``data/pure_water_absorption_smith_baker_1981.csv``), linearly
+    interpolated.
     """
     return _terms(wavelengths, water).pure_water_absorption.copy()
 
@@ -695,8 +1146,32 @@ def pure_water_absorption(wavelengths=None, *, water: Water | None = None) -> np
 def phytoplankton_absorption_440(chl, *, derivative: bool = False, water: Water | None = None):
     """a_phi(440 nm) = 0.0378 C^0.627 in m^-1 (eq 10; the right side of eq 17).
 
-    With ``derivative=True`` returns (value, d value / dC); the derivative is infinite at C = 0
-    (the estimator evaluates it at a small floor, see DECISIONS.md).
+    Parameters
+    ----------
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (>= 0).
+    derivative : bool, optional
+        Also return d a_phi(440) / dC (default False).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    value : numpy.ndarray, shape S
+        a_phi(440 nm), m^-1.
+    derivative : numpy.ndarray, shape S
+        d value / dC, m^-1 per mg m^-3 (only with ``derivative=True``; then a tuple is
+        returned). Infinite at C = 0 (the estimator evaluates it at a small floor, see
+        DECISIONS.md).
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 10 and 17; Bricaud et al. 1998 (ref. [18]).
     """
     return resolve_water(water).phytoplankton_440(_conc("chl", chl), derivative=derivative)
 
@@ -705,8 +1180,35 @@ def phytoplankton_absorption(wavelengths=None, chl=1.0, *, basis=None, weights=N
                              water: Water | None = None) -> np.ndarray:
     """Phytoplankton absorption a_phi(lambda) = T w in m^-1 (eq 9), scaled by eq 10.
 
-    ``basis`` is the T of eq 9 on the grid (default: the water's table); ``weights`` (z,) give
-    the shape for z > 1 basis functions and are rescaled so that (T w)(440) = 0.0378 C^0.627.
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+        The T of eq 9 on the grid (default: the water's table); see
+        :func:`phytoplankton_basis`.
+    weights : array_like, shape (z,), optional
+        The shape for z > 1 basis functions, rescaled so that (T w)(440) = 0.0378 C^0.627.
+        Required for z > 1.
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        a_phi, m^-1.
+
+    Raises
+    ------
+    ValueError
+        For a negative ``chl``, an invalid basis or weights, or a z > 1 basis without weights.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 9, 10 and 17; Bricaud et al. 1998; basis from Fujiki & Taguchi
+    2002.
     """
     wl = wavelength_grid(wavelengths)
     water = resolve_water(water)
@@ -717,13 +1219,66 @@ def phytoplankton_absorption(wavelengths=None, chl=1.0, *, basis=None, weights=N
 
 def cdom_absorption(wavelengths=None, cdom=0.1, *, slope: float | None = None,
                     water: Water | None = None) -> np.ndarray:
-    """CDOM absorption a_CDOM(lambda) = a_CDOM,440 exp(-S (lambda - 440)) in m^-1 (eq 6)."""
+    """CDOM absorption a_CDOM(lambda) = a_CDOM,440 exp(-S (lambda - 440)) in m^-1 (eq 6).
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    cdom : float or array_like, shape S
+        a_CDOM(440 nm), m^-1 (default 0.1).
+    slope : float, optional
+        S, nm^-1; replaces ``water.cdom_slope`` (default: the water's, 0.014).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        a_CDOM, m^-1.
+
+    Raises
+    ------
+    ValueError
+        If ``cdom`` is negative or not finite, or ``slope`` is not a finite number.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 6; Bricaud et al. 1981 (ref. [19]).
+    """
     s = None if slope is None else validate.scalar("slope", slope, nonnegative=False)
     return np.multiply.outer(_conc("cdom", cdom), _terms(wavelengths, water, cdom_slope=s).cdom_shape)
 
 
 def nap_absorption_440(chl, *, derivative: bool = False, water: Water | None = None):
-    """a_NAP(440 nm) = 0.0124 C^0.724 in m^-1 (eq 8). ``derivative=True``: also d/dC."""
+    """a_NAP(440 nm) = 0.0124 C^0.724 in m^-1 (eq 8).
+
+    Parameters
+    ----------
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (>= 0).
+    derivative : bool, optional
+        Also return d a_NAP(440) / dC (default False).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    value : numpy.ndarray, shape S
+        a_NAP(440 nm), m^-1.
+    derivative : numpy.ndarray, shape S
+        d value / dC, m^-1 per mg m^-3, infinite at C = 0 (only with ``derivative=True``; then
+        a tuple is returned).
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 8; Bricaud et al. 1998 (ref. [18]).
+    """
     out = resolve_water(water).chl_weights(_conc("chl", chl), derivative=derivative)
     return (out[0][..., 1], out[1][..., 1]) if derivative else out[..., 1]
 
@@ -732,7 +1287,34 @@ def nap_absorption(wavelengths=None, chl=1.0, *, derivative: bool = False,
                    water: Water | None = None):
     """Non-algal particle absorption a_NAP(lambda) = a_NAP,440 exp(-0.011 (lambda - 440)) (eqs 7, 8).
 
-    ``derivative=True`` returns (value, d value / dC).
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    derivative : bool, optional
+        Also return d a_NAP / dC (default False).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    value : numpy.ndarray, shape S + (q,)
+        a_NAP, m^-1.
+    derivative : numpy.ndarray, shape S + (q,)
+        d value / dC, m^-1 per mg m^-3 (only with ``derivative=True``; then a tuple
+        ``(value, derivative)`` is returned).
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 7 and 8; Roesler et al. 1989 (ref. [20], the slope); Bricaud
+    et al. 1998 (ref. [18], eq 8).
     """
     shape = _terms(wavelengths, water).nap_shape
     if not derivative:
@@ -746,8 +1328,41 @@ def absorption(wavelengths=None, chl=1.0, cdom=0.1, *, basis=None, weights=None,
                water: Water | None = None) -> np.ndarray:
     """Total absorption a = a_w + a_phi + a_CDOM + a_NAP in m^-1 (eq 5).
 
-    ``phytoplankton`` may give a_phi (shape (..., q)) directly; otherwise it is computed from
-    ``chl`` (eq 10) with the basis (and ``weights``) of eq 9.
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1); sets a_NAP (eq 8) and, unless
+        ``phytoplankton`` is given, a_phi (eq 10).
+    cdom : float or array_like, shape S
+        a_CDOM(440 nm), m^-1 (default 0.1).
+    basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
+        The T of eq 9 (default: the water's table); see :func:`phytoplankton_basis`.
+    weights : array_like, shape (z,), optional
+        The shape w of eq 9 for z > 1 basis functions (rescaled so that eq 10 holds).
+    phytoplankton : array_like, shape (..., q), optional
+        a_phi in m^-1, given directly instead of computed from ``chl``.
+    cdom_slope : float, optional
+        S of eq 6, nm^-1; replaces ``water.cdom_slope``.
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        a, m^-1.
+
+    Raises
+    ------
+    ValueError
+        For negative or non-finite ``chl`` / ``cdom`` / ``phytoplankton``, or an invalid grid,
+        basis or weights.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 5-10; Smith & Baker 1981; Bricaud et al. 1981, 1998; Roesler et
+    al. 1989.
     """
     wl = wavelength_grid(wavelengths)
     water = resolve_water(water, cdom_slope=cdom_slope)
@@ -763,27 +1378,103 @@ def absorption(wavelengths=None, chl=1.0, cdom=0.1, *, basis=None, weights=None,
 def pure_water_scattering(wavelengths=None, *, water: Water | None = None) -> np.ndarray:
     """Pure sea-water scattering b_w(lambda) = 0.00288 (lambda / 500)^-4.32 in m^-1 (eq 11).
 
-    Morel (1974), "Optical properties of pure water and pure sea water" (ref. [23]).
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    water : Water, optional
+        The water model whose ``water_scattering`` constants are used (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        b_w, m^-1 (a fresh copy).
+
+    References
+    ----------
+    Blasinski & Farrell, eq 11. Morel (1974), "Optical properties of pure water and pure sea
+    water" (ref. [23]).
     """
     return _terms(wavelengths, water).pure_water_scattering.copy()
 
 
 def table1(water: Water | None = None) -> dict:
-    """The constants of Table 1 (eq 12) of ``water`` (default: as published, from
-    ``data/particle_scattering_table1.csv``); a fresh dict each call."""
+    """The constants of Table 1 (eq 12) of ``water``; a fresh dict each call.
+
+    Parameters
+    ----------
+    water : Water, optional
+        The water model (default: as published, from ``data/particle_scattering_table1.csv``).
+
+    Returns
+    -------
+    dict of str to float
+        See :meth:`Water.table1` (C_12 mg m^-3, S_12 m^3 mg^-1, b*_p m^2 mg^-1, b_k m^-1,
+        exponents dimensionless, lambda_0 nm).
+
+    References
+    ----------
+    Blasinski & Farrell, Table 1; Brewin et al. 2012 (ref. [24]).
+    """
     return resolve_water(water).table1()
 
 
 def particle_scattering_terms(wavelengths=None, *, water: Water | None = None):
-    """The three spectral terms of eq 12 (Table 1 constants), each (q,) in m^-1 per unit weight:
-    b*_p12 (l/l0)^-g12, b*_p3 (l/l0)^-g3, b_k (l/l0)^-gk."""
+    """The three spectral terms of eq 12 (Table 1 constants).
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    small : numpy.ndarray, shape (q,)
+        b*_p12 (l/l0)^-g12, m^2 mg^-1 (m^-1 per mg m^-3 of weight).
+    large : numpy.ndarray, shape (q,)
+        b*_p3 (l/l0)^-g3, m^2 mg^-1.
+    background : numpy.ndarray, shape (q,)
+        b_k (l/l0)^-gk, m^-1.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 12 and Table 1; Brewin et al. 2012.
+    """
     t = _terms(wavelengths, water)
     return t.particle_shapes[0].copy(), t.particle_shapes[1].copy(), t.background_scattering.copy()
 
 
 def particle_scattering_weights(chl, *, derivative: bool = False, water: Water | None = None):
-    """The chlorophyll weights of eq 12's first two terms: (C12 (1 - e^(-S12 C)),
-    C - C12 (1 - e^(-S12 C))) in mg m^-3; ``derivative=True`` also returns their d/dC."""
+    """The chlorophyll weights of eq 12's first two terms, in mg m^-3.
+
+    Parameters
+    ----------
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (>= 0).
+    derivative : bool, optional
+        Also return their d/dC (default False).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    weights : tuple of numpy.ndarray, each shape S
+        (C12 (1 - e^(-S12 C)), C - C12 (1 - e^(-S12 C))): pico + nano and micro, mg m^-3.
+    derivatives : tuple of numpy.ndarray, each shape S
+        Their d/dC, dimensionless (only with ``derivative=True``; then ``(weights,
+        derivatives)`` is returned).
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 12 and Table 1; Brewin et al. 2012.
+    """
     out = resolve_water(water).chl_weights(_conc("chl", chl), derivative=derivative)
     if not derivative:
         return out[..., 2], out[..., 3]
@@ -795,8 +1486,35 @@ def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False,
     """Particle scattering b_p(lambda) in m^-1, eq 12 with the Table 1 constants (lambda_0 = 470 nm).
 
     The Table 1 constants come from Brewin et al. (2012), who fit particle *back*scattering;
-    the paper (and this function) use them as b_p (DECISIONS.md). ``derivative=True`` also
-    returns d b_p / dC.
+    the paper (and this function) use them as b_p (DECISIONS.md).
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    derivative : bool, optional
+        Also return d b_p / dC (default False).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    value : numpy.ndarray, shape S + (q,)
+        b_p (all three terms of eq 12, the background b_k included), m^-1.
+    derivative : numpy.ndarray, shape S + (q,)
+        d b_p / dC, m^-1 per mg m^-3 (only with ``derivative=True``; then a tuple is
+        returned).
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 12 and Table 1; Brewin et al. 2012 (ref. [24]).
     """
     t = _terms(wavelengths, water)
     chl = _conc("chl", chl)
@@ -807,7 +1525,31 @@ def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False,
 
 
 def scattering(wavelengths=None, chl=1.0, *, water: Water | None = None) -> np.ndarray:
-    """Total scattering b = b_w + b_p in m^-1 (eq 11)."""
+    """Total scattering b = b_w + b_p in m^-1 (eq 11).
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        b, m^-1.
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 11 and 12; Morel 1974; Brewin et al. 2012.
+    """
     return _terms(wavelengths, water).scattering(_conc("chl", chl))
 
 
@@ -816,6 +1558,32 @@ def backscattering(wavelengths=None, chl=1.0, *, water: Water | None = None) -> 
 
     Pure water scatters symmetrically (half backwards). For particles we take eq 12 itself as
     b_bp, which is what Brewin et al. (2012), the source of Table 1, fitted (DECISIONS.md).
+    The fractions 0.5 and 1 are ``water.water_backscatter_fraction`` and
+    ``water.particle_backscatter_fraction``.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        b_b, m^-1.
+
+    Raises
+    ------
+    ValueError
+        If ``chl`` is negative or not finite.
+
+    References
+    ----------
+    Blasinski & Farrell, eq 2 (which gives no model for rho_b) and eqs 11-12; Morel 1974;
+    Brewin et al. 2012.
     """
     return _terms(wavelengths, water).backscattering(_conc("chl", chl))
 
@@ -823,7 +1591,36 @@ def backscattering(wavelengths=None, chl=1.0, *, water: Water | None = None) -> 
 def attenuation_coefficient(wavelengths=None, chl=1.0, cdom=0.1, *, basis=None, weights=None,
                             phytoplankton=None, cdom_slope: float | None = None,
                             water: Water | None = None) -> np.ndarray:
-    """Beam attenuation coefficient c = a + b in m^-1 (eq 4), whatever ``water.path_model``."""
+    """Beam attenuation coefficient c = a + b in m^-1 (eq 4), whatever ``water.path_model``.
+
+    Parameters
+    ----------
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    chl : float or array_like, shape S
+        Chlorophyll concentration C, mg m^-3 (default 1).
+    cdom : float or array_like, shape S
+        a_CDOM(440 nm), m^-1 (default 0.1).
+    basis, weights, phytoplankton, cdom_slope : optional
+        As for :func:`absorption`: the basis T and weights w of eq 9, a_phi given directly
+        (m^-1), and the CDOM slope S of eq 6 (nm^-1).
+    water : Water, optional
+        The water model (default: the paper's).
+
+    Returns
+    -------
+    numpy.ndarray, shape S + (q,)
+        c, m^-1.
+
+    Raises
+    ------
+    ValueError
+        As :func:`absorption` and :func:`scattering`.
+
+    References
+    ----------
+    Blasinski & Farrell, eqs 4-12 and Table 1.
+    """
     wl = wavelength_grid(wavelengths)
     a = absorption(wl, chl, cdom, basis=basis, weights=weights, phytoplankton=phytoplankton,
                    cdom_slope=cdom_slope, water=water)
