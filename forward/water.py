@@ -770,18 +770,23 @@ class WaterTerms:
             self._check_shape(None)
         x = _TermInputs(self, np.asarray(chl, float)[..., None], np.asarray(cdom, float)[..., None],
                         None if w is None else np.asarray(w, float), values, floor)
-        c = 0.0
-        derivatives = {}
+        lead = np.broadcast_shapes(np.shape(chl), np.shape(cdom))
+        q = self.wavelengths.size
+        pieces, by_name = [], {}
         for term in PATH_TERMS:
             value, parts = term(x, wrt)
-            c = c + value
+            pieces += value
             for name, d in parts.items():
-                derivatives[name] = derivatives[name] + d if name in derivatives else d
-        shape = np.broadcast_shapes(np.shape(chl), np.shape(cdom)) + self.wavelengths.shape
-        c = np.broadcast_to(c, shape)
+                by_name.setdefault(name, []).append(d)
+        c = _sum_pieces(pieces, lead, q)
+        derivatives = {}
         for name in wrt:
-            full = shape + ((self.T.shape[1],) if name == "w" else ())
-            derivatives[name] = np.broadcast_to(derivatives.get(name, 0.0), full)
+            if name == "w":
+                derivatives[name] = np.broadcast_to(self.T, lead + self.T.shape)
+                continue
+            found = [piece for d in by_name.get(name, []) for piece in d]
+            derivatives[name] = _sum_pieces(found, lead, q) if found else \
+                np.zeros(lead + (q,))
         return c, derivatives
 
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
@@ -990,49 +995,59 @@ class _TermInputs:
             return np.where(self.chl > 0, np.log(np.where(self.chl > 0, self.chl, 1.0)), 0.0)
 
 
+# Each term returns its value and its derivatives as sums of (weight, spectrum) pieces: a
+# weight is a scalar or of shape S + (1,), a spectrum (q,) or S + (q,).
+# :meth:`WaterTerms.path_coefficient` adds the pieces up (those with one spectrum for all
+# charts by one matrix product).
 def _pure_water_term(x, wrt):
     """a_w (eq 5) and, for the 'beam' path model, b_w = 0.00288 (lambda/500)^-4.32 (eq 11)."""
     t, out = x.terms, {}
+    parts = [(1.0, t.pure_water_absorption)]
     if not x.beam:
-        return t.pure_water_absorption, out
-    if not (x.given("water_scattering") or x.given("water_scattering_exponent")):
-        b_w, shape = t.pure_water_scattering, None
-    else:
+        return parts, out
+    if x.given("water_scattering") or x.given("water_scattering_exponent"):
         shape = (t.wavelengths / 500.0) ** -x.get("water_scattering_exponent")
-        b_w = x.get("water_scattering") * shape
+        scale = x.get("water_scattering")
+        parts.append((scale, shape))
+    else:
+        shape = t.pure_water_scattering / t.water.water_scattering
+        scale = t.water.water_scattering
+        parts.append((1.0, t.pure_water_scattering))
     if "water_scattering" in wrt:
-        out["water_scattering"] = (t.wavelengths / 500.0) ** -x.get("water_scattering_exponent")
+        out["water_scattering"] = [(1.0, shape)]
     if "water_scattering_exponent" in wrt:
-        out["water_scattering_exponent"] = -b_w * np.log(t.wavelengths / 500.0)
-    return t.pure_water_absorption + b_w, out
+        out["water_scattering_exponent"] = [(scale, -shape * np.log(t.wavelengths / 500.0))]
+    return parts, out
 
 
 def _background_term(x, wrt):
     """b_k (lambda/470)^-gamma_k, eq 12's third term ('beam' only)."""
     t, out = x.terms, {}
     if not x.beam:
-        return 0.0, out
+        return [], out
     if x.given("b_k") or x.given("gamma_k"):
-        value = x.get("b_k") * x.ratio ** -x.get("gamma_k")
+        shape = x.ratio ** -x.get("gamma_k")
+        scale = x.get("b_k")
+        parts = [(scale, shape)]
     else:
-        value = t.background_scattering
+        shape, scale = x.ratio ** -t.water.gamma_k, t.water.b_k
+        parts = [(1.0, t.background_scattering)]
     if "b_k" in wrt:
-        out["b_k"] = x.ratio ** -x.get("gamma_k")
+        out["b_k"] = [(1.0, shape)]
     if "gamma_k" in wrt:
-        out["gamma_k"] = -value * np.log(x.ratio)
-    return value, out
+        out["gamma_k"] = [(scale, -shape * np.log(x.ratio))]
+    return parts, out
 
 
 def _cdom_term(x, wrt):
     """a_CDOM(440) exp(-S (lambda - 440)) (eq 6)."""
     t, out = x.terms, {}
     shape = np.exp(-x.get("cdom_slope") * x.offset) if x.given("cdom_slope") else t.cdom_shape
-    value = x.cdom * shape
     if "cdom" in wrt:
-        out["cdom"] = shape
+        out["cdom"] = [(1.0, shape)]
     if "cdom_slope" in wrt:
-        out["cdom_slope"] = -x.offset * value
-    return value, out
+        out["cdom_slope"] = [(x.cdom, -x.offset * shape)]
+    return [(x.cdom, shape)], out
 
 
 def _phytoplankton_term(x, wrt):
@@ -1041,17 +1056,18 @@ def _phytoplankton_term(x, wrt):
     if x.w is not None:
         if "w" in wrt:
             out["w"] = t.T
-        return x.w @ t.T.T, out
+        return [(1.0, x.w @ t.T.T)], out
     scale, exponent = x.get("phyto_scale"), x.get("phyto_exponent")
     weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
+    shape = t.phyto_shape
     if "chl" in wrt:
         with np.errstate(divide="ignore"):
-            out["chl"] = chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0) * t.phyto_shape
+            out["chl"] = [(chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0), shape)]
     if "phyto_scale" in wrt:
-        out["phyto_scale"] = x.chl ** exponent * t.phyto_shape
+        out["phyto_scale"] = [(x.chl ** exponent, shape)]
     if "phyto_exponent" in wrt:
-        out["phyto_exponent"] = weight * x.log_chl() * t.phyto_shape
-    return weight * t.phyto_shape, out
+        out["phyto_exponent"] = [(weight * x.log_chl(), shape)]
+    return [(weight, shape)], out
 
 
 def _nap_term(x, wrt):
@@ -1060,17 +1076,16 @@ def _nap_term(x, wrt):
     scale, exponent = x.get("nap_scale"), x.get("nap_exponent")
     shape = np.exp(-x.get("nap_slope") * x.offset) if x.given("nap_slope") else t.nap_shape
     weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
-    value = weight * shape
     if "chl" in wrt:
         with np.errstate(divide="ignore", invalid="ignore"):
-            out["chl"] = chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0) * shape
+            out["chl"] = [(chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0), shape)]
     if "nap_scale" in wrt:
-        out["nap_scale"] = x.chl ** exponent * shape
+        out["nap_scale"] = [(x.chl ** exponent, shape)]
     if "nap_exponent" in wrt:
-        out["nap_exponent"] = value * x.log_chl()
+        out["nap_exponent"] = [(weight * x.log_chl(), shape)]
     if "nap_slope" in wrt:
-        out["nap_slope"] = -x.offset * value
-    return value, out
+        out["nap_slope"] = [(weight, -x.offset * shape)]
+    return [(weight, shape)], out
 
 
 def _particle_term(x, wrt):
@@ -1078,31 +1093,56 @@ def _particle_term(x, wrt):
     (pico + nano) and (C - C_12 (1 - e^(-S_12 C))) b*_p3 (l/l0)^-g3 (micro)."""
     t, out = x.terms, {}
     if not x.beam:
-        return 0.0, out
+        return [], out
     c12, s12 = x.get("c_12"), x.get("s_12")
+    r12, r3 = x.ratio ** -x.get("gamma_12"), x.ratio ** -x.get("gamma_3")
     if any(x.given(k) for k in ("b_p12_star", "gamma_12", "b_p3_star", "gamma_3")):
-        small = x.get("b_p12_star") * x.ratio ** -x.get("gamma_12")
-        large = x.get("b_p3_star") * x.ratio ** -x.get("gamma_3")
+        small, large = x.get("b_p12_star") * r12, x.get("b_p3_star") * r3
     else:
         small, large = t.particle_shapes
     w_small = chl_weight(x.chl, 0.0, 1.0, c12, s12)
     w_large = chl_weight(x.chl, 1.0, 1.0, -c12, s12)
     if "chl" in wrt:
-        out["chl"] = (chl_weight_derivative(x.chl_floor, 0.0, 1.0, c12, s12) * small
-                      + chl_weight_derivative(x.chl_floor, 1.0, 1.0, -c12, s12) * large)
+        out["chl"] = [(chl_weight_derivative(x.chl_floor, 0.0, 1.0, c12, s12), small),
+                      (chl_weight_derivative(x.chl_floor, 1.0, 1.0, -c12, s12), large)]
     if "c_12" in wrt:
-        out["c_12"] = -np.expm1(-s12 * x.chl) * (small - large)
+        d = -np.expm1(-s12 * x.chl)
+        out["c_12"] = [(d, small), (-d, large)]
     if "s_12" in wrt:
-        out["s_12"] = c12 * x.chl * np.exp(-s12 * x.chl) * (small - large)
+        d = c12 * x.chl * np.exp(-s12 * x.chl)
+        out["s_12"] = [(d, small), (-d, large)]
     if "b_p12_star" in wrt:
-        out["b_p12_star"] = w_small * x.ratio ** -x.get("gamma_12")
+        out["b_p12_star"] = [(w_small, r12)]
     if "gamma_12" in wrt:
-        out["gamma_12"] = -w_small * small * np.log(x.ratio)
+        out["gamma_12"] = [(w_small, -small * np.log(x.ratio))]
     if "b_p3_star" in wrt:
-        out["b_p3_star"] = w_large * x.ratio ** -x.get("gamma_3")
+        out["b_p3_star"] = [(w_large, r3)]
     if "gamma_3" in wrt:
-        out["gamma_3"] = -w_large * large * np.log(x.ratio)
-    return w_small * small + w_large * large, out
+        out["gamma_3"] = [(w_large, -large * np.log(x.ratio))]
+    return [(w_small, small), (w_large, large)], out
+
+
+def _sum_pieces(pieces, lead, q):
+    """sum of weight x spectrum over ``pieces``, shape lead + (q,): the pieces whose spectrum
+    is one for all charts by one matrix product, constant ones once, the rest elementwise."""
+    const = np.zeros(q)
+    weights, spectra, out = [], [], None
+    for w, sh in pieces:
+        if np.ndim(sh) == 1 and np.ndim(w) == 0:
+            const = const + w * sh
+        elif np.ndim(sh) == 1:
+            weights.append(np.broadcast_to(w, lead + (1,))[..., 0])
+            spectra.append(sh)
+        else:
+            out = w * sh if out is None else out + w * sh
+    total = np.stack(weights, axis=-1) @ np.stack(spectra) if weights else None
+    for extra in (out,):
+        if extra is not None:
+            total = extra if total is None else total + extra
+    if total is None:
+        return np.broadcast_to(const, lead + (q,))
+    total += const
+    return np.broadcast_to(total, lead + (q,))
 
 
 #: The terms of c(x) (eqs 4-12), each returning its value and its derivatives by name.

@@ -11,25 +11,15 @@ tags where it has them (tifffile: DNG and most RAW formats are TIFF containers).
 
 from __future__ import annotations
 
-import os
-import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numba
 import numpy as np
-from numba import njit, prange
 
-# The demosaic is the package's one parallel compiled kernel. numba's 'workqueue' threading
-# layer is fork-safe; GNU OpenMP (numba's default here) is not: after a demosaic, a process pool
-# started by fork (``uw3p measure FOLDER``) has its workers killed ("fork() called from a
-# process already using GNU OpenMP"). 'workqueue' is not safe for concurrent launches from
-# several threads, which :func:`demosaic` serialises with a lock. A user's
-# NUMBA_THREADING_LAYER still wins. (sca set this while it had a numba kernel.)
-if "NUMBA_THREADING_LAYER" not in os.environ:
-    numba.config.THREADING_LAYER = "workqueue"
-#: One demosaic kernel runs at a time (it already uses every core).
-_KERNEL_LOCK = threading.Lock()
+from sca.compiled import KERNEL_LOCK, njit, prange
+
+# numba's fork-safe threading layer and the kernel lock: one place (sca.compiled)
+_KERNEL_LOCK = KERNEL_LOCK
 
 __all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS", "TIFF_EXTENSIONS", "UINT16_MAX"]
 

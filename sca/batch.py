@@ -39,7 +39,15 @@ from .assess import (
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
-from .model import TINY, ChartModel, du_chain, profiled_covariance, linear_part, u_from_chl, upper_cap
+from .model import (
+    TINY,
+    ChartModel,
+    du_chain,
+    linear_part_stats,
+    profiled_covariance,
+    u_from_chl,
+    upper_cap,
+)
 from .limits import EXACT_FIT, MAX_RGB
 
 __all__ = ["BatchEstimate", "estimate_batch", "ENGINES", "DEFAULT_ENGINE", "INIT_CHL",
@@ -290,8 +298,9 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
 
 
 def start_grid(prob: Problem, geometry):
-    """The best (C, a_CDOM) of the coarse grid for every chart (gain and s in closed form, with
-    each channel's mean weight), one matrix of signals per distinct path length."""
+    """The best (C, a_CDOM) of the coarse grid for every chart: gain and s in closed form
+    (:func:`sca.model.linear_part_stats`) with each channel's mean weight, from each channel's
+    weighted sums (matrix products), one matrix of signals per distinct path length."""
     mdl, N = prob.model, prob.size
     m, n = mdl.m, mdl.n
     chl_grid = INIT_CHL if "chl" in prob.names else prob.fixed["chl"][:1]
@@ -299,25 +308,32 @@ def start_grid(prob: Problem, geometry):
     C, A = (x.ravel() for x in np.meshgrid(chl_grid, cdom_grid, indexing="ij"))
     P = C.size
     L = geometry["depth"] + geometry["distance"]
-    wc = prob.W2.reshape(N, m, n).mean(axis=2, keepdims=True)  # (N, m, 1)
+    M3 = prob.M.reshape(N, m, n)
+    wc = prob.W2.reshape(N, m, n).mean(axis=2)  # (N, m)
     best = np.zeros(N, dtype=int)
     uniq, inv = np.unique(L, return_inverse=True)
-    block = max(1, START_BLOCK // (P * m * n))
+    block = max(1, START_BLOCK // (P * m))
     for u_idx, Lu in enumerate(uniq):
         rows = np.flatnonzero(inv == u_idx)
         G = mdl.predict({"chl": C, "cdom": A, "depth": Lu, "distance": 0.0},
                         jacobian=False).signal.reshape(P, m, n)
+        sumG, sumGG = G.sum(-1), np.einsum("pcj,pcj->pc", G, G)  # (P, m)
         for lo in range(0, rows.size, block):
             r = rows[lo:lo + block]
-            G4 = G[None] / prob.scale[r][:, None, None, None]  # (R, P, m, n)
-            M4 = np.broadcast_to(prob.M[r].reshape(-1, 1, m, n), G4.shape)
-            w4 = np.broadcast_to(wc[r][:, None], G4.shape)
-            fs = None if prob.fixed_s is None else np.repeat(prob.fixed_s[r], P, axis=0)
-            shape = (-1, m, n)
-            gain, s, _ = linear_part(M4.reshape(shape), G4.reshape(shape), w4.reshape(shape), fs,
-                                     prob.free_gain)
-            res = M4 - gain.reshape(r.size, P, 1, 1) * G4 - s.reshape(r.size, P, m, 1)
-            f = np.einsum("rpij,rpij->rp", w4 * res, res)
+            w, inv_s = wc[r][:, None, :], (1.0 / prob.scale[r])[:, None, None]  # (R, 1, m)
+            Mr = M3[r]
+            sw = n * w
+            sM = w * Mr.sum(-1)[:, None, :]
+            sG = w * sumG[None] * inv_s
+            sGG = w * sumGG[None] * inv_s ** 2
+            sGM = w * np.stack([Mr[:, c] @ G[:, c].T for c in range(m)], axis=-1) * inv_s
+            sMM = w * np.einsum("rcj,rcj->rc", Mr, Mr)[:, None, :]
+            fs = None if prob.fixed_s is None else prob.fixed_s[r][:, None, :]
+            gain, s, _ = linear_part_stats(sw, sM, sG, sGG, sGM, fixed_s=fs,
+                                           free_gain=prob.free_gain)
+            g = gain[..., None]
+            f = (sMM - 2 * g * sGM - 2 * s * sM + g * g * sGG + 2 * g * s * sG
+                 + s * s * sw).sum(-1)
             best[r] = np.argmin(f, axis=1)
     return C[best].copy(), A[best].copy()
 

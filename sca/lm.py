@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .model import TINY, ChartModel, chl_from_u, du_chain, linear_part, lower_bound
+from .model import TINY, ChartModel, chl_from_u, du_chain, lower_bound
+from .projection import project
 
 __all__ = ["STATUS", "LM_MU0", "LM_DOWN", "LM_UP", "LM_MU_MIN", "LM_MU_MAX", "SINGULAR_DET",
            "Problem", "evaluate", "levenberg_marquardt"]
@@ -101,34 +102,18 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
     m, n = mdl.m, mdl.n
     params = prob.params(idx, theta)
     pred = mdl.predict(params, prob.names if grad else (), chl_floor=TINY, jacobian=grad)
-    sc = prob.scale[idx][:, None]
-    G3 = (pred.signal / sc).reshape(-1, m, n)
-    M3 = prob.M[idx].reshape(-1, m, n)
-    w2 = prob.W2[idx].reshape(-1, m, n)
+    inv = (1.0 / prob.scale[idx])[:, None]
     fs = None if prob.fixed_s is None else prob.fixed_s[idx]
-    gain, s, act = linear_part(M3, G3, w2, fs, prob.free_gain)
-    r = M3 - gain[:, None, None] * G3 - s[..., None]
-    f = np.einsum("ijk,ijk->i", w2 * r, r)
-    ssr = np.einsum("ijk,ijk->i", r, r)
+    JR = np.zeros((len(idx), 0, m * n))
+    if grad:
+        chain = np.ones((len(idx), len(prob.names)))
+        if prob.chl_col >= 0:
+            chain[:, prob.chl_col] = du_chain(params["chl"], mdl.e0)
+        JR = pred.jacobian_rows * (chain * inv)[:, :, None]
+    f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
+                                    prob.free_gain, m, n, grad)
     if not grad:
-        return f, None, None, gain, s, ssr, pred.attenuation
-    J = pred.jacobian / sc[:, :, None]
-    if prob.chl_col >= 0:
-        J[..., prob.chl_col] *= du_chain(params["chl"], mdl.e0)[:, None]
-    J = (gain[:, None, None] * J).reshape(-1, m, n, J.shape[-1])
-    w2e = w2[..., None]
-    a = act[..., None, None]
-    J = J - a * (w2e * J).sum(2, keepdims=True) / w2e.sum(2, keepdims=True)
-    if prob.free_gain:  # project off the centred G (the gain's column)
-        Gc = G3 - act[..., None] * (w2 * G3).sum(-1, keepdims=True) / w2.sum(-1, keepdims=True)
-        gg = np.einsum("ijk,ijk->i", w2 * Gc, Gc)
-        live = (gain > 0) & (gg > 0)
-        proj = np.einsum("ijk,ijkp->ip", w2 * Gc, J) / np.where(gg > 0, gg, 1.0)[:, None]
-        J = J - live[:, None, None, None] * Gc[..., None] * proj[:, None, None, :]
-    Jf = J.reshape(J.shape[0], m * n, -1)
-    wf = w2.reshape(-1, m * n)
-    g = -np.einsum("ij,ijp->ip", wf * r.reshape(-1, m * n), Jf)
-    H = np.einsum("ijp,ijq->ipq", wf[..., None] * Jf, Jf)
+        g = H = None
     return f, g, H, gain, s, ssr, pred.attenuation
 
 

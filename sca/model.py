@@ -18,6 +18,9 @@ the units of the measurements (model units: a white reflector in air = 1).
 from __future__ import annotations
 
 import copy
+import functools
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,9 +28,11 @@ import numpy as np
 from forward.imaging import ChartSetup
 from forward.water import COEFFICIENT_PARAMS, Water, resolve_water
 
+from .projection import linear_part_stats
+
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "linear_part", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
+           "check_names", "linear_part", "linear_part_stats", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
            "du_chain"]
 
 #: Geometry of the path (eqs 3, 14), m.
@@ -48,6 +53,11 @@ CHL_DERIVATIVE_FLOOR = 1e-6
 CHL_MAX, CDOM_MAX, LENGTH_MAX = 1e4, 1e3, 1e4
 #: A free Water constant's interval is open beyond this many times its default magnitude.
 CONSTANT_SPAN = 1e3
+#: Values (charts x wavelengths) per block of :meth:`ChartModel.predict`: its temporaries
+#: then fit in the cache; at least PREDICT_BLOCK_MIN charts per block.
+PREDICT_BLOCK_VALUES, PREDICT_BLOCK_MIN = 300_000, 256
+#: Threads for the blocks (at most the machine's cores).
+PREDICT_THREADS = 8
 #: Largest condition number of the (unit-diagonal) information matrix that is inverted.
 COND_MAX = 1e14
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
@@ -92,6 +102,13 @@ def upper_cap(name: str, water: Water) -> float:
     return np.inf
 
 
+@functools.lru_cache(maxsize=1)
+def _pool() -> ThreadPoolExecutor:
+    """Threads for the blocks of a large prediction (one per core; stateless, thread-safe)."""
+    return ThreadPoolExecutor(max_workers=max(1, min(os.cpu_count() or 1, PREDICT_THREADS)),
+                              thread_name_prefix="uw3p-predict")
+
+
 # ---------------------------------------------------------- the batch's coordinate for C
 # Levenberg-Marquardt iterates in u = C^e0 (e0 = eq 10's exponent): every C-dependent term is
 # smooth in u at C = 0, where d/dC is infinite. A change of variable, not physics.
@@ -128,6 +145,8 @@ class Prediction:
         d values / d theta, columns in the order of ``columns``.
     columns : tuple of str
         One name per Jacobian column ('w' repeats z times, 'backscatter' m times).
+    jacobian_rows : ndarray, S + (p, m n) or None
+        The same numbers, one row per column (contiguous).
     """
 
     values: np.ndarray
@@ -136,6 +155,18 @@ class Prediction:
     coefficient: np.ndarray
     jacobian: np.ndarray | None
     columns: tuple
+    #: the Jacobian's columns as rows, S + (p, m n) (contiguous; ``jacobian`` is its transpose)
+    jacobian_rows: np.ndarray | None = None
+
+    @classmethod
+    def concatenate(cls, parts) -> "Prediction":
+        """One prediction from predictions of consecutive blocks of charts."""
+        def cat(name):
+            vals = [getattr(p, name) for p in parts]
+            return None if vals[0] is None else np.concatenate(vals, axis=0)
+        rows = cat("jacobian_rows")
+        return cls(cat("values"), cat("signal"), cat("attenuation"), cat("coefficient"),
+                   None if rows is None else np.swapaxes(rows, -1, -2), parts[0].columns, rows)
 
     def column(self, name: str) -> np.ndarray:
         """The Jacobian columns of ``name``, S + (m n, count)."""
@@ -216,6 +247,14 @@ class ChartModel:
         Prediction
         """
         free = check_names("free", free) if jacobian else ()
+        n_lead = self._batch_size(params)
+        size = max(PREDICT_BLOCK_MIN, PREDICT_BLOCK_VALUES // self.wavelengths.size)
+        if n_lead > size:  # in blocks: the temporaries stay in the cache
+            def block(i):
+                return self.predict(self._rows_of(params, n_lead, slice(i, i + size)),
+                                    free, chl_floor=chl_floor, jacobian=jacobian)
+            # numpy releases the GIL in its array loops and BLAS: blocks run on every core
+            return Prediction.concatenate(list(_pool().map(block, range(0, n_lead, size))))
         unknown = set(params) - set(PARAMS)
         if unknown:
             raise ValueError(f"params: unknown parameter(s) {sorted(unknown)}")
@@ -235,51 +274,68 @@ class ChartModel:
         c, dc = self.terms.path_coefficient(chl, cdom, w=w, values=consts, wrt=spectral,
                                             floor=chl_floor)
         k = np.exp(-L[..., None] * c)
-        G = k @ self.Bt
-        values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
-        if not jacobian:
-            return Prediction(values, G, k, c, None, ())
-        lead = values.shape[:-1]
+        lead = k.shape[:-1]
         q, mn = self.wavelengths.size, self.m * self.n
-        # every column of dk/dtheta stacked (S, p_q, q), projected by one matrix product
-        dks, names, extra = [], [], {}
-        for name in free:
-            if name in SPECTRAL:
-                d = dc[name] if name == "w" else dc[name][..., None]
-                dks.append(np.swapaxes(np.broadcast_to(d, lead + d.shape[-2:]), -1, -2))
+        if not jacobian:
+            G = k @ self.Bt
+            values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
+            return Prediction(values, G, k, c, None, ())
+        count = {name: self.z if name == "w" else self.m if name == "backscatter" else 1
+                 for name in free}
+        # k and every column of dk/dtheta stacked (S, 1 + p_q, q) and projected onto the
+        # patches by one matrix product: dk = -L k dc/dtheta (spectral), -c k (path length)
+        in_q = [name for name in free if name in SPECTRAL or name in GEOMETRY]
+        stack = np.empty(lead + (1 + sum(count[n] for n in in_q), q))
+        stack[..., 0, :] = k
+        minus_Lk = -L[..., None] * k
+        row = 1
+        for name in in_q:
+            if name == "w":
+                stack[..., row:row + self.z, :] = minus_Lk[..., None, :] * np.swapaxes(dc["w"], -1, -2)
             elif name in GEOMETRY:
-                dks.append(np.broadcast_to(c, lead + (q,))[..., None, :])
+                stack[..., row, :] = -c * k
             else:
-                extra[name] = None
-                continue
-            names += [name] * dks[-1].shape[-2]
-        blocks = []
-        if dks:
-            dk = np.concatenate(dks, axis=-2)
-            is_geo = np.array([n in GEOMETRY for n in names])
-            # d k / d theta = -L k dc/dtheta (spectral), -c k (path length)
-            factor = np.where(is_geo[:, None], 1.0, L[..., None, None]) * -k[..., None, :]
-            dG = ((factor * dk).reshape(-1, q) @ self.Bt).reshape(lead + (len(names), mn))
-            blocks.append(dG * gain[..., None, None])
-        order = list(names)
+                stack[..., row, :] = minus_Lk * dc[name]
+            row += count[name]
+        proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
+        G = proj[..., 0, :]
+        values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
+        rows = np.empty(lead + (sum(count.values()), mn))
+        at, src, names = 0, 1, []
         for name in free:
-            if name == "gain":
-                blocks.append(G[..., None, :])
-            elif name == "backscatter":
-                blocks.append(np.broadcast_to(np.repeat(np.eye(self.m), self.n, axis=1),
-                                              lead + (self.m, mn)))
-            else:
-                continue
-            order += [name] * blocks[-1].shape[-2]
-        if blocks:
-            J = np.swapaxes(np.concatenate(blocks, axis=-2), -1, -2)
-        else:
-            J = np.zeros(lead + (mn, 0))
-        # columns in the order of ``free``
-        perm = [i for name in free for i, c_ in enumerate(order) if c_ == name]
-        J = J[..., perm] if perm != list(range(len(order))) else J
-        names = [order[i] for i in perm]
-        return Prediction(values, G, k, c, J, tuple(names))
+            width = count[name]
+            if name in in_q:
+                rows[..., at:at + width, :] = proj[..., src:src + width, :] * gain[..., None, None]
+                src += width
+            elif name == "gain":
+                rows[..., at, :] = G
+            else:  # backscatter: one indicator per channel
+                rows[..., at:at + width, :] = np.repeat(np.eye(self.m), self.n, axis=1)
+            names += [name] * width
+            at += width
+        return Prediction(values, G, k, c, np.swapaxes(rows, -1, -2), tuple(names), rows)
+
+    def _batch_size(self, params) -> int:
+        """N where every parameter has at most one leading axis of length N (else 0)."""
+        n = 0
+        for name, v in params.items():
+            nd = np.ndim(v) - (1 if name in ("backscatter", "w") else 0)
+            if nd > 1:
+                return 0
+            if nd == 1:
+                size = np.shape(v)[0]
+                if n and size != n:
+                    return 0
+                n = size
+        return n
+
+    @staticmethod
+    def _rows_of(params, n, sl) -> dict:
+        out = {}
+        for name, v in params.items():
+            nd = np.ndim(v) - (1 if name in ("backscatter", "w") else 0)
+            out[name] = np.asarray(v)[sl] if nd == 1 else v
+        return out
 
     # ------------------------------------------------------------------ eq 17
     def phyto_scale(self, chl, derivative=False):
@@ -300,9 +356,8 @@ class ChartModel:
 def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     """The closed-form linear unknowns of M = gain G + s 1^T for given signals.
 
-    gain >= 0 (when ``free_gain``; else 1) and s >= 0 minimise sum w2 (M - gain G - s 1^T)^2:
-    an active set over the channels' s (a channel whose s would be negative is held at 0 and
-    the gain refitted; at most m + 1 passes).
+    gain >= 0 (when ``free_gain``; else 1) and s >= 0 minimise sum w2 (M - gain G - s 1^T)^2
+    (the compiled active set of :func:`sca.projection.linear_part_stats`).
 
     Parameters
     ----------
@@ -322,31 +377,11 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     active : ndarray of bool, (N, m)
         True where s is free and positive (its channel mean is projected out of a Jacobian).
     """
-    N, m, _ = G3.shape
     w2 = np.broadcast_to(w2, G3.shape)
-    sw, sM, sG = w2.sum(-1), (w2 * M3).sum(-1), (w2 * G3).sum(-1)
-    act = np.full((N, m), fixed_s is None)
-    s0 = np.zeros((N, m)) if fixed_s is None else np.broadcast_to(fixed_s, (N, m))
-    if not free_gain:
-        gain = np.ones(N)
-        if fixed_s is not None:
-            return gain, np.array(s0, float), act
-        s = (sM - sG) / sw
-        act = s > 0
-        return gain, np.where(act, s, 0.0), act
-    sGG, sGM = (w2 * G3 * G3).sum(-1), (w2 * G3 * M3).sum(-1)
-    gain = np.zeros(N)
-    for _ in range(m + 1):
-        num = np.where(act, sGM - sG * sM / sw, sGM - s0 * sG).sum(-1)
-        den = np.where(act, sGG - sG * sG / sw, sGG).sum(-1)
-        ok = (den > 0) & (num > 0)
-        gain = np.where(ok, num / np.where(ok, den, 1.0), 0.0)
-        s = np.where(act, (sM - gain[:, None] * sG) / sw, s0)
-        neg = act & (s <= 0)
-        if not neg.any():
-            break
-        act = act & ~neg
-    return gain, np.where(act, s, s0), act
+    wG = w2 * G3
+    M3 = np.broadcast_to(M3, G3.shape)
+    stats = (w2.sum(-1), (w2 * M3).sum(-1), wG.sum(-1), (wG * G3).sum(-1), (wG * M3).sum(-1))
+    return linear_part_stats(*stats, fixed_s=fixed_s, free_gain=free_gain)
 
 
 def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):

@@ -1,0 +1,238 @@
+"""Variable projection of the linear unknowns, compiled: the gain and the backscatter of
+M = gain G + s 1^T in closed form, and the Kaufman Jacobian, objective, gradient and
+Gauss-Newton matrix of the nonlinear parameters.
+
+It contains no physics: it receives the model function's columns (the unit-gain signal G and
+its derivatives dG/dtheta, from :meth:`sca.model.ChartModel.predict`), the measurements and
+their weights, so numba's on-disk cache (keyed on this file) holds no numbers. For each chart,
+with weights w = 1 / sigma^2 per value:
+
+* per channel c the weighted sums sw = sum w, sM = sum w M, sG, sGG = sum w G^2, sGM;
+* gain >= 0 (or 1 where it is known) and s >= 0 minimise sum w (M - gain G - s 1^T)^2 by an
+  active set over the channels' s (a channel whose s would be negative is held at 0 and the
+  gain refitted; at most m + 1 passes);
+* r = M - gain G - s, f = sum w r^2;
+* the columns x_p = gain dG/dtheta_p, minus their weighted channel mean where s is active, and
+  (free gain) projected off the centred G: g_p = -sum w x_p r, H_pq = sum w x_p x_q.
+
+References
+----------
+L. Kaufman, "A variable projection method for solving separable nonlinear least squares
+problems", BIT 15 (1975) 49-57.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .compiled import KERNEL_LOCK, njit, prange
+
+__all__ = ["linear_part_stats", "project"]
+
+
+@njit(cache=True)
+def _active_set(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, s_out, act):  # pragma: no cover
+    """gain and s (into ``s_out``; ``act`` 1 where s is free and positive) of one chart from its
+    channel sums; returns the gain."""
+    m = sw.shape[0]
+    for ch in range(m):
+        act[ch] = 0.0 if has_fs else 1.0
+    if not free_gain:
+        for ch in range(m):
+            if has_fs:
+                s_out[ch] = fs[ch]
+            else:
+                sc = (sM[ch] - sG[ch]) / sw[ch]
+                if sc > 0.0:
+                    s_out[ch] = sc
+                else:
+                    s_out[ch] = 0.0
+                    act[ch] = 0.0
+        return 1.0
+    gain = 0.0
+    for _ in range(m + 1):
+        num = 0.0
+        den = 0.0
+        for ch in range(m):
+            if act[ch] > 0.0:
+                num += sGM[ch] - sG[ch] * sM[ch] / sw[ch]
+                den += sGG[ch] - sG[ch] * sG[ch] / sw[ch]
+            else:
+                sc = fs[ch] if has_fs else 0.0
+                num += sGM[ch] - sc * sG[ch]
+                den += sGG[ch]
+        gain = num / den if (den > 0.0 and num > 0.0) else 0.0
+        again = False
+        for ch in range(m):
+            if act[ch] > 0.0:
+                sc = (sM[ch] - gain * sG[ch]) / sw[ch]
+                if sc <= 0.0:
+                    act[ch] = 0.0
+                    sc = 0.0
+                    again = True
+                s_out[ch] = sc
+            else:
+                s_out[ch] = fs[ch] if has_fs else 0.0
+        if not again:
+            break
+    return gain
+
+
+@njit(parallel=True, cache=True)
+def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
+    K, m = sw.shape
+    gain = np.empty(K)
+    s = np.empty((K, m))
+    act = np.empty((K, m))
+    for i in prange(K):
+        gain[i] = _active_set(sw[i], sM[i], sG[i], sGG[i], sGM[i], fs[i], has_fs, free_gain,
+                              s[i], act[i])
+    return gain, s, act
+
+
+def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = True):
+    """The closed-form (gain, s) from each channel's weighted sums (arrays (..., m)).
+
+    Parameters
+    ----------
+    sw, sM, sG, sGG, sGM : array_like, (..., m)
+        sum w, sum w M, sum w G, sum w G^2, sum w G M over each channel's patches.
+    fixed_s : array_like, (..., m), optional
+        Backscatter held at these values.
+    free_gain : bool
+        Estimate the gain (else it is 1).
+
+    Returns
+    -------
+    gain : ndarray, (...,)
+    s : ndarray, (..., m)
+    active : ndarray of bool, (..., m)
+        True where s is free and positive.
+    """
+    shape = np.broadcast_shapes(*(np.shape(x) for x in (sw, sM, sG, sGG, sGM)))
+    m = shape[-1]
+    flat = [np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), shape).reshape(-1, m))
+            for x in (sw, sM, sG, sGG, sGM)]
+    has_fs = fixed_s is not None
+    fs = (np.ascontiguousarray(np.broadcast_to(np.asarray(fixed_s, float), shape).reshape(-1, m))
+          if has_fs else np.zeros((1, m)))
+    if not has_fs:
+        fs = np.broadcast_to(fs, flat[0].shape)
+    with KERNEL_LOCK:
+        gain, s, act = _linear_many(*flat, np.ascontiguousarray(fs), has_fs, bool(free_gain))
+    return gain.reshape(shape[:-1]), s.reshape(shape), act.reshape(shape) > 0
+
+
+@njit(parallel=True, cache=True)
+def _project(G, JR, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+    N, p = JR.shape[0], JR.shape[1]
+    f = np.empty(N)
+    ssr = np.empty(N)
+    g = np.zeros((N, p))
+    H = np.zeros((N, p, p))
+    gain = np.empty(N)
+    s = np.empty((N, m))
+    for i in prange(N):
+        sw = np.zeros(m)
+        sM = np.zeros(m)
+        sG = np.zeros(m)
+        sGG = np.zeros(m)
+        sGM = np.zeros(m)
+        act = np.empty(m)
+        for ch in range(m):
+            for j in range(ch * n, ch * n + n):
+                w = W2[i, j]
+                x = G[i, j]
+                sw[ch] += w
+                sM[ch] += w * M[i, j]
+                sG[ch] += w * x
+                sGG[ch] += w * x * x
+                sGM[ch] += w * x * M[i, j]
+        gi = _active_set(sw, sM, sG, sGG, sGM, fs[i], has_fs, free_gain, s[i], act)
+        gain[i] = gi
+        fi = 0.0
+        si = 0.0
+        r = np.empty(m * n)
+        for ch in range(m):
+            for j in range(ch * n, ch * n + n):
+                rj = M[i, j] - gi * G[i, j] - s[i, ch]
+                r[j] = rj
+                fi += W2[i, j] * rj * rj
+                si += rj * rj
+        f[i] = fi
+        ssr[i] = si
+        if not grad:
+            continue
+        X = np.empty((p, m * n))
+        for a in range(p):
+            for ch in range(m):
+                mean = 0.0
+                for j in range(ch * n, ch * n + n):
+                    X[a, j] = gi * JR[i, a, j]
+                    mean += W2[i, j] * X[a, j]
+                if act[ch] > 0.0:
+                    mean /= sw[ch]
+                    for j in range(ch * n, ch * n + n):
+                        X[a, j] -= mean
+        if free_gain:  # project the columns off the centred G (the gain's column)
+            Gc = np.empty(m * n)
+            gg = 0.0
+            for ch in range(m):
+                mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
+                for j in range(ch * n, ch * n + n):
+                    Gc[j] = G[i, j] - mean
+                    gg += W2[i, j] * Gc[j] * Gc[j]
+            if gi > 0.0 and gg > 0.0:
+                for a in range(p):
+                    dot = 0.0
+                    for j in range(m * n):
+                        dot += W2[i, j] * Gc[j] * X[a, j]
+                    c = dot / gg
+                    for j in range(m * n):
+                        X[a, j] -= c * Gc[j]
+        for a in range(p):
+            acc = 0.0
+            for j in range(m * n):
+                acc += W2[i, j] * X[a, j] * r[j]
+            g[i, a] = -acc
+            for b in range(a + 1):
+                acc = 0.0
+                for j in range(m * n):
+                    acc += W2[i, j] * X[a, j] * X[b, j]
+                H[i, a, b] = acc
+                H[i, b, a] = acc
+    return f, g, H, gain, s, ssr
+
+
+def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool = True):
+    """The variable projection of N charts (see the module docstring).
+
+    Parameters
+    ----------
+    G : ndarray, (N, m n)
+        Unit-gain signals (the data's units).
+    JR : ndarray, (N, p, m n)
+        dG/dtheta as rows (unit gain), p >= 0.
+    M, W2 : ndarray, (N, m n)
+        Measurements and weights 1 / sigma^2.
+    fixed_s : ndarray, (N, m) or None
+        Backscatter held (None: estimated, s >= 0).
+    free_gain : bool
+        Estimate the gain.
+    m, n : int
+        Channels and patches.
+    grad : bool
+        Also the gradient and Gauss-Newton matrix (else zeros).
+
+    Returns
+    -------
+    f, g (N, p), H (N, p, p), gain (N,), s (N, m), ssr (N,): the weighted and unweighted sums
+    of squares.
+    """
+    N = G.shape[0]
+    has_fs = fixed_s is not None
+    fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((N, m))
+    with KERNEL_LOCK:
+        return _project(np.ascontiguousarray(G, float), np.ascontiguousarray(JR, float),
+                        np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs,
+                        has_fs, bool(free_gain), int(m), int(n), bool(grad))
