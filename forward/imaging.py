@@ -17,6 +17,7 @@ from .spectra import (
     camera_sensitivities,
     chart_reflectances,
     illuminant_spd,
+    is_path,
     quadrature_weights,
     wavelength_grid,
 )
@@ -295,9 +296,9 @@ def chart_setup(camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavel
     Blasinski & Farrell, eqs 1 and 15.
     """
     wl = wavelength_grid(wavelengths)
-    if channel_gains is None and all(
-            x is None or (isinstance(x, str) and not x.lower().endswith((".csv", ".txt")))
-            for x in (camera, illuminant, reflectances)):
+    # only built-in names are cached: a file's numbers may change under the same name
+    if channel_gains is None and all(x is None or (isinstance(x, str) and not is_path(x))
+                                     for x in (camera, illuminant, reflectances)):
         return _chart_setup_named(camera, illuminant, reflectances, tuple(wl))
     return _build_setup(camera, illuminant, reflectances, wl, channel_gains)
 

@@ -60,9 +60,10 @@ INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 6)])
 CHUNK = 65536
 #: Values per block of the free-gain start search (charts x grid points x m n).
 START_BLOCK = 2_000_000
-#: The engine: array code over all charts (the model function is numpy).
-ENGINES = ("numpy",)
-DEFAULT_ENGINE = "numpy"
+#: The engine: the model function (numpy, in blocks on every core) and the compiled,
+#: physics-free variable projection (:mod:`sca.projection`).
+ENGINES = ("numba",)
+DEFAULT_ENGINE = "numba"
 
 
 @dataclass
@@ -169,8 +170,9 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         Levenberg-Marquardt iteration limit.
     tol : float
         Relative decrease at which a chart stops.
-    engine : {'numpy'}
-        The array engine (the model function is numpy code).
+    engine : {'numba'}
+        The one engine: the model function's columns, projected by compiled code
+        (:mod:`sca.projection`).
     gain : {'known', 'free'}
         'free': M = gain G + s with one unknown gain per chart (a photograph's exposure).
 

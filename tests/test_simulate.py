@@ -103,9 +103,9 @@ def test_other_cameras_grids_and_custom_arrays(tmp_path):
     for step in (5.0, 20.0):
         g = np.arange(400, 701, step)
         s = forward.simulate_chart(1, 0.1, 5, 1, wavelengths=g, noise=False)
-        s10 = forward.simulate_chart(1, 0.1, 5, 1, noise=False)
-        # integrals converge: 5/20 nm within a few % of 10 nm
-        np.testing.assert_allclose(s.rgb, s10.rgb, rtol=0.1, atol=1e-4)
+        s1 = forward.simulate_chart(1, 0.1, 5, 1, noise=False)  # the default grid: 1 nm
+        # integrals converge: 5/20 nm within a few % of the default 1 nm
+        np.testing.assert_allclose(s.rgb, s1.rgb, rtol=0.1, atol=1e-4)
     # user arrays and CSV files give the same result as the named data
     P = forward.camera_sensitivities("Nikon 5100 (NPL)", None)
     R = forward.chart_reflectances(None, None)
@@ -134,3 +134,20 @@ def test_to_json_roundtrip():
     d = json.loads(sim.to_json())
     np.testing.assert_allclose(d["rgb"], sim.rgb)
     assert d["seed"] == 3 and d["sensor"]["pixels_per_patch"] == 100
+
+
+def test_a_camera_file_is_read_again_when_it_changes(tmp_path):
+    """No cache outlives the numbers it was built from: a sensitivity file edited in place
+    (any extension) gives a new setup."""
+    wl = forward.wavelength_grid()
+    base = forward.camera_sensitivities(forward.DEFAULT_CAMERA, wl)
+    path = tmp_path / "camera.dat"
+    rows = ["wavelength,red,green,blue"] + [f"{w},{r},{g},{b}" for w, (r, g, b) in zip(wl, base)]
+    path.write_text("\n".join(rows))
+    first = forward.chart_setup(str(path))
+    # another shape of the green curve (each channel is normalised to its peak)
+    rows = ["wavelength,red,green,blue"] + [f"{w},{r},{g * w / 700},{b}"
+                                              for w, (r, g, b) in zip(wl, base)]
+    path.write_text("\n".join(rows))
+    second = forward.chart_setup(str(path))
+    assert not np.allclose(first.sensitivities, second.sensitivities)
