@@ -1125,24 +1125,26 @@ def _particle_term(x, wrt):
 def _sum_pieces(pieces, lead, q):
     """sum of weight x spectrum over ``pieces``, shape lead + (q,): the pieces whose spectrum
     is one for all charts by one matrix product, constant ones once, the rest elementwise."""
-    const = np.zeros(q)
-    weights, spectra, out = [], [], None
+    const = None
+    weights, spectra, total = [], [], None
     for w, sh in pieces:
-        if np.ndim(sh) == 1 and np.ndim(w) == 0:
-            const = const + w * sh
-        elif np.ndim(sh) == 1:
-            weights.append(np.broadcast_to(w, lead + (1,))[..., 0])
+        one_spectrum = sh.ndim == 1
+        if one_spectrum and np.ndim(w) == 0:
+            const = w * sh if const is None else const + w * sh
+        elif one_spectrum:
+            weights.append(w[..., 0] if w.shape[:-1] == lead else
+                           np.broadcast_to(w, lead + (1,))[..., 0])
             spectra.append(sh)
         else:
-            out = w * sh if out is None else out + w * sh
-    total = np.stack(weights, axis=-1) @ np.stack(spectra) if weights else None
-    for extra in (out,):
-        if extra is not None:
-            total = extra if total is None else total + extra
+            total = w * sh if total is None else total + w * sh
+    if weights:
+        prod = np.stack(weights, axis=-1) @ np.stack(spectra)
+        total = prod if total is None else total + prod
+    if const is not None:
+        total = const if total is None else total + const
     if total is None:
-        return np.broadcast_to(const, lead + (q,))
-    total += const
-    return np.broadcast_to(total, lead + (q,))
+        return np.zeros(lead + (q,))
+    return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))
 
 
 #: The terms of c(x) (eqs 4-12), each returning its value and its derivatives by name.

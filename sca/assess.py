@@ -3,9 +3,10 @@
 One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (DECISIONS.md,
 "Trust"):
 
-* **goodness of fit**: ``fit_rms`` = ||M - G - s|| / ||M||; with the noise known, chi^2 of the
-  whitened residual on ``dof`` = m n - (free C, a_CDOM, active s) degrees of freedom, its
-  reduced value ``chi2_dof`` and p-value; p < :data:`MISFIT_P` is a ``misfit``;
+* **goodness of fit**: ``fit_rms`` = ||M - gain G - s|| / ||M||; with the noise known, chi^2 of
+  the whitened residual on ``dof`` = m n - (free C, a_CDOM and any other free nonlinear
+  parameter, active s, a free gain) degrees of freedom, its reduced value ``chi2_dof`` and
+  p-value; p < :data:`MISFIT_P` is a ``misfit``;
 * **intervals**: 95 % profile likelihood (:func:`profile_delta`): the set of C (or a_CDOM)
   whose profile objective is within chi^2_1(0.95) = 3.84 of the minimum (noise known) or within
   F(0.95; 1, dof) times the residual variance (noise estimated from the residual);
@@ -57,8 +58,34 @@ INFORMATIVE = ("at-bound-chl", "at-bound-cdom")
 def profile_delta(noise_known: bool, f_min, dof, f_data=None):
     """The rise of the profile objective that bounds the 95 % interval (arrays allowed).
 
-    With the noise estimated from the residual, a residual at rounding level (below 1e-20 of
-    ``f_data``, the data's own sum of squares) gives 0: the interval has zero width."""
+    chi^2_1(0.95) = 3.84 where the noise is known (the objective is chi^2); F(0.95; 1, dof)
+    f_min / dof where it is estimated from the residual. With the noise estimated, a residual
+    at rounding level (below 1e-20 of ``f_data``, the data's own sum of squares) gives 0: the
+    interval has zero width.
+
+    Parameters
+    ----------
+    noise_known : bool
+        The objective is chi^2 (whitened by the known noise).
+    f_min : float or array_like, (N,)
+        The objective at the optimum (chi^2, or the unweighted sum of squares in the
+        problem's units).
+    dof : int or array_like, (N,)
+        Degrees of freedom of the residual (values below 1 count as 1).
+    f_data : float or array_like, (N,), optional
+        The data's own (weighted) sum of squares, in the units of ``f_min``.
+
+    Returns
+    -------
+    ndarray, shape of ``f_min``
+        Delta: the interval is {theta_j : profile objective <= f_min + Delta}, in the units of
+        ``f_min``.
+
+    References
+    ----------
+    D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
+    confidence intervals", Applied Statistics 37 (1988) 87-94.
+    """
     f_min = np.asarray(f_min, float)
     dof = np.maximum(np.asarray(dof), 1)
     if noise_known:
@@ -70,8 +97,29 @@ def profile_delta(noise_known: bool, f_min, dof, f_data=None):
 
 
 def gain_wald(gain, var, f_min, dof, noise_known: bool):
-    """95 % Wald intervals (N, 2) of the gain from its Gauss-Newton variance ``var`` (noise
-    variance 1 units; scaled by f_min / dof where the noise is estimated), clipped at 0."""
+    """95 % Wald intervals (N, 2) of the gain from its Gauss-Newton variance ``var``.
+
+    gain -/+ 1.96 sqrt(var'), var' = ``var`` (noise variance 1 units) where the noise is known,
+    ``var`` f_min / dof where it is estimated; the lower end clipped at 0.
+
+    Parameters
+    ----------
+    gain : array_like, (N,)
+        The estimated gains (units of the measurements per model unit).
+    var : array_like, (N,)
+        Their Gauss-Newton variances for unit noise variance (``inf``: undetermined).
+    f_min : array_like, (N,)
+        The objective at the optimum (used only where the noise is estimated).
+    dof : array_like, (N,)
+        Degrees of freedom of the residual (values below 1 count as 1).
+    noise_known : bool
+        ``var`` is already in the units of the known noise.
+
+    Returns
+    -------
+    ndarray, (N, 2)
+        Lower and upper ends, units of ``gain``.
+    """
     gain = np.asarray(gain, float)
     var = np.asarray(var, float) * (1.0 if noise_known else np.asarray(f_min, float)
                                     / np.maximum(np.asarray(dof), 1))
@@ -80,7 +128,24 @@ def gain_wald(gain, var, f_min, dof, noise_known: bool):
 
 
 def goodness(chi2, dof, noise_known: bool):
-    """(chi2_dof, p-value): NaN where the noise is unknown (it cannot be tested)."""
+    """(chi2_dof, p-value): NaN where the noise is unknown (it cannot be tested).
+
+    Parameters
+    ----------
+    chi2 : float or array_like, (N,)
+        chi^2 of the whitened residual (the objective with the noise known).
+    dof : int or array_like, (N,)
+        Degrees of freedom (values below 1 count as 1).
+    noise_known : bool
+        The residual is whitened by the known noise.
+
+    Returns
+    -------
+    chi2_dof : ndarray, shape of ``chi2``
+        chi2 / dof (NaN where the noise is unknown).
+    p_value : ndarray, shape of ``chi2``
+        P(X > chi2) for X ~ chi^2_dof (NaN where the noise is unknown).
+    """
     chi2 = np.asarray(chi2, float)
     dof = np.maximum(np.asarray(dof), 1)
     if not noise_known:
@@ -90,8 +155,30 @@ def goodness(chi2, dof, noise_known: bool):
 
 
 def input_flag_table(M, sigma=None, saturation=None) -> dict:
-    """Sanity checks of N charts at once: {flag: (N,) bool} for ``M`` (N, m, n), ``sigma``
-    (N, m, n) or None, and the clip level ``saturation`` (N,) in data units or None."""
+    """Sanity checks of N charts at once: {flag: (N,) bool}.
+
+    ``saturated``: a value at (within 1e-9 of) the clip level ``saturation`` or, without it,
+    two or more values tied at the chart's maximum (> 0). For 24-patch charts (ColorChecker)
+    only: ``dark``: with ``sigma``, the grey row's white-black contrast below :data:`DARK_SNR`
+    standard deviations in every channel (never raised without ``sigma``); ``patch-order``: a
+    grey-row step (:data:`GREY_ROW`, white to black) rises by more than :data:`ORDER_SIGMAS`
+    standard deviations (without ``sigma``: by more than :data:`ORDER_FRACTION` of the
+    channel's white), in a chart that is not ``dark``. Both are False for other charts.
+
+    Parameters
+    ----------
+    M : array_like, (N, m, n)
+        Patch values of N charts (data units).
+    sigma : array_like, (N, m, n), optional
+        Standard deviation of every value (data units).
+    saturation : array_like, (N,), optional
+        The sensor's clip level of every chart (data units).
+
+    Returns
+    -------
+    dict
+        'saturated', 'dark', 'patch-order' -> ndarray of bool, (N,).
+    """
     M = np.asarray(M, float)
     N = M.shape[0]
     flat = M.reshape(N, -1)
@@ -120,7 +207,22 @@ def input_flag_table(M, sigma=None, saturation=None) -> dict:
 
 
 def input_flags(M, sigma=None, saturation=None) -> list:
-    """The sanity flags of one chart ``M`` (m, n) (see :func:`input_flag_table`)."""
+    """The sanity flags of one chart ``M`` (m, n) (see :func:`input_flag_table`).
+
+    Parameters
+    ----------
+    M : array_like, (m, n)
+        Patch values (data units).
+    sigma : array_like, (m, n), optional
+        Standard deviation of every value (data units).
+    saturation : float, optional
+        The sensor's clip level (data units).
+
+    Returns
+    -------
+    list of str
+        The raised flags among 'saturated', 'dark', 'patch-order', in that order.
+    """
     table = input_flag_table(np.asarray(M, float)[None], None if sigma is None else
                              np.asarray(sigma, float)[None],
                              None if saturation is None else np.array([saturation], float))
@@ -130,8 +232,43 @@ def input_flags(M, sigma=None, saturation=None) -> list:
 def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, cdom_ci,
                         ci_codes, free_chl=True, free_cdom=True) -> dict:
     """The flags of N fits at once (besides :func:`input_flag_table`): {flag: (N,) bool}.
-    ``ci_codes`` (N, 4) are the ``BOUND_*`` codes of (chl low, chl high, cdom low, cdom high),
-    or None (no intervals computed)."""
+
+    ``not-converged``; ``noise-unknown``; ``misfit`` (noise known and p-value below
+    :data:`MISFIT_P` or NaN); without intervals ``no-interval``, else ``interval-failed`` (a
+    ``BOUND_FAILED`` end or a non-finite lower end of ``chl_ci`` / ``cdom_ci``),
+    ``unbounded-chl`` / ``unbounded-cdom`` (a free parameter whose upper end is open or not
+    finite); ``at-bound-chl`` / ``at-bound-cdom`` (a free parameter estimated at 0).
+
+    Parameters
+    ----------
+    converged : array_like of bool, (N,)
+        The fits converged.
+    noise_known : bool
+        ``sigma`` was given (the p-values are defined).
+    p_value : array_like, (N,)
+        chi^2 p-values of the fits (see :func:`goodness`).
+    chl : array_like, (N,)
+        Estimated C, mg m^-3.
+    cdom : array_like, (N,)
+        Estimated a_CDOM(440), m^-1.
+    chl_ci : array_like, (N, 2)
+        95 % intervals of C, mg m^-3.
+    cdom_ci : array_like, (N, 2)
+        95 % intervals of a_CDOM(440), m^-1.
+    ci_codes : array_like of int, (N, 4), or None
+        The ``BOUND_*`` codes (:mod:`sca.intervals`) of (chl low, chl high, cdom low, cdom
+        high), or None (no intervals computed).
+    free_chl, free_cdom : bool, optional
+        C / a_CDOM was estimated (default True); a fixed one raises no ``unbounded-*`` or
+        ``at-bound-*`` flag.
+
+    Returns
+    -------
+    dict
+        Flag name -> ndarray of bool, (N,): 'not-converged', 'noise-unknown', 'misfit', then
+        'no-interval' or ('interval-failed', 'unbounded-chl', 'unbounded-cdom'), then
+        'at-bound-chl', 'at-bound-cdom'.
+    """
     from .intervals import BOUND_FAILED, BOUND_OPEN
 
     converged = np.asarray(converged, bool).reshape(-1)
@@ -156,14 +293,42 @@ def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, c
 
 
 def estimate_flags(**kw) -> list:
-    """The flags of one fit (see :func:`estimate_flag_table`; scalars and one chart's ends)."""
+    """The flags of one fit (see :func:`estimate_flag_table`; scalars and one chart's ends).
+
+    Parameters
+    ----------
+    **kw
+        The keywords of :func:`estimate_flag_table` for one fit: ``converged``,
+        ``noise_known``, ``p_value``, ``chl`` (mg m^-3), ``cdom`` (m^-1) as scalars, ``chl_ci``
+        and ``cdom_ci`` as (lo, hi), ``ci_codes`` (required) as 4 codes or None, and optionally
+        ``free_chl``, ``free_cdom``.
+
+    Returns
+    -------
+    list of str
+        The raised flags, in the order of :func:`estimate_flag_table`.
+    """
     codes = kw.pop("ci_codes")
     table = estimate_flag_table(ci_codes=None if codes is None else np.array(codes)[None], **kw)
     return [k for k, v in table.items() if v[0]]
 
 
 def flag_tuples(*tables) -> tuple:
-    """Per-chart flag tuples and the (N,) reliable verdict from flag tables."""
+    """Per-chart flag tuples and the (N,) reliable verdict from flag tables.
+
+    Parameters
+    ----------
+    *tables : dict
+        Flag tables {flag: (N,) bool} (e.g. of :func:`input_flag_table` and
+        :func:`estimate_flag_table`), all for the same N charts.
+
+    Returns
+    -------
+    flags : list of tuple of str
+        For each chart, its raised flags (in the order of the tables and their keys).
+    reliable : ndarray of bool, (N,)
+        True where no flag of :data:`BLOCKING` is raised.
+    """
     names = [k for t in tables for k in t]
     F = np.column_stack([np.asarray(t[k], bool) for t in tables for k in t])
     blocking = np.array([k in BLOCKING for k in names])
@@ -176,4 +341,16 @@ def flag_tuples(*tables) -> tuple:
 
 
 def is_reliable(flags) -> bool:
+    """Whether no flag of :data:`BLOCKING` is raised.
+
+    Parameters
+    ----------
+    flags : iterable of str
+        The flags of one estimate.
+
+    Returns
+    -------
+    bool
+        True when none of ``flags`` is in :data:`BLOCKING`.
+    """
     return not any(f in BLOCKING for f in flags)

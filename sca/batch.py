@@ -72,7 +72,64 @@ class BatchEstimate:
 
     ``values`` and ``intervals`` are dicts keyed by the name of every free parameter (C and
     a_CDOM included): (N,) estimates and (N, 2) 95 % profile-likelihood intervals (Wald for the
-    gain).
+    gain). ``len()`` is N.
+
+    Attributes
+    ----------
+    chl : ndarray, (N,)
+        C, mg m^-3 (the held value where fixed).
+    cdom : ndarray, (N,)
+        a_CDOM(440), m^-1 (the held value where fixed).
+    chl_ci : ndarray, (N, 2)
+        95 % profile-likelihood intervals of C, mg m^-3 (inf: open; (C, C) where fixed; NaN
+        with ``intervals=False`` or where the search failed).
+    cdom_ci : ndarray, (N, 2)
+        The same for a_CDOM(440), m^-1.
+    reliable : ndarray of bool, (N,)
+        True where no flag of :data:`sca.assess.BLOCKING` is raised.
+    flags : list of tuple of str
+        N tuples of flag names (:mod:`sca.assess`).
+    fit_rms : ndarray, (N,)
+        ||M - gain G - s 1^T|| / ||M||.
+    chi2_dof : ndarray, (N,)
+        Reduced chi^2 (NaN where the noise is unknown).
+    chi2_p : ndarray, (N,)
+        Its p-value (NaN where the noise is unknown).
+    dof : ndarray of int, (N,)
+        m n - (free nonlinear parameters) - (active s channels) - (1 for a free gain).
+    noise_known : bool
+        ``sigma`` was given.
+    w : ndarray, (N, 1)
+        The phytoplankton weight of eq 9 on eq 17 (one basis function).
+    backscatter : ndarray, (N, m)
+        s, units of the measurements.
+    gain : ndarray, (N,)
+        The unknown exposure of M = gain G + s (gain="free"), units of the measurements per
+        model unit; ones where it is known.
+    gain_ci : ndarray, (N, 2)
+        95 % Wald interval of the gain (its Gauss-Newton standard error), clipped at 0; the
+        gain itself (both ends) where it is known.
+    attenuation : ndarray, (N, q)
+        k = exp(-(depth + distance) c) at the estimates.
+    wavelengths : ndarray, (q,)
+        The grid, nm.
+    objective : ndarray, (N,)
+        chi^2 (noise known) or ||M - gain G - s 1^T||^2 in data units squared.
+    iterations : ndarray of int, (N,)
+        Levenberg-Marquardt iterations.
+    converged : ndarray of bool, (N,)
+        Status codes 0-2 (:data:`sca.lm.STATUS`).
+    status : ndarray of str, (N,)
+        Why each chart stopped (:data:`sca.lm.STATUS`).
+    status_code : ndarray of int, (N,)
+        The codes of ``status``.
+    elapsed_s : float
+        Wall-clock time of the call, s.
+    values : dict
+        Every free parameter's (N,) estimates, by name, in its own units.
+    intervals : dict
+        Every free parameter's (N, 2) 95 % intervals, by name (profile likelihood; Wald for
+        the gain; NaN with ``intervals=False``).
     """
 
     chl: np.ndarray
@@ -180,11 +237,15 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     -------
     BatchEstimate
 
+    Notes
+    -----
+    Safe to call from several threads (no shared mutable state).
+
     References
     ----------
-    Blasinski & Farrell, eqs 15-18; L. Kaufman, BIT 15 (1975) 49-57 (variable projection).
-
-    Safe to call from several threads (no shared mutable state).
+    Blasinski & Farrell, eqs 15-18; L. Kaufman, BIT 15 (1975) 49-57 (variable projection);
+    D. W. Marquardt, J. SIAM 11 (1963) 431-441 (Levenberg-Marquardt); D. J. Venzon &
+    S. H. Moolgavkar, Applied Statistics 37 (1988) 87-94 (profile-likelihood intervals).
     """
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -302,7 +363,25 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
 def start_grid(prob: Problem, geometry):
     """The best (C, a_CDOM) of the coarse grid for every chart: gain and s in closed form
     (:func:`sca.model.linear_part_stats`) with each channel's mean weight, from each channel's
-    weighted sums (matrix products), one matrix of signals per distinct path length."""
+    weighted sums (matrix products), one matrix of signals per distinct path length.
+
+    The grid is :data:`INIT_CHL` x :data:`INIT_CDOM` (a held C or a_CDOM replaces its axis by
+    its value); other parameters are at the water's constants.
+
+    Parameters
+    ----------
+    prob : sca.lm.Problem
+        The charts (scaled units).
+    geometry : dict
+        'depth' and 'distance', (N,) each, m.
+
+    Returns
+    -------
+    chl : ndarray, (N,)
+        The best C of each chart, mg m^-3 (not the LM coordinate u).
+    cdom : ndarray, (N,)
+        The best a_CDOM(440) of each chart, m^-1.
+    """
     mdl, N = prob.model, prob.size
     m, n = mdl.m, mdl.n
     chl_grid = INIT_CHL if "chl" in prob.names else prob.fixed["chl"][:1]

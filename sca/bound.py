@@ -53,6 +53,36 @@ class Precision:
 
     ``sd`` is a dict of the standard deviation of every free parameter (C and a_CDOM included,
     a free gain too), in its own units.
+
+    Attributes
+    ----------
+    chl : ndarray, (N,), or float
+        C of each condition, mg m^-3.
+    cdom : ndarray, (N,), or float
+        a_CDOM(440) of each condition, m^-1 (a number given in ``fix`` replaces it).
+    depth, distance : ndarray, (N,), or float
+        The path, m.
+    chl_sd : ndarray, (N,), or float
+        Cramér-Rao standard deviation of C, mg m^-3.
+    cdom_sd : ndarray, (N,), or float
+        That of a_CDOM(440), m^-1 (0 where a_CDOM is held).
+    correlation : ndarray, (N,), or float
+        corr(C, a_CDOM) of the bound (NaN where a_CDOM is held).
+    rrmse : ndarray, (N,), or float
+        Expected RRMSE of the attenuation k (eq 19 on the 31 bands of 10 nm, delta method).
+    attained : ndarray of bool, (N,), or bool
+        No flag raised (the bound is expected to describe the estimator's spread).
+    flags : list of tuple of str, or tuple of str
+        Raised flags per condition: 'dark', 'saturated', 'near-bound-chl', 'near-bound-cdom'.
+    gain : str
+        'known', 'free' or 'channels'.
+    fixed : dict
+        The ``fix`` argument as given.
+    sd : dict
+        name -> standard deviation of every free parameter (and 'gain' for ``gain='free'``),
+        in its own units.
+    chl_rel95, cdom_rel95 : ndarray or float
+        (Properties) 1.96 sd / value of C and of a_CDOM.
     """
 
     chl: np.ndarray
@@ -108,17 +138,26 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     gain : {'known', 'free', 'channels'}
         The exposure: known, one unknown gain, or one unknown gain per channel.
     fix : dict, optional
-        Parameters held known: 'cdom' or 'chl' (value None: known at the condition's value;
-        a number replaces the condition's value), 'backscatter' (None: known), or a
-        forward.Water coefficient (its value).
+        Parameters held known: 'cdom' (value None: known at the condition's value; a number
+        replaces the condition's value, m^-1), 'backscatter' (any value, None included: known;
+        M0 keeps the veiling light of :mod:`forward`), or a forward.Water coefficient (its
+        value). 'chl' is refused (the bound is for C).
     free : sequence of str
         More parameters estimated: forward.Water coefficients (e.g. 'cdom_slope') or the
-        geometry ('depth', 'distance').
+        geometry ('depth', 'distance'). ('gain' here has no effect: the exposure is set by
+        ``gain``.)
 
     Returns
     -------
     Precision
         Scalars where every condition was a scalar.
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``gain``, a ``fix`` that is not a dict or holds 'chl', negative
+        conditions, a sensor that is not a ``forward.SensorSettings``, or a water whose
+        phytoplankton basis has z > 1.
 
     References
     ----------

@@ -37,7 +37,9 @@ class FitSpec:
         Free nonlinear parameters in a fixed order: 'chl', 'cdom' (unless fixed), then the
         extra names of ``free=`` in the order given.
     fixed : dict
-        Held values: 'chl', 'cdom' (scalars), 'backscatter' ((m,) array).
+        Held values: 'chl' (mg m^-3), 'cdom' (m^-1) (scalars), 'backscatter' ((m,) array, in
+        the units of the measurements). Held Water coefficients are not here but in
+        ``water``.
     free_gain : bool
         The exposure gain is estimated.
     free_s : bool
@@ -55,7 +57,28 @@ class FitSpec:
 
 def parse_fix(fix, m: int) -> dict:
     """``fix`` (a dict name -> value) checked: names in :data:`FIXABLE`, values finite (C,
-    a_CDOM and s >= 0; s a scalar or one value per channel, (m,))."""
+    a_CDOM and s >= 0; s a scalar or one value per channel, (m,)).
+
+    Parameters
+    ----------
+    fix : dict or None
+        Held parameters: 'chl' (mg m^-3), 'cdom' (a_CDOM(440), m^-1), 'backscatter' (scalar or
+        (m,), units of the measurements) and any :data:`forward.water.COEFFICIENT_PARAMS` field
+        (its own units, any sign).
+    m : int
+        Number of camera channels.
+
+    Returns
+    -------
+    dict
+        The checked values: floats, and 'backscatter' as an (m,) array; empty for None.
+
+    Raises
+    ------
+    ValueError
+        If ``fix`` is not a dict, names a parameter outside :data:`FIXABLE`, or a value is not
+        finite, negative where it must be >= 0, or (backscatter) not broadcastable to (m,).
+    """
     if fix is None:
         return {}
     if not isinstance(fix, dict):
@@ -78,7 +101,33 @@ def parse_fix(fix, m: int) -> dict:
 
 
 def fit_spec(free, fix, gain: str, water: Water, m: int) -> FitSpec:
-    """The unknowns of a fit from its ``free``, ``fix`` and ``gain`` arguments."""
+    """The unknowns of a fit from its ``free``, ``fix`` and ``gain`` arguments.
+
+    Parameters
+    ----------
+    free : sequence of str or None
+        Names estimated besides C and a_CDOM (:data:`FREEABLE`): Water coefficients, 'depth',
+        'distance', 'gain' (same as ``gain='free'``); 'chl', 'cdom' and 'backscatter' are
+        estimated anyway unless fixed.
+    fix : dict or None
+        Held values (see :func:`parse_fix`); a name may not be both free and fixed.
+    gain : {'known', 'free'}
+        The exposure gain (:data:`GAINS`).
+    water : forward.Water
+        The water model; held Water coefficients are written into a copy of it.
+    m : int
+        Number of camera channels.
+
+    Returns
+    -------
+    FitSpec
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``gain``, an unknown or repeated name, a name both free and fixed, or
+        nothing left to estimate.
+    """
     if gain not in GAINS:
         raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
     extra = check_names("free", () if free is None else free, FREEABLE)

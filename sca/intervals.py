@@ -39,7 +39,21 @@ F_OVERFLOW = 1e300
 
 
 def effective_curvature(H, j):
-    """1 / (H^-1)_jj: the curvature of the profile of parameter j (H_jj where H is singular)."""
+    """1 / (H^-1)_jj: the curvature of the profile of parameter j (H_jj where H is singular).
+
+    Parameters
+    ----------
+    H : array_like, (N, p, p)
+        Gauss-Newton matrices J^T J (LM coordinates) of N charts.
+    j : int
+        The parameter's column.
+
+    Returns
+    -------
+    ndarray, (N,)
+        The profile's Gauss-Newton curvature; H_jj where H is singular (zero or non-finite
+        determinant) or 1 / (H^-1)_jj is not finite and positive, and for p = 1.
+    """
     H = np.asarray(H, float)
     out = np.array(H[:, j, j], float)
     if H.shape[1] == 1:
@@ -156,16 +170,36 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
 
     Parameters
     ----------
-    prob : Problem
-    theta_hat : (N, p) optimum (LM coordinates)
-    f_hat : (N,) objective there;  delta : (N,) rise that bounds the interval
-    H : (N, p, p) Gauss-Newton matrix at the optimum
-    caps : (p,) where an upper end is open (LM coordinates)
+    prob : sca.lm.Problem
+        The charts (scaled units) and what is fixed about them.
+    theta_hat : ndarray, (N, p)
+        The optimum, LM coordinates (u = C^e0 for C, own units otherwise).
+    f_hat : ndarray, (N,)
+        The objective there (problem units).
+    delta : ndarray, (N,)
+        The rise that bounds the interval (:func:`sca.assess.profile_delta`); 0 gives a
+        zero-width interval.
+    H : ndarray, (N, p, p)
+        Gauss-Newton matrix at the optimum (its curvature sets the first step).
+    caps : ndarray, (p,)
+        Where an upper end is open (LM coordinates; :func:`sca.model.upper_cap`); minus it is
+        where a lower end is open for a parameter without lower bound.
+    which : iterable of int, optional
+        The columns whose intervals are searched (default: all); the others keep
+        ``theta_hat`` as both ends with code ``BOUND_FOUND``.
 
     Returns
     -------
-    ends : (N, p, 2) lower and upper ends (LM coordinates)
-    codes : (N, p, 2) ``BOUND_*``
+    ends : ndarray, (N, p, 2)
+        Lower and upper ends (LM coordinates; NaN where the search failed).
+    codes : ndarray of int, (N, p, 2)
+        ``BOUND_FOUND``, ``BOUND_ZERO`` (at the lower bound), ``BOUND_OPEN`` (beyond the cap;
+        the end returned is the cap) or ``BOUND_FAILED``.
+
+    References
+    ----------
+    D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
+    confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
     N, p = theta_hat.shape
     which = range(p) if which is None else which

@@ -52,14 +52,29 @@ class Problem:
 
     Attributes
     ----------
-    model : ChartModel (unscaled units)
-    M : (N, m n) measurements / scale
-    W2 : (N, m n) weights (scale / sigma)^2, or ones
-    scale : (N,) the data's scales
-    names : free nonlinear parameters, in the order of theta's columns
-    fixed : name -> (N,) (or (N, m) for 'backscatter') values of everything else
-    free_gain : the exposure gain is estimated (profiled out with s)
-    fixed_s : (N, m) backscatter held (scaled units) or None (s free)
+    model : ChartModel
+        The chart model (unscaled units: its signals are divided by ``scale`` here).
+    M : ndarray, (N, m n)
+        Measurements / scale (row-major over channel, patch).
+    W2 : ndarray, (N, m n)
+        Weights (scale / sigma)^2, or ones where the noise is unknown.
+    scale : ndarray, (N,)
+        The data's scales (each chart's maximum, data units).
+    names : tuple of str
+        Free nonlinear parameters, in the order of theta's columns.
+    fixed : dict
+        name -> (N,) (or (N, m) for 'backscatter') values of everything else the model
+        needs ('depth', 'distance' in m, and 'chl' (mg m^-3) / 'cdom' (m^-1) where they are
+        held; the estimators pass a held backscatter as ``fixed_s`` instead).
+    free_gain : bool
+        The exposure gain is estimated (profiled out with s). Default False.
+    fixed_s : ndarray, (N, m), or None
+        Backscatter held (scaled units) or None (s free, s >= 0). Default None.
+    lower : ndarray, (p,)
+        Lower bound of each column of theta (:func:`sca.model.lower_bound`; set on
+        construction).
+    chl_col : int
+        The column of C (iterated in u = C^e0), or -1 (set on construction).
     """
 
     model: ChartModel
@@ -78,10 +93,24 @@ class Problem:
 
     @property
     def size(self) -> int:
+        """N, the number of charts."""
         return self.M.shape[0]
 
     def params(self, idx, theta) -> dict:
-        """The model's parameters of charts ``idx`` at LM coordinates ``theta`` (len(idx), p)."""
+        """The model's parameters of charts ``idx`` at LM coordinates ``theta`` (len(idx), p).
+
+        Parameters
+        ----------
+        idx : array_like of int, (k,)
+            Chart indices.
+        theta : ndarray, (k, p)
+            LM coordinates (u = C^e0 for C).
+
+        Returns
+        -------
+        dict
+            name -> (k,) values for :meth:`sca.model.ChartModel.predict` (C in mg m^-3).
+        """
         out = {k: v[idx] for k, v in self.fixed.items()}
         for j, name in enumerate(self.names):
             out[name] = chl_from_u(theta[:, j], self.model.e0) if j == self.chl_col else theta[:, j]
@@ -91,12 +120,38 @@ class Problem:
 def evaluate(prob: Problem, idx, theta, grad: bool = True):
     """Objective, variable-projection gradient and Gauss-Newton matrix of charts ``idx``.
 
+    Parameters
+    ----------
+    prob : Problem
+        The charts.
+    idx : array_like of int, (k,)
+        The charts evaluated.
+    theta : ndarray, (k, p)
+        Their nonlinear parameters, LM coordinates (u = C^e0 for C).
+    grad : bool, optional
+        Also the gradient and Gauss-Newton matrix (default True).
+
     Returns
     -------
-    f : (k,) weighted sum of squares
-    g : (k, p) J^T r;  H : (k, p, p) J^T J (None without ``grad``)
-    gain : (k,);  s : (k, m) (scaled units);  ssr : (k,) unweighted sum of squares;
-    k : (k, q) the attenuation
+    f : ndarray, (k,)
+        Weighted sum of squares (chi^2 where the noise is known; scaled units otherwise).
+    g : ndarray, (k, p), or None
+        J^T r, half the gradient of f (None without ``grad``).
+    H : ndarray, (k, p, p), or None
+        J^T J, the Gauss-Newton matrix (None without ``grad``).
+    gain : ndarray, (k,)
+        The closed-form gain (1 where it is known).
+    s : ndarray, (k, m)
+        The closed-form backscatter (scaled units).
+    ssr : ndarray, (k,)
+        Unweighted sum of squares (scaled units).
+    k : ndarray, (k, q)
+        The attenuation exp(-(depth + distance) c).
+
+    References
+    ----------
+    L. Kaufman, "A variable projection method for solving separable nonlinear least squares
+    problems", BIT 15 (1975) 49-57.
     """
     mdl = prob.model
     m, n = mdl.m, mdl.n
@@ -145,16 +200,36 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     Parameters
     ----------
     prob : Problem
-    theta0 : (N, p) start
-    max_iter : iteration limit
-    tol : relative decrease (and predicted decrease) at which a chart stops
-    f_exact : (N,) objective at which the fit is exact to rounding
-    atol : (N,) optional absolute predicted decrease at which a chart stops (profile points)
-    hold : (N, p) bool, optional: coordinates held where they are (profile points)
+        The charts.
+    theta0 : ndarray, (N, p)
+        The start, LM coordinates.
+    max_iter : int
+        Iteration limit (keyword-only).
+    tol : float
+        Relative decrease (and predicted decrease) at which a chart stops (keyword-only).
+    f_exact : ndarray, (N,)
+        Objective at which the fit is exact to rounding (keyword-only).
+    atol : ndarray, (N,), optional
+        Absolute predicted decrease at which a chart stops (profile points; default 0).
+    hold : ndarray of bool, (N, p), optional
+        Coordinates held where they are (profile points; default none).
 
     Returns
     -------
-    theta : (N, p);  f : (N,);  iterations : (N,);  code : (N,) (:data:`STATUS`)
+    theta : ndarray, (N, p)
+        The final point, LM coordinates.
+    f : ndarray, (N,)
+        Its objective (as :func:`evaluate`).
+    iterations : ndarray of int, (N,)
+        Iterations of each chart.
+    code : ndarray of int, (N,)
+        Why each chart stopped (:data:`STATUS`).
+
+    References
+    ----------
+    D. W. Marquardt, "An algorithm for least-squares estimation of nonlinear parameters",
+    J. SIAM 11 (1963) 431-441; J. Nocedal & S. J. Wright, Numerical Optimization, 2nd ed.,
+    Springer (2006), ch. 10; L. Kaufman, BIT 15 (1975) 49-57 (variable projection).
     """
     N, p = theta0.shape
     theta = np.array(theta0, float)

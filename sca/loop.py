@@ -114,6 +114,32 @@ class Estimator:
         Parameters estimated besides C and a_CDOM (see :func:`sca.estimate`).
     gain : {'known', 'free'}
         The exposure gain of M = gain G + s: known (model units) or estimated.
+
+    Attributes
+    ----------
+    depth, distance : float
+        The path, m.
+    setup : forward.ChartSetup
+        Camera, illuminant and chart on the grid.
+    spec : sca.fitspec.FitSpec
+        The unknowns.
+    water : forward.Water
+        The water with every held coefficient written into it.
+    model : sca.ChartModel
+        The chart model (eq 15).
+    fixed : dict
+        Held 'chl' (mg m^-3), 'cdom' (m^-1), 'backscatter' ((m,), data units).
+    free_gain, free_s, free_chl, free_cdom, free_w : bool
+        Which of the gain, s, C, a_CDOM and w are estimated.
+    extras : tuple of str
+        Free names besides C and a_CDOM (not 'phyto_scale' or 'phyto_exponent', which enter
+        eq 17).
+
+    References
+    ----------
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18;
+    J. Nocedal & S. J. Wright, Numerical Optimization, 2nd ed., Springer (2006),
+    Algorithm 4.1 (the safeguarded loop's trust region).
     """
 
     def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
@@ -271,7 +297,21 @@ class Estimator:
         """Run the sequential convex loop on measured patch values ``rgb`` (m, n), then assess
         the fit (:mod:`sca.verdict`); see :func:`sca.estimate`. ``trace``: a dict that receives
         the loop's timing (solve_time_s, clarabel_time_s, n_solves, polish_rescues), for
-        benchmarks."""
+        benchmarks.
+
+        Parameters
+        ----------
+        rgb : array_like, (m, n)
+            Measured patch values (model units, or any units with ``gain='free'``).
+        sigma, saturation, mode, max_iter, tol, x0 :
+            As :func:`sca.estimate` (keyword-only).
+        trace : dict, optional
+            Receives 'solve_time_s', 'clarabel_time_s' (s), 'n_solves', 'polish_rescues'.
+
+        Returns
+        -------
+        Estimate
+        """
         if mode not in MODES:
             raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
         if int(max_iter) != max_iter or max_iter < 1:
@@ -632,11 +672,17 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     -------
     Estimate
 
+    Notes
+    -----
+    Safe to call from several threads (each thread compiles its own subproblem).
+
     References
     ----------
-    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18.
-
-    Safe to call from several threads (each thread compiles its own subproblem).
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18 (the
+    problem and its sequential convex loop); J. Nocedal & S. J. Wright, Numerical
+    Optimization, 2nd ed., Springer (2006), Algorithm 4.1 (the trust region of
+    ``mode='safeguarded'``); D. J. Venzon & S. H. Moolgavkar, "A method for computing
+    profile-likelihood-based confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
     est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
                     reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,

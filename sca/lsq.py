@@ -23,7 +23,29 @@ __all__ = ["estimate_least_squares", "residual_functions"]
 def residual_functions(est: Estimator, st):
     """(fun, jac, unpack, lower) of the reduced problem of fit state ``st``: fun(v) = vec(M -
     gain G(x) - s 1^T) whitened by ``st.wt``; jac(v) = d fun / dv; unpack(v) = the loop's point
-    dict; lower = the bounds of v = (names, s, [gain])."""
+    dict; lower = the bounds of v = (names, s, [gain]).
+
+    Parameters
+    ----------
+    est : Estimator
+        The estimator (its free names, held values, water and model).
+    st : sca.loop._FitState
+        The fit state of :meth:`sca.Estimator.prepare`: data M / max M, weights ``st.wt``
+        (scale / sigma, or ones), the model in those units and a held backscatter.
+
+    Returns
+    -------
+    fun : callable
+        v -> ndarray, (m n,): the whitened residual st.wt (M - gain G(x) - s), scaled units.
+    jac : callable
+        v -> ndarray, (m n, len(v)): d fun / dv, analytic (d/dC at C >=
+        :data:`sca.model.CHL_DERIVATIVE_FLOOR`, w following C along eq 17).
+    unpack : callable
+        v -> dict: the loop's point ('chl' mg m^-3, 'cdom' m^-1, every free name, 's' (m,)
+        scaled units, 'gain', 'w' (1,) on eq 17).
+    lower : ndarray, (len(v),)
+        Lower bounds of v = (free names, s (m values if free), gain (if free)).
+    """
     mdl = st.mdl
     names = list(est.spec.names)
     free = names + (["backscatter"] if est.free_s else []) + (["gain"] if est.free_gain else [])
@@ -79,6 +101,15 @@ def estimate_least_squares(rgb, *, depth, distance, sigma=None, saturation=None,
     Returns
     -------
     Estimate
+        ``iterations`` counts scipy's function evaluations; ``eq17_residual`` is 0 (w is on
+        eq 17 by construction).
+
+    References
+    ----------
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18;
+    M. A. Branch, T. F. Coleman & Y. Li, "A subspace, interior, and conjugate gradient method
+    for large-scale bound-constrained minimization problems", SIAM J. Sci. Comput. 21 (1999)
+    1-23 (scipy's 'trf').
     """
     if mode not in MODES:
         raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")

@@ -65,7 +65,27 @@ TINY = np.finfo(float).tiny
 
 
 def check_names(name: str, names, allowed=PARAMS) -> tuple:
-    """``names`` as a tuple of parameter names, or ``ValueError`` naming the argument."""
+    """``names`` as a tuple of parameter names, or ``ValueError`` naming the argument.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name (e.g. ``'free'``), used at the start of every error message.
+    names : str or iterable of str
+        The parameter names; a single string is one name.
+    allowed : sequence of str, optional
+        The names accepted (default :data:`PARAMS`).
+
+    Returns
+    -------
+    tuple of str
+        ``names`` in the order given.
+
+    Raises
+    ------
+    ValueError
+        If ``names`` is not iterable, names a parameter outside ``allowed`` or names one twice.
+    """
     if isinstance(names, str):
         names = (names,)
     try:
@@ -81,16 +101,51 @@ def check_names(name: str, names, allowed=PARAMS) -> tuple:
 
 
 def lower_bound(name: str, water: Water) -> float:
-    """The lower bound of parameter ``name``: 0 for C, a_CDOM, w (eq 16), s (eq 18), the gain,
-    lengths and the nonnegative Water constants; -inf for constants of any sign."""
+    """The lower bound of parameter ``name`` in the estimators.
+
+    0 for C, a_CDOM, w (eq 16), s (eq 18), the gain, lengths and the nonnegative (and the
+    positive) Water constants; -inf for the constants of any sign (``Water._ANY_SIGN``: the
+    slopes and spectral exponents).
+
+    Parameters
+    ----------
+    name : str
+        A parameter name (:data:`PARAMS`).
+    water : forward.Water
+        The water model (unused by the rule above; kept for a uniform signature with
+        :func:`upper_cap`).
+
+    Returns
+    -------
+    float
+        0.0 or -inf, in the parameter's own units.
+    """
     if name in Water._ANY_SIGN:
         return -np.inf
     return 0.0
 
 
 def upper_cap(name: str, water: Water) -> float:
-    """Where a profile-likelihood interval of ``name`` is called open (its upper end ``inf``);
-    for constants of any sign, minus it is where the lower end is open."""
+    """Where a profile-likelihood interval of ``name`` is called open (its upper end ``inf``).
+
+    For constants of any sign, minus the cap is where the lower end is open.
+
+    Parameters
+    ----------
+    name : str
+        A parameter name (:data:`PARAMS`).
+    water : forward.Water
+        The water model: a Water constant's cap is :data:`CONSTANT_SPAN` times its value
+        there (at least 1e-3 in magnitude).
+
+    Returns
+    -------
+    float
+        :data:`CHL_MAX` (mg m^-3) for 'chl', :data:`CDOM_MAX` (m^-1) for 'cdom',
+        :data:`LENGTH_MAX` (m) for 'depth' and 'distance', ``CONSTANT_SPAN * max(|value|, 1e-3)``
+        for a :data:`forward.water.COEFFICIENT_PARAMS` field (its own units), ``inf`` otherwise
+        ('w', 'gain', 'backscatter').
+    """
     if name == "chl":
         return CHL_MAX
     if name == "cdom":
@@ -113,16 +168,59 @@ def _pool() -> ThreadPoolExecutor:
 # Levenberg-Marquardt iterates in u = C^e0 (e0 = eq 10's exponent): every C-dependent term is
 # smooth in u at C = 0, where d/dC is infinite. A change of variable, not physics.
 def u_from_chl(chl, e0):
+    """The batch's coordinate u = max(C, 0)^e0 of C.
+
+    Parameters
+    ----------
+    chl : float or array_like
+        C, mg m^-3 (negative values count as 0).
+    e0 : float
+        The exponent of eq 10 (``Water.phyto_exponent``, 0.627 in the paper), > 0.
+
+    Returns
+    -------
+    ndarray
+        u, same shape as ``chl`` (units (mg m^-3)^e0).
+    """
     return np.maximum(np.asarray(chl, float), 0.0) ** e0
 
 
 def chl_from_u(u, e0):
+    """C = u^(1 / e0) from the batch's coordinate u (inverse of :func:`u_from_chl`).
+
+    Parameters
+    ----------
+    u : float or array_like
+        u = C^e0; values <= 0 give C = 0.
+    e0 : float
+        The exponent of eq 10 (``Water.phyto_exponent``), > 0.
+
+    Returns
+    -------
+    ndarray
+        C, mg m^-3, same shape as ``u``.
+    """
     u = np.asarray(u, float)
     return np.where(u > 0, np.maximum(u, 0.0) ** (1.0 / e0), 0.0)
 
 
 def du_chain(chl, e0):
-    """dC/du at C (evaluated at max(C, TINY), so that dM/dC dC/du is finite at C = 0)."""
+    """dC/du = C^(1 - e0) / e0 at C, the chain-rule factor of the coordinate u = C^e0.
+
+    Evaluated at max(C, :data:`TINY`), so that dM/dC dC/du is finite at C = 0.
+
+    Parameters
+    ----------
+    chl : float or array_like
+        C, mg m^-3.
+    e0 : float
+        The exponent of eq 10 (``Water.phyto_exponent``), > 0.
+
+    Returns
+    -------
+    ndarray
+        dC/du, same shape as ``chl`` (units (mg m^-3)^(1 - e0)).
+    """
     cf = np.maximum(np.asarray(chl, float), TINY)
     return cf ** (1.0 - e0) / e0
 
@@ -185,6 +283,34 @@ class ChartModel:
         Constants, tables and path model (default: the paper's).
     basis : array_like or str, optional
         Phytoplankton basis T of eq 9 replacing the water's table.
+
+    Attributes
+    ----------
+    setup : forward.ChartSetup
+        As given.
+    water : forward.Water
+        The resolved water model.
+    wavelengths : ndarray, (q,)
+        The grid, nm.
+    terms : forward.WaterTerms
+        The water's tables on the grid (``path_coefficient`` gives c(x) and dc/dx).
+    T : ndarray, (q, z)
+        Phytoplankton basis of eq 9 on the grid.
+    t440 : ndarray, (z,)
+        The basis at 440 nm (the row of eq 17).
+    z, m, n : int
+        Basis functions, camera channels, chart patches.
+    B : ndarray, (m n, q)
+        (P (x) R) diag(i): vec(G) = B k.
+    Bt : ndarray, (q, m n)
+        B transposed (contiguous).
+    e0 : float
+        The exponent of eq 10 (the batch's coordinate u = C^e0).
+
+    References
+    ----------
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eq 15 (the
+    chart model) with eqs 4-12 (the path coefficient).
     """
 
     def __init__(self, setup: ChartSetup, *, water: Water | None = None, basis=None):
@@ -373,9 +499,16 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     Returns
     -------
     gain : ndarray, (N,)
+        The gain (units of ``M3`` per unit of ``G3``); 1 where it is not free.
     s : ndarray, (N, m)
+        The backscatter, units of ``M3`` (``fixed_s`` where it is held).
     active : ndarray of bool, (N, m)
         True where s is free and positive (its channel mean is projected out of a Jacobian).
+
+    References
+    ----------
+    L. Kaufman, "A variable projection method for solving separable nonlinear least squares
+    problems", BIT 15 (1975) 49-57.
     """
     w2 = np.broadcast_to(w2, G3.shape)
     wG = w2 * G3
@@ -392,6 +525,30 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
     whitened by the sensor's noise and sigma^2 = 1). The information is inverted after Jacobi
     scaling (unit diagonal), so whether it counts as singular does not depend on the units of
     the parameters; singular (undetermined) problems give infinite variances.
+
+    Parameters
+    ----------
+    J : array_like, (..., rows, p)
+        Whitened Jacobians (d residual / d theta divided by the noise standard deviation, or
+        unweighted), any leading shape.
+    sigma2 : float or array_like, broadcastable to the leading shape ``...``
+        Noise variance in the units of the whitening (1 where J is whitened by the known
+        noise; the residual variance where the noise is estimated).
+    cond_max : float, optional
+        Largest condition number of the unit-diagonal information matrix that is inverted
+        (default :data:`COND_MAX`).
+
+    Returns
+    -------
+    ndarray, (..., p, p)
+        The covariance, in the units of the parameters. Every entry is ``inf`` for a problem
+        whose information is singular, ill-conditioned (condition number >= ``cond_max``),
+        non-finite or has a zero column.
+
+    References
+    ----------
+    S. M. Kay, Fundamentals of Statistical Signal Processing: Estimation Theory, Prentice Hall
+    (1993), ch. 3 (the inverse Fisher information as the Cramér-Rao bound).
     """
     J = np.asarray(J, float)
     F = np.swapaxes(J, -1, -2) @ J
@@ -431,6 +588,13 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
     Returns
     -------
     ndarray, (N, p [+ 1], p [+ 1])
+        The covariance of theta (and the gain, last), in the parameters' units, from
+        :func:`covariance` (``inf`` where the information is singular).
+
+    References
+    ----------
+    L. Kaufman, "A variable projection method for solving separable nonlinear least squares
+    problems", BIT 15 (1975) 49-57 (the linear unknowns projected out).
     """
     cols = J if gain_column is None else np.concatenate([J, gain_column[..., None]], axis=-1)
     w2 = np.broadcast_to(np.asarray(w2, float), cols.shape[:-1])[..., None]

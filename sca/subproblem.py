@@ -40,7 +40,43 @@ import numpy as np
 @dataclass
 class Subproblem:
     """One compiled QP: the problem, its variable v = (delta, ds), its parameters, and
-    ``blocks``, the one description of its constraints (see :func:`constraints`)."""
+    ``blocks``, the one description of its constraints (see :func:`constraints`).
+
+    Every parameter holds a value in units of rho = ||Q^T r0|| (see the module docstring);
+    the optional ones are None where the structure has no such constraint.
+
+    Attributes
+    ----------
+    problem : cvxpy.Problem
+        minimise ||R v - b||^2 subject to the constraints of ``blocks`` (DPP).
+    v : cvxpy.Variable, (n_free + n_s,)
+        The step: delta (scaled nonlinear parameters) then ds (backscatter).
+    R : cvxpy.Parameter, (n_free + n_s, n_free + n_s)
+        The triangular factor of [A E] = Q R.
+    b : cvxpy.Parameter, (n_free + n_s,)
+        Q^T r0 / rho.
+    lo : cvxpy.Parameter, (n_pos,), or None
+        Lower bounds of the first ``n_pos`` entries of delta (eq 16).
+    s_lo : cvxpy.Parameter, (n_s,), or None
+        Lower bounds of ds, -s_t / rho (eq 18).
+    hi : cvxpy.Parameter, (n_free,), or None
+        Trust-region half-width of delta (safeguarded mode).
+    TDw : cvxpy.Parameter, (q, z_free), or None
+        T D_w: the rows of eq 16's T w >= 0 in the step.
+    Tw_rhs : cvxpy.Parameter, (q,), or None
+        Their right-hand side, -T w_t / rho.
+    a_eq : cvxpy.Parameter, (n_free,), or None
+        The row of eq 17 linearised.
+    b_eq : cvxpy.Parameter (scalar), or None
+        Its right-hand side.
+    n_free : int
+        Entries of delta.
+    n_s : int
+        Entries of ds (m, or 0 when s is held).
+    blocks : tuple
+        The constraints, each (kind, slice of v, parameters): 'lower' v[sl] >= p; 'box'
+        -p <= v[sl] <= p; 'rows' A v[sl] >= p2; 'equal' a . v[sl] == p2.
+    """
 
     problem: cp.Problem
     v: cp.Variable
@@ -69,7 +105,20 @@ _LOCAL = threading.local()
 
 def compiled_subproblem(*structure) -> "Subproblem":
     """The problem of :func:`build_subproblem` for ``structure``, built once per thread and
-    reused by every later fit in that thread (the DPP compile happens on its first solve)."""
+    reused by every later fit in that thread (the DPP compile happens on its first solve).
+
+    Parameters
+    ----------
+    *structure
+        The positional arguments of :func:`build_subproblem`: ``n_free``, ``n_pos``,
+        ``w_slice``, ``q``, ``n_s``, ``trust_region``, ``has_equality`` (hashable: the cache
+        key).
+
+    Returns
+    -------
+    Subproblem
+        This thread's problem of that structure (mutable: not to be shared between threads).
+    """
     cache = getattr(_LOCAL, "cache", None)
     if cache is None:
         cache = _LOCAL.cache = {}
@@ -82,14 +131,36 @@ def compiled_subproblem(*structure) -> "Subproblem":
 
 
 def thread_builds() -> int:
-    """How many subproblems this thread has built (a diagnostic for tests)."""
+    """How many subproblems this thread has built (a diagnostic for tests).
+
+    Returns
+    -------
+    int
+        Calls of :func:`build_subproblem` made by :func:`compiled_subproblem` in this thread.
+    """
     return getattr(_LOCAL, "builds", 0)
 
 
 def constraints(sub: Subproblem, v, numeric: bool = False) -> list:
     """The QP's constraints on ``v`` from ``sub.blocks``: with the parameters themselves (the
     DPP problem) or, ``numeric``, with their current values as constants (a problem rebuilt
-    from scratch, the benchmark's baseline)."""
+    from scratch, the benchmark's baseline).
+
+    Parameters
+    ----------
+    sub : Subproblem
+        Its ``blocks`` describe the constraints.
+    v : cvxpy.Variable or cvxpy.Expression, (n_free + n_s,)
+        The step the constraints apply to.
+    numeric : bool, optional
+        Use the parameters' current values instead of the parameters (default False).
+
+    Returns
+    -------
+    list of cvxpy.Constraint
+        One per 'lower', 'rows' and 'equal' block, two per 'box' block, in the order of
+        ``sub.blocks``.
+    """
     def val(p):
         return p.value if numeric else p
 
@@ -116,6 +187,7 @@ def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s
     n_free : int
         Number of entries of delta; the first ``n_pos`` are bounded below (C, a_CDOM, ...).
     n_pos : int
+        Number of entries of delta bounded below (a leading slice of delta).
     w_slice : (start, stop) or None
         The w entries inside delta where eq 16 needs q rows (None: w not free, or bounded
         among the first ``n_pos``).
@@ -131,6 +203,17 @@ def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s
     Returns
     -------
     Subproblem
+        Its parameters without values (set them before solving).
+
+    Raises
+    ------
+    ValueError
+        If the step has no entries (n_free + n_s == 0).
+
+    References
+    ----------
+    Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model", eqs 15-18
+    (linearised).
     """
     nv = n_free + n_s
     if nv == 0:
@@ -228,12 +311,19 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = POLISH_ACTIVE_
     f_ref : float, optional
         The objective the result must not exceed (default: that of ``v``).
     max_rounds : int
+        Most rounds of adding violated constraints (default :data:`POLISH_ROUNDS`).
 
     Returns
     -------
     v : ndarray
         The polished step, or ``v`` itself where the polish fails.
     polished : bool
+        True where the polished step is returned.
+
+    References
+    ----------
+    J. Nocedal & S. J. Wright, Numerical Optimization, 2nd ed., Springer (2006), secs. 16.1
+    and 16.5 (KKT system, active-set methods).
     """
     R, b = sub.R.value, sub.b.value
     nv = R.shape[1]
@@ -274,7 +364,30 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = POLISH_ACTIVE_
 
 def equality_step(R, b, eq_row=None, eq_rhs=0.0):
     """Minimiser of ||R v - b||^2 subject to eq_row . v = eq_rhs (no inequalities): the KKT
-    system, solved in the least-squares sense (minimum norm where singular)."""
+    system, solved in the least-squares sense (minimum norm where singular).
+
+    Parameters
+    ----------
+    R : ndarray, (k, nv)
+        The least-squares matrix (the subproblem's triangular factor).
+    b : ndarray, (k,)
+        The right-hand side.
+    eq_row : ndarray, (nv,), optional
+        The equality's row (eq 17 linearised); None: unconstrained least squares.
+    eq_rhs : float, optional
+        The equality's right-hand side (default 0).
+
+    Returns
+    -------
+    ndarray, (nv,)
+        The step v (``numpy.linalg.lstsq`` of the KKT system [[R^T R, a], [a^T, 0]], or of
+        R v = b without the equality).
+
+    References
+    ----------
+    J. Nocedal & S. J. Wright, Numerical Optimization, 2nd ed., Springer (2006), sec. 16.1
+    (equality-constrained quadratic programs, the KKT system).
+    """
     if eq_row is None:
         return np.linalg.lstsq(R, b, rcond=None)[0]
     nv = R.shape[1]

@@ -98,7 +98,36 @@ def _profile(est, st, dof):
 
 
 def assess(est, st, mode, it, saturation=None) -> Estimate:
-    """The :class:`sca.Estimate` of a finished fit ``st`` of estimator ``est``."""
+    """The :class:`sca.Estimate` of a finished fit ``st`` of estimator ``est``.
+
+    Goodness of fit (:func:`sca.assess.goodness`), standard errors from the profiled
+    Gauss-Newton covariance, 95 % intervals of every free parameter (profile likelihood for
+    z = 1, Wald otherwise; Wald for a free gain), the flags and the verdict.
+
+    Parameters
+    ----------
+    est : Estimator
+        The estimator that ran the fit.
+    st : sca.loop._FitState
+        The finished fit: its point ``st.x``, objective ``st.f``, status, history and the
+        data in scaled units.
+    mode : str
+        Recorded as ``Estimate.mode`` ('paper', 'safeguarded', 'scipy_least_squares').
+    it : int
+        Recorded as ``Estimate.iterations``.
+    saturation : float, optional
+        The sensor's clip level in data units, for the ``saturated`` check.
+
+    Returns
+    -------
+    Estimate
+        In data units (backscatter and objective rescaled by ``st.scale``).
+
+    References
+    ----------
+    D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
+    confidence intervals", Applied Statistics 37 (1988) 87-94.
+    """
     mdl, x = st.mdl, st.x
     names = est.spec.names
     n_s = 0 if not est.free_s else int(np.sum(np.asarray(x["s"]) > 0))
