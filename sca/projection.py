@@ -27,7 +27,7 @@ import numpy as np
 
 from .compiled import KERNEL_LOCK, njit, prange
 
-__all__ = ["linear_part_stats", "project"]
+__all__ = ["SERIAL_BELOW", "linear_part_stats", "project"]
 
 
 @njit(cache=True)
@@ -90,6 +90,23 @@ def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cov
     return gain, s, act
 
 
+@njit(cache=True)
+def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
+    K, m = sw.shape
+    gain = np.empty(K)
+    s = np.empty((K, m))
+    act = np.empty((K, m))
+    for i in range(K):
+        gain[i] = _active_set(sw[i], sM[i], sG[i], sGG[i], sGM[i], fs[i], has_fs, free_gain,
+                              s[i], act[i])
+    return gain, s, act
+
+
+#: Below this many charts the kernels run in the calling thread (a parallel launch costs more
+#: than the work).
+SERIAL_BELOW = 64
+
+
 def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = True):
     """The closed-form (gain, s) from each channel's weighted sums (arrays (..., m)).
 
@@ -118,89 +135,108 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
           if has_fs else np.zeros((1, m)))
     if not has_fs:
         fs = np.broadcast_to(fs, flat[0].shape)
-    with KERNEL_LOCK:
-        gain, s, act = _linear_many(*flat, np.ascontiguousarray(fs), has_fs, bool(free_gain))
+    args = (*flat, np.ascontiguousarray(fs), has_fs, bool(free_gain))
+    if flat[0].shape[0] < SERIAL_BELOW:
+        gain, s, act = _linear_serial(*args)
+    else:
+        with KERNEL_LOCK:
+            gain, s, act = _linear_many(*args)
     return gain.reshape(shape[:-1]), s.reshape(shape), act.reshape(shape) > 0
+
+
+@njit(cache=True)
+def _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s):  # pragma: no cover
+    """Chart i of :func:`project` into the output arrays."""
+    p = JR.shape[1]
+    sw = np.zeros(m)
+    sM = np.zeros(m)
+    sG = np.zeros(m)
+    sGG = np.zeros(m)
+    sGM = np.zeros(m)
+    act = np.empty(m)
+    for ch in range(m):
+        for j in range(ch * n, ch * n + n):
+            w = W2[i, j]
+            x = G[i, j]
+            sw[ch] += w
+            sM[ch] += w * M[i, j]
+            sG[ch] += w * x
+            sGG[ch] += w * x * x
+            sGM[ch] += w * x * M[i, j]
+    gi = _active_set(sw, sM, sG, sGG, sGM, fs[i], has_fs, free_gain, s[i], act)
+    gain[i] = gi
+    fi = 0.0
+    si = 0.0
+    r = np.empty(m * n)
+    for ch in range(m):
+        for j in range(ch * n, ch * n + n):
+            rj = M[i, j] - gi * G[i, j] - s[i, ch]
+            r[j] = rj
+            fi += W2[i, j] * rj * rj
+            si += rj * rj
+    f[i] = fi
+    ssr[i] = si
+    if not grad:
+        return
+    X = np.empty((p, m * n))
+    for a in range(p):
+        for ch in range(m):
+            mean = 0.0
+            for j in range(ch * n, ch * n + n):
+                X[a, j] = gi * JR[i, a, j]
+                mean += W2[i, j] * X[a, j]
+            if act[ch] > 0.0:
+                mean /= sw[ch]
+                for j in range(ch * n, ch * n + n):
+                    X[a, j] -= mean
+    if free_gain:  # project the columns off the centred G (the gain's column)
+        Gc = np.empty(m * n)
+        gg = 0.0
+        for ch in range(m):
+            mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
+            for j in range(ch * n, ch * n + n):
+                Gc[j] = G[i, j] - mean
+                gg += W2[i, j] * Gc[j] * Gc[j]
+        if gi > 0.0 and gg > 0.0:
+            for a in range(p):
+                dot = 0.0
+                for j in range(m * n):
+                    dot += W2[i, j] * Gc[j] * X[a, j]
+                c = dot / gg
+                for j in range(m * n):
+                    X[a, j] -= c * Gc[j]
+    for a in range(p):
+        acc = 0.0
+        for j in range(m * n):
+            acc += W2[i, j] * X[a, j] * r[j]
+        g[i, a] = -acc
+        for b in range(a + 1):
+            acc = 0.0
+            for j in range(m * n):
+                acc += W2[i, j] * X[a, j] * X[b, j]
+            H[i, a, b] = acc
+            H[i, b, a] = acc
+
+
 
 
 @njit(parallel=True, cache=True)
 def _project(G, JR, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
     N, p = JR.shape[0], JR.shape[1]
-    f = np.empty(N)
-    ssr = np.empty(N)
-    g = np.zeros((N, p))
-    H = np.zeros((N, p, p))
-    gain = np.empty(N)
-    s = np.empty((N, m))
+    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
+    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
     for i in prange(N):
-        sw = np.zeros(m)
-        sM = np.zeros(m)
-        sG = np.zeros(m)
-        sGG = np.zeros(m)
-        sGM = np.zeros(m)
-        act = np.empty(m)
-        for ch in range(m):
-            for j in range(ch * n, ch * n + n):
-                w = W2[i, j]
-                x = G[i, j]
-                sw[ch] += w
-                sM[ch] += w * M[i, j]
-                sG[ch] += w * x
-                sGG[ch] += w * x * x
-                sGM[ch] += w * x * M[i, j]
-        gi = _active_set(sw, sM, sG, sGG, sGM, fs[i], has_fs, free_gain, s[i], act)
-        gain[i] = gi
-        fi = 0.0
-        si = 0.0
-        r = np.empty(m * n)
-        for ch in range(m):
-            for j in range(ch * n, ch * n + n):
-                rj = M[i, j] - gi * G[i, j] - s[i, ch]
-                r[j] = rj
-                fi += W2[i, j] * rj * rj
-                si += rj * rj
-        f[i] = fi
-        ssr[i] = si
-        if not grad:
-            continue
-        X = np.empty((p, m * n))
-        for a in range(p):
-            for ch in range(m):
-                mean = 0.0
-                for j in range(ch * n, ch * n + n):
-                    X[a, j] = gi * JR[i, a, j]
-                    mean += W2[i, j] * X[a, j]
-                if act[ch] > 0.0:
-                    mean /= sw[ch]
-                    for j in range(ch * n, ch * n + n):
-                        X[a, j] -= mean
-        if free_gain:  # project the columns off the centred G (the gain's column)
-            Gc = np.empty(m * n)
-            gg = 0.0
-            for ch in range(m):
-                mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
-                for j in range(ch * n, ch * n + n):
-                    Gc[j] = G[i, j] - mean
-                    gg += W2[i, j] * Gc[j] * Gc[j]
-            if gi > 0.0 and gg > 0.0:
-                for a in range(p):
-                    dot = 0.0
-                    for j in range(m * n):
-                        dot += W2[i, j] * Gc[j] * X[a, j]
-                    c = dot / gg
-                    for j in range(m * n):
-                        X[a, j] -= c * Gc[j]
-        for a in range(p):
-            acc = 0.0
-            for j in range(m * n):
-                acc += W2[i, j] * X[a, j] * r[j]
-            g[i, a] = -acc
-            for b in range(a + 1):
-                acc = 0.0
-                for j in range(m * n):
-                    acc += W2[i, j] * X[a, j] * X[b, j]
-                H[i, a, b] = acc
-                H[i, b, a] = acc
+        _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s)
+    return f, g, H, gain, s, ssr
+
+
+@njit(cache=True)
+def _project_serial(G, JR, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+    N, p = JR.shape[0], JR.shape[1]
+    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
+    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
+    for i in range(N):
+        _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s)
     return f, g, H, gain, s, ssr
 
 
@@ -232,7 +268,10 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
     N = G.shape[0]
     has_fs = fixed_s is not None
     fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((N, m))
+    args = (np.ascontiguousarray(G, float), np.ascontiguousarray(JR, float),
+            np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
+            bool(free_gain), int(m), int(n), bool(grad))
+    if N < SERIAL_BELOW:
+        return _project_serial(*args)
     with KERNEL_LOCK:
-        return _project(np.ascontiguousarray(G, float), np.ascontiguousarray(JR, float),
-                        np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs,
-                        has_fs, bool(free_gain), int(m), int(n), bool(grad))
+        return _project(*args)
