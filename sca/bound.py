@@ -172,6 +172,13 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     fix = dict(fix or {})
     if "chl" in fix:
         raise ValueError("fix: the bound is for C; it cannot hold C known")
+    if fix.get("backscatter") is not None:
+        raise ValueError("fix['backscatter']: the bound holds s known at the condition's veiling "
+                         "light; give None")
+    free = tuple(free or ())
+    if "gain" in free:  # free=('gain',) is gain='free'
+        free = tuple(n for n in free if n != "gain")
+        gain = "free" if gain == "known" else gain
     cond = {"chl": chl, "cdom": cdom}
     for k in ("cdom",):
         if fix.get(k) is not None:

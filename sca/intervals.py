@@ -68,12 +68,14 @@ def effective_curvature(H, j):
     return out
 
 
-def _point(prob, idx, j, t, psi, atol):
-    """P(theta_j = t) for charts idx, minimising the others from ``psi``: (f, theta)."""
+def _point(prob, idx, col, t, psi, atol):
+    """P(theta_col = t) for rows idx (chart idx[r], parameter col[r]), minimising the others
+    from ``psi``: (f, theta)."""
     theta = np.array(psi, float)
-    theta[:, j] = t
+    rows = np.arange(theta.shape[0])
+    theta[rows, col] = t
     hold = np.zeros(theta.shape, bool)
-    hold[:, j] = True
+    hold[rows, col] = True
     sub = _subset(prob, idx)
     theta, f, _, _ = levenberg_marquardt(sub, theta, max_iter=PROFILE_MAX_ITER, tol=0.0,
                                          f_exact=np.zeros(idx.size), atol=atol, hold=hold)
@@ -86,41 +88,44 @@ def _subset(prob: Problem, idx) -> Problem:
                    None if prob.fixed_s is None else prob.fixed_s[idx])
 
 
-def _profile_end(prob, j, side, theta_hat, f_hat, delta, heff, lower, cap, lower_open=False):
-    """One end (``side`` -1 lower, +1 upper) of parameter j's interval for every chart."""
-    N = theta_hat.shape[0]
-    t_hat = theta_hat[:, j]
+def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, limit_code):
+    """Interval ends searched together, one per row: chart ``chart[r]``, parameter ``col[r]``,
+    ``side[r]`` -1 (lower) or +1 (upper); the search stops at ``limit[r]`` with
+    ``limit_code[r]``. ``theta_hat``, ``f_hat``, ``delta`` and ``heff`` are per row."""
+    R = chart.size
+    rows = np.arange(R)
+    down = side < 0
+    t_hat = theta_hat[rows, col]
     res = t_hat.copy()
-    code = np.full(N, BOUND_FOUND)
-    limit = lower if side < 0 else cap
-    limit_code = BOUND_ZERO if (side < 0 and not lower_open) else BOUND_OPEN
+    code = np.full(R, BOUND_FOUND)
     todo = delta > 0  # an exact fit with the noise estimated from it: zero width
-    at_limit = todo & ((t_hat <= limit) if side < 0 else np.zeros(N, bool))
-    res[at_limit], code[at_limit] = limit, limit_code
+    at_limit = todo & down & (t_hat <= limit)
+    res[at_limit], code[at_limit] = limit[at_limit], limit_code[at_limit]
     todo &= ~at_limit
     zt = np.sqrt(np.maximum(delta, 0.0))
     atol = POINT_ATOL * delta
     with np.errstate(divide="ignore", invalid="ignore"):
         step = np.where(heff > 0, np.sqrt(delta / heff), 0.0)
     step = np.where((step > 0) & (step < F_OVERFLOW), step, np.maximum(np.abs(t_hat), 1e-3))
-    t_lo, z_lo, psi = t_hat.copy(), np.zeros(N), theta_hat.copy()
+    t_lo, z_lo, psi = t_hat.copy(), np.zeros(R), theta_hat.copy()
     t1 = t_hat + side * step
-    t_hi, z_hi = t1.copy(), np.zeros(N)
+    t_hi, z_hi = t1.copy(), np.zeros(R)
     bracketing = todo.copy()
-    refining = np.zeros(N, bool)
+    refining = np.zeros(R, bool)
     for _ in range(BRACKET_STEPS):
         ia = np.flatnonzero(bracketing)
         if ia.size == 0:
             break
-        t = np.maximum(t1[ia], limit) if side < 0 else np.minimum(t1[ia], limit)
-        f1, psi1 = _point(prob, ia, j, t, psi[ia], atol[ia])
+        lim = limit[ia]
+        t = np.where(down[ia], np.maximum(t1[ia], lim), np.minimum(t1[ia], lim))
+        f1, psi1 = _point(prob, chart[ia], col[ia], t, psi[ia], atol[ia])
         failed = ~(f1 < F_OVERFLOW)
         z1 = np.sqrt(np.maximum(f1 - f_hat[ia], 0.0))
         hit = ~failed & (z1 >= zt[ia])
-        at_end = ~failed & ~hit & ((t <= limit) if side < 0 else (t >= limit))
+        at_end = ~failed & ~hit & np.where(down[ia], t <= lim, t >= lim)
         go = ~failed & ~hit & ~at_end
         res[ia[failed]], code[ia[failed]] = np.nan, BOUND_FAILED
-        res[ia[at_end]], code[ia[at_end]] = limit, limit_code
+        res[ia[at_end]], code[ia[at_end]] = lim[at_end], limit_code[ia[at_end]]
         t_hi[ia[hit]], z_hi[ia[hit]] = t[hit], z1[hit]
         refining[ia[hit]] = True
         bracketing[ia[failed | hit | at_end]] = False
@@ -150,7 +155,7 @@ def _profile_end(prob, j, side, theta_hat, f_hat, delta, heff, lower, cap, lower
         if ia.size == 0:
             break
         c = b[ia] - fb[ia] * (b[ia] - a[ia]) / (fb[ia] - fa[ia])
-        fc_, psi_new = _point(prob, ia, j, c, psi[ia], atol[ia])
+        fc_, psi_new = _point(prob, chart[ia], col[ia], c, psi[ia], atol[ia])
         psi[ia] = psi_new
         failed = ~(fc_ < F_OVERFLOW)
         res[ia[failed]], code[ia[failed]] = np.nan, BOUND_FAILED
@@ -202,14 +207,23 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
     N, p = theta_hat.shape
-    which = range(p) if which is None else which
+    which = list(range(p) if which is None else which)
     ends = np.repeat(theta_hat[:, :, None], 2, axis=2).astype(float)
     codes = np.full((N, p, 2), BOUND_FOUND)
-    for j in which:
-        heff = effective_curvature(H, j)
-        lower_open = not np.isfinite(prob.lower[j])
-        lower = -caps[j] if lower_open else prob.lower[j]
-        for k, side in enumerate((-1.0, 1.0)):
-            ends[:, j, k], codes[:, j, k] = _profile_end(prob, j, side, theta_hat, f_hat, delta,
-                                                         heff, lower, caps[j], lower_open)
+    if not which or N == 0:
+        return ends, codes
+    # every end of every chart searched together: one row per (chart, parameter, side)
+    charts, cols, sides = (a.ravel() for a in np.meshgrid(np.arange(N), which, (-1.0, 1.0),
+                                                           indexing="ij"))
+    heff = np.stack([effective_curvature(H, j) for j in range(p)], axis=1)  # (N, p)
+    lower_open = ~np.isfinite(prob.lower)
+    lower = np.where(lower_open, -np.asarray(caps, float), prob.lower)
+    down = sides < 0
+    limit = np.where(down, lower[cols], np.asarray(caps, float)[cols])
+    limit_code = np.where(down & ~lower_open[cols], BOUND_ZERO, BOUND_OPEN)
+    res, code = _profile_ends(prob, charts, cols, sides, theta_hat[charts], f_hat[charts],
+                              delta[charts], heff[charts, cols], limit, limit_code)
+    k = (sides > 0).astype(int)
+    ends[charts, cols, k] = res
+    codes[charts, cols, k] = code
     return ends, codes

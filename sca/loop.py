@@ -206,9 +206,11 @@ class Estimator:
         p.pop("gain"), p.pop("backscatter")
         return st.mdl.predict(p, jacobian=False).signal
 
-    def objective(self, st, x) -> float:
-        """The (whitened) sum of squares of M - gain G - s at ``x``."""
-        r = st.wt * (st.Mv - x["gain"] * self.signal(st, x) - np.repeat(x["s"], st.mdl.n))
+    def objective(self, st, x, G=None) -> float:
+        """The (whitened) sum of squares of M - gain G - s at ``x`` (``G``: its unit-gain
+        signal, when already computed)."""
+        G = self.signal(st, x) if G is None else G
+        r = st.wt * (st.Mv - x["gain"] * G - np.repeat(x["s"], st.mdl.n))
         return float(r @ r)
 
     def linear_part(self, st, G):
@@ -287,8 +289,10 @@ class Estimator:
         x["gain"], x["s"] = self._closed_form(st, x)
         return x
 
-    def _closed_form(self, st, x):
-        gain, s = self.linear_part(st, self.signal(st, {**x, "gain": 1.0, "s": None})[None])
+    def _closed_form(self, st, x, G=None):
+        """(gain, s) in closed form at ``x`` (``G``: its unit-gain signal, when computed)."""
+        G = self.signal(st, {**x, "gain": 1.0, "s": None}) if G is None else G
+        gain, s = self.linear_part(st, G[None])
         return float(gain[0]), np.array(s[0], dtype=float)
 
     # ----------------------------------------------------------------------------- the loop
@@ -506,10 +510,12 @@ class Estimator:
         if safeguarded:  # feasibility restoration: w back on eq 17, gain and s re-fitted in
             # closed form
             new["w"] = mdl.feasible_w(new["chl"], new["w"])
-            new["gain"], new["s"] = self._closed_form(st, new)
+        G_new = self.signal(st, {**new, "s": None})
+        if safeguarded:
+            new["gain"], new["s"] = self._closed_form(st, new, G_new)
         else:
             new["s"] = np.maximum(x["s"] + v[self.n_free:], 0.0) if self.free_s else x["s"].copy()
-        f_new = self.objective(st, new)
+        f_new = self.objective(st, new, G_new)
         pred = st.f - (st.qp_value * lin.unit**2 + lin.c0)
         size = float(np.max(np.abs(delta))) if delta.size else 0.0
         st.trials.append(f_new)

@@ -597,6 +597,8 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
     problems", BIT 15 (1975) 49-57 (the linear unknowns projected out).
     """
     cols = J if gain_column is None else np.concatenate([J, gain_column[..., None]], axis=-1)
+    if cols.shape[-1] == 0:
+        return np.zeros(cols.shape[:1] + (0, 0))
     w2 = np.broadcast_to(np.asarray(w2, float), cols.shape[:-1])[..., None]
     a = np.asarray(active, bool)[..., None, None]
     cols = cols - a * (w2 * cols).sum(2, keepdims=True) / w2.sum(2, keepdims=True)

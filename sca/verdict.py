@@ -136,7 +136,9 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     cov = _covariance(est, st, dof)
     se = np.sqrt(np.maximum(np.diagonal(cov), 0.0))
     se_of = {n: float(se[j]) for j, n in enumerate(names)}
-    if mdl.z == 1 and names:
+    if not names:  # nothing nonlinear is free: C and a_CDOM are known, no interval to find
+        intervals, codes = {}, (0, 0, 0, 0)
+    elif mdl.z == 1:
         intervals, codes = _profile(est, st, dof)
     else:  # Wald intervals (z > 1)
         z95 = stats.norm.ppf(0.5 + CONFIDENCE / 2)

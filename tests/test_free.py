@@ -74,3 +74,19 @@ def test_fix_holds_any_constant_and_free_adds_any_name(chart):
                      fix={"cdom_slope": SLOPE})
     with pytest.raises(ValueError, match="^free:"):
         sca.estimate_batch(chart.rgb[None], depth=D, distance=R, free=("colour",))
+
+
+def test_with_c_and_cdom_known_only_the_backscatter_is_fitted_and_it_can_be_reliable():
+    sim = forward.simulate_chart(C, A, D, R, seed=5)
+    e = sca.estimate(sim.rgb, depth=D, distance=R, sigma=sim.rgb_sigma,
+                     fix={"chl": C, "cdom": A})
+    assert e.converged and e.values == {} and e.chl_ci == (C, C)
+    assert e.reliable, e.flags
+
+
+def test_precision_names_the_gain_either_way_and_refuses_a_fixed_backscatter_value():
+    a = sca.precision(C, A, depth=D, distance=R, gain="free")
+    b = sca.precision(C, A, depth=D, distance=R, free=("gain",))
+    assert a.chl_sd == b.chl_sd and "gain" in b.sd
+    with pytest.raises(ValueError, match=r"^fix\['backscatter'\]:"):
+        sca.precision(C, A, depth=D, distance=R, fix={"backscatter": 0.01})
