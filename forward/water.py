@@ -1122,26 +1122,27 @@ def _particle_term(x, wrt):
     return [(w_small, small), (w_large, large)], out
 
 
+#: Below this many charts the pieces are added one by one (a matrix product costs more).
+_FEW_CHARTS = 8
+
+
 def _sum_pieces(pieces, lead, q):
     """sum of weight x spectrum over ``pieces``, shape lead + (q,): the pieces whose spectrum
-    is one for all charts by one matrix product, constant ones once, the rest elementwise."""
-    const = None
+    is one for all charts by one matrix product (for many charts), constant ones once, the
+    rest elementwise."""
+    few = int(np.prod(lead)) < _FEW_CHARTS
     weights, spectra, total = [], [], None
     for w, sh in pieces:
-        one_spectrum = sh.ndim == 1
-        if one_spectrum and np.ndim(w) == 0:
-            const = w * sh if const is None else const + w * sh
-        elif one_spectrum:
+        if few or sh.ndim > 1 or not isinstance(w, np.ndarray) or w.ndim == 0:
+            term = w * sh
+            total = term if total is None else total + term
+        else:
             weights.append(w[..., 0] if w.shape[:-1] == lead else
                            np.broadcast_to(w, lead + (1,))[..., 0])
             spectra.append(sh)
-        else:
-            total = w * sh if total is None else total + w * sh
     if weights:
         prod = np.stack(weights, axis=-1) @ np.stack(spectra)
         total = prod if total is None else total + prod
-    if const is not None:
-        total = const if total is None else total + const
     if total is None:
         return np.zeros(lead + (q,))
     return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))

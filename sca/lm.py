@@ -160,13 +160,14 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
     inv = (1.0 / prob.scale[idx])[:, None]
     fs = None if prob.fixed_s is None else prob.fixed_s[idx]
     JR = np.zeros((len(idx), 0, m * n))
+    col_scale = np.zeros((len(idx), 0))
     if grad:
-        chain = np.ones((len(idx), len(prob.names)))
+        col_scale = np.repeat(inv, len(prob.names), axis=1)
         if prob.chl_col >= 0:
-            chain[:, prob.chl_col] = du_chain(params["chl"], mdl.e0)
-        JR = pred.jacobian_rows * (chain * inv)[:, :, None]
+            col_scale[:, prob.chl_col] *= du_chain(params["chl"], mdl.e0)
+        JR = pred.jacobian_rows
     f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
-                                    prob.free_gain, m, n, grad)
+                                    prob.free_gain, m, n, grad, col_scale)
     if not grad:
         g = H = None
     return f, g, H, gain, s, ssr, pred.attenuation

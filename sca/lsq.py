@@ -65,13 +65,20 @@ def residual_functions(est: Estimator, st):
         out.pop("w")  # w on eq 17: the model's own phytoplankton term
         return out
 
+    last = {}  # scipy asks for the residual and the Jacobian at the same point: predict once
+
+    def predicted(v):
+        key = np.asarray(v, float).tobytes()
+        if last.get("key") != key:
+            last["key"] = key
+            last["pred"] = mdl.predict(params(unpack(v)), free, chl_floor=CHL_DERIVATIVE_FLOOR)
+        return last["pred"]
+
     def fun(v):
-        pred = mdl.predict(params(unpack(v)), jacobian=False)
-        return st.wt * (st.Mv - pred.values)
+        return st.wt * (st.Mv - predicted(v).values)
 
     def jac(v):
-        pred = mdl.predict(params(unpack(v)), free, chl_floor=CHL_DERIVATIVE_FLOOR)
-        return -pred.jacobian * st.wt[:, None]
+        return -predicted(v).jacobian * st.wt[:, None]
 
     lower = np.array([lower_bound(n, est.water) for n in names] + [0.0] * (
         mdl.m if est.free_s else 0) + ([0.0] if est.free_gain else []))

@@ -426,6 +426,11 @@ class ChartModel:
         proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
         G = proj[..., 0, :]
         values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
+        if list(free) == in_q and np.ndim(gain) == 0 and gain == 1.0:
+            # only columns of k at unit gain (the batch's case): a view, no copy
+            rows = proj[..., 1:, :]
+            names = [name for name in free for _ in range(count[name])]
+            return Prediction(values, G, k, c, np.swapaxes(rows, -1, -2), tuple(names), rows)
         rows = np.empty(lead + (sum(count.values()), mn))
         at, src, names = 0, 1, []
         for name in free:

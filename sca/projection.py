@@ -145,7 +145,7 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
 
 
 @njit(cache=True)
-def _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s):  # pragma: no cover
+def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s):  # pragma: no cover
     """Chart i of :func:`project` into the output arrays."""
     p = JR.shape[1]
     sw = np.zeros(m)
@@ -183,7 +183,7 @@ def _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, 
         for ch in range(m):
             mean = 0.0
             for j in range(ch * n, ch * n + n):
-                X[a, j] = gi * JR[i, a, j]
+                X[a, j] = gi * CS[i, a] * JR[i, a, j]
                 mean += W2[i, j] * X[a, j]
             if act[ch] > 0.0:
                 mean /= sw[ch]
@@ -221,26 +221,29 @@ def _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, 
 
 
 @njit(parallel=True, cache=True)
-def _project(G, JR, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+def _project(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
     N, p = JR.shape[0], JR.shape[1]
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
     for i in prange(N):
-        _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s)
+        _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain,
+                     s)
     return f, g, H, gain, s, ssr
 
 
 @njit(cache=True)
-def _project_serial(G, JR, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+def _project_serial(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
     N, p = JR.shape[0], JR.shape[1]
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
     for i in range(N):
-        _project_one(i, G, JR, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s)
+        _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain,
+                     s)
     return f, g, H, gain, s, ssr
 
 
-def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool = True):
+def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool = True,
+            col_scale=None):
     """The variable projection of N charts (see the module docstring).
 
     Parameters
@@ -259,6 +262,8 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
         Channels and patches.
     grad : bool
         Also the gradient and Gauss-Newton matrix (else zeros).
+    col_scale : ndarray, (N, p), optional
+        Factors of the rows of ``JR`` (a change of units or coordinates; default ones).
 
     Returns
     -------
@@ -268,7 +273,9 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
     N = G.shape[0]
     has_fs = fixed_s is not None
     fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((N, m))
-    args = (np.ascontiguousarray(G, float), np.ascontiguousarray(JR, float),
+    p = JR.shape[1]
+    CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
+    args = (np.ascontiguousarray(G, float), np.asarray(JR, float), CS,
             np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
             bool(free_gain), int(m), int(n), bool(grad))
     if N < SERIAL_BELOW:

@@ -90,3 +90,18 @@ def test_precision_names_the_gain_either_way_and_refuses_a_fixed_backscatter_val
     assert a.chl_sd == b.chl_sd and "gain" in b.sd
     with pytest.raises(ValueError, match=r"^fix\['backscatter'\]:"):
         sca.precision(C, A, depth=D, distance=R, fix={"backscatter": 0.01})
+
+
+def test_two_basis_functions_with_a_free_slope_keep_eq16_and_eq17():
+    """z = 2 weights (the w block inside the QP's step) with an unbounded free name after it:
+    the loop keeps T w >= 0 and eq 17, and recovers the slope of a noise-free chart."""
+    T1 = forward.phytoplankton_basis()[0][:, 0]
+    T = np.column_stack([T1, np.linspace(1.0, 0.2, T1.size)])
+    sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], noise=False,
+                                 water=WORLD)
+    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T, free=("cdom_slope",))
+    assert est.w.shape == (2,) and np.all(T @ est.w >= -1e-12)
+    assert abs(est.eq17_residual) < 1e-8
+    assert est.values["cdom_slope"] == pytest.approx(SLOPE, rel=1e-3), est.status
+    lo, hi = est.intervals["cdom_slope"]  # Wald (z > 1), around the estimate
+    assert lo < est.values["cdom_slope"] < hi and "interval-approximate" in est.flags
