@@ -39,11 +39,11 @@ from .assess import (
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
+from .projection import grid_best
 from .model import (
     TINY,
     ChartModel,
     du_chain,
-    linear_part_stats,
     profiled_covariance,
     u_from_chl,
     upper_cap,
@@ -361,9 +361,9 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
 
 
 def start_grid(prob: Problem, geometry):
-    """The best (C, a_CDOM) of the coarse grid for every chart: gain and s in closed form
-    (:func:`sca.model.linear_part_stats`) with each channel's mean weight, from each channel's
-    weighted sums (matrix products), one matrix of signals per distinct path length.
+    """The best (C, a_CDOM) of the coarse grid for every chart: gain and s in closed form with
+    each channel's mean weight (:func:`sca.projection.grid_best`), one matrix of signals per
+    distinct path length.
 
     The grid is :data:`INIT_CHL` x :data:`INIT_CDOM` (a held C or a_CDOM replaces its axis by
     its value); other parameters are at the water's constants.
@@ -398,24 +398,11 @@ def start_grid(prob: Problem, geometry):
         rows = np.flatnonzero(inv == u_idx)
         G = mdl.predict({"chl": C, "cdom": A, "depth": Lu, "distance": 0.0},
                         jacobian=False).signal.reshape(P, m, n)
-        sumG, sumGG = G.sum(-1), np.einsum("pcj,pcj->pc", G, G)  # (P, m)
         for lo in range(0, rows.size, block):
             r = rows[lo:lo + block]
-            w, inv_s = wc[r][:, None, :], (1.0 / prob.scale[r])[:, None, None]  # (R, 1, m)
-            Mr = M3[r]
-            sw = n * w
-            sM = w * Mr.sum(-1)[:, None, :]
-            sG = w * sumG[None] * inv_s
-            sGG = w * sumGG[None] * inv_s ** 2
-            sGM = w * np.stack([Mr[:, c] @ G[:, c].T for c in range(m)], axis=-1) * inv_s
-            sMM = w * np.einsum("rcj,rcj->rc", Mr, Mr)[:, None, :]
-            fs = None if prob.fixed_s is None else prob.fixed_s[r][:, None, :]
-            gain, s, _ = linear_part_stats(sw, sM, sG, sGG, sGM, fixed_s=fs,
-                                           free_gain=prob.free_gain)
-            g = gain[..., None]
-            f = (sMM - 2 * g * sGM - 2 * s * sM + g * g * sGG + 2 * g * s * sG
-                 + s * s * sw).sum(-1)
-            best[r] = np.argmin(f, axis=1)
+            best[r] = grid_best(M3[r], wc[r], prob.scale[r], G,
+                                None if prob.fixed_s is None else prob.fixed_s[r],
+                                prob.free_gain)
     return C[best].copy(), A[best].copy()
 
 

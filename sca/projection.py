@@ -27,7 +27,7 @@ import numpy as np
 
 from .compiled import KERNEL_LOCK, njit, prange
 
-__all__ = ["SERIAL_BELOW", "linear_part_stats", "project"]
+__all__ = ["SERIAL_BELOW", "grid_best", "linear_part_stats", "project"]
 
 
 @njit(cache=True)
@@ -282,3 +282,71 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
         return _project_serial(*args)
     with KERNEL_LOCK:
         return _project(*args)
+
+
+@njit(parallel=True, cache=True)
+def _grid(sw, sM, sMM, sumG, sumGG, MG, w, inv, fs, has_fs, free_gain):  # pragma: no cover
+    R, P, m = MG.shape
+    best = np.empty(R, dtype=np.int64)
+    for r in prange(R):
+        sG = np.empty(m)
+        sGG = np.empty(m)
+        sGM = np.empty(m)
+        s = np.empty(m)
+        act = np.empty(m)
+        f_best = np.inf
+        j_best = 0
+        for p in range(P):
+            for ch in range(m):
+                sG[ch] = w[r, ch] * sumG[p, ch] * inv[r]
+                sGG[ch] = w[r, ch] * sumGG[p, ch] * inv[r] * inv[r]
+                sGM[ch] = w[r, ch] * MG[r, p, ch] * inv[r]
+            g = _active_set(sw[r], sM[r], sG, sGG, sGM, fs[r], has_fs, free_gain, s, act)
+            f = 0.0
+            for ch in range(m):
+                sc = s[ch]
+                f += (sMM[r, ch] - 2.0 * g * sGM[ch] - 2.0 * sc * sM[r, ch] + g * g * sGG[ch]
+                      + 2.0 * g * sc * sG[ch] + sc * sc * sw[r, ch])
+            if f < f_best:
+                f_best = f
+                j_best = p
+        best[r] = j_best
+    return best
+
+
+def grid_best(M3, w, scale, G, fixed_s, free_gain: bool):
+    """The best of P candidate signals for each of R charts, gain and s in closed form.
+
+    Parameters
+    ----------
+    M3 : ndarray, (R, m, n)
+        Measurements (scaled units).
+    w : ndarray, (R, m)
+        One weight per channel (its mean 1 / sigma^2).
+    scale : ndarray, (R,)
+        The charts' scales (G is divided by them).
+    G : ndarray, (P, m, n)
+        Candidate unit-gain signals (unscaled).
+    fixed_s : ndarray, (R, m) or None
+        Backscatter held.
+    free_gain : bool
+        Estimate the gain.
+
+    Returns
+    -------
+    ndarray of int, (R,)
+        Index of the candidate with the least weighted sum of squares.
+    """
+    R, m, n = M3.shape
+    MG = np.stack([M3[:, c] @ G[:, c].T for c in range(m)], axis=-1)  # (R, P, m)
+    sw = n * w
+    sM = w * M3.sum(-1)
+    sMM = w * np.einsum("rcj,rcj->rc", M3, M3)
+    has_fs = fixed_s is not None
+    fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((R, m))
+    args = (np.ascontiguousarray(sw), np.ascontiguousarray(sM), np.ascontiguousarray(sMM),
+            np.ascontiguousarray(G.sum(-1)), np.ascontiguousarray(np.einsum("pcj,pcj->pc", G, G)),
+            np.ascontiguousarray(MG), np.ascontiguousarray(w, float),
+            np.ascontiguousarray(1.0 / scale, float), fs, has_fs, bool(free_gain))
+    with KERNEL_LOCK:
+        return _grid(*args)
