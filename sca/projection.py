@@ -90,6 +90,8 @@ def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cov
     return gain, s, act
 
 
+# The serial twin of _linear_many (and _project_serial of _project): numba's cache is keyed on
+# the Python function, so one function compiled both ways would share one cache entry.
 @njit(cache=True)
 def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
     K, m = sw.shape
