@@ -770,7 +770,7 @@ class WaterTerms:
             self._check_shape(None)
         x = _TermInputs(self, np.asarray(chl, float)[..., None], np.asarray(cdom, float)[..., None],
                         None if w is None else np.asarray(w, float), values, floor)
-        lead = np.broadcast_shapes(np.shape(chl), np.shape(cdom))
+        lead = np.broadcast_shapes(x.chl.shape[:-1], x.cdom.shape[:-1])
         q = self.wavelengths.size
         pieces, by_name = [], {}
         for term in PATH_TERMS:

@@ -325,6 +325,9 @@ class ChartModel:
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
         self.Bt = np.ascontiguousarray(self.B.T)
+        #: d M / d s: one row per channel, 1 on that channel's patches (read-only)
+        self._indicators = np.repeat(np.eye(self.m), self.n, axis=1)
+        self._indicators.setflags(write=False)
         #: the exponent of eq 10: the batch's coordinate u = C^e0 (see :func:`du_chain`)
         self.e0 = float(water.phyto_exponent)
 
@@ -441,7 +444,7 @@ class ChartModel:
             elif name == "gain":
                 rows[..., at, :] = G
             else:  # backscatter: one indicator per channel
-                rows[..., at:at + width, :] = np.repeat(np.eye(self.m), self.n, axis=1)
+                rows[..., at:at + width, :] = self._indicators
             names += [name] * width
             at += width
         return Prediction(values, G, k, c, np.swapaxes(rows, -1, -2), tuple(names), rows)
@@ -450,11 +453,15 @@ class ChartModel:
         """N where every parameter has at most one leading axis of length N (else 0)."""
         n = 0
         for name, v in params.items():
-            nd = np.ndim(v) - (1 if name in ("backscatter", "w") else 0)
+            if isinstance(v, (list, tuple)):
+                v = np.asarray(v)
+            if not isinstance(v, np.ndarray):
+                continue
+            nd = v.ndim - (1 if name in ("backscatter", "w") else 0)
             if nd > 1:
                 return 0
             if nd == 1:
-                size = np.shape(v)[0]
+                size = v.shape[0]
                 if n and size != n:
                     return 0
                 n = size
