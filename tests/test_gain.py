@@ -1,5 +1,5 @@
 """The free exposure gain (gain="free"): M = gain G(x) + s for data in any units, in every
-estimator (the loop, scipy, both batch engines), its kernel against finite differences of
+estimator (the loop, scipy, the batch), its evaluation against finite differences of
 forward, its intervals, and sca.precision's gain-free bound against the estimator's spread."""
 
 import numpy as np
