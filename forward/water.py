@@ -6,12 +6,10 @@ defaults. :class:`Water` alone assembles the attenuation coefficient c(x) and it
 on a wavelength grid (:meth:`Water.on_grid` -> :class:`WaterTerms`); the simulator and every
 estimator (the cvxpy loop, the scipy path, the batch) take their numbers from it.
 
-The model is linear in a few scalar weights:
-
-    c(lambda) = base(lambda) + a_CDOM(440) e_CDOM(lambda) + sum_j phi_j(C) S_j(lambda)
-
-with base = a_w [+ b_w + b_k (l/l0)^-g_k for the 'beam' path model], e_CDOM the eq 6 shape and
-four chlorophyll terms j (their weights phi_j(C) and spectral shapes S_j):
+The model is a sum of terms, each a weight times a spectrum (``ABSORPTION_TERMS``:
+a_w, CDOM, phytoplankton, NAP; ``SCATTERING_TERMS``: b_w, b_k, the two particle terms;
+:meth:`WaterTerms.path_coefficient` adds them with their derivatives). The four chlorophyll
+terms j (weights phi_j(C), spectra S_j):
 
     j  term                     phi_j(C)                             S_j(lambda)
     0  phytoplankton (eqs 9-10) 0.0378 C^0.627                       (T w)(l) / (T w)(440)
@@ -60,6 +58,9 @@ __all__ = [
     "PAPER_WATER",
     "PATH_MODELS",
     "PATH_TERMS",
+    "ABSORPTION_TERMS",
+    "PARTICLE_TERMS",
+    "SCATTERING_TERMS",
     "PURE_WATER_TABLE",
     "TABLE1",
     "Water",
@@ -92,7 +93,7 @@ PATH_MODELS = ("beam", "absorption")
 CDOM_SLOPE = 0.014
 #: NAP spectral slope of eq 7 (nm^-1); the paper uses 0.011 (range 0.006-0.014).
 NAP_SLOPE = 0.011
-#: Names of the chlorophyll terms (rows of :meth:`Water.chl_terms`, of ``WaterTerms.shapes``).
+#: Names of the chlorophyll terms (rows of :meth:`Water.chl_terms`).
 CHL_TERMS = ("phytoplankton", "nap", "particles_small", "particles_large")
 
 #: File of ``data/`` with the pure-water absorption a_w of eq 5 (Smith & Baker 1981).
@@ -594,9 +595,9 @@ def phytoplankton_basis(wavelengths=None, basis=None, *, water: Water | None = N
 class WaterTerms:
     """The spectral terms of c(x) of one :class:`Water` on one grid (arrays read-only).
 
-    c = base + a_CDOM cdom_shape + phi(C) @ shapes  (the path coefficient: c for 'beam', a for
-    'absorption'); with a free phytoplankton weight vector w (z basis functions, eq 9) the
-    phytoplankton row is replaced by T w.
+    The spectra of every term of c(x); :meth:`path_coefficient` adds the terms (c for 'beam',
+    a for 'absorption'); with a free phytoplankton weight vector w (z basis functions, eq 9)
+    the phytoplankton term is T w.
 
     Build one with :meth:`Water.on_grid` (cached) or :meth:`build`, not by hand. Every
     parameter is also an attribute of the same name. In the methods, ``chl`` is C in
@@ -627,11 +628,6 @@ class WaterTerms:
         The basis at 440 nm.
     phyto_shape : numpy.ndarray, shape (q,)
         The phytoplankton shape a_phi / a_phi(440) (T w / t440 w), dimensionless.
-    shapes : numpy.ndarray, shape (4, q)
-        S_j of the path coefficient (rows of :data:`CHL_TERMS`; the particle rows are zero for
-        the 'absorption' path model).
-    base : numpy.ndarray, shape (q,)
-        The C- and CDOM-independent part of the path coefficient, m^-1.
     free_only : bool, optional
         True for a z > 1 basis given without weights: only the free-w form (``w=`` given) of
         the methods below can be used (default False).
@@ -652,8 +648,6 @@ class WaterTerms:
     T: np.ndarray
     t440: np.ndarray
     phyto_shape: np.ndarray
-    shapes: np.ndarray
-    base: np.ndarray
     free_only: bool = False
 
     @classmethod
@@ -707,11 +701,7 @@ class WaterTerms:
         phyto = T @ w / scale440
         if np.any(phyto < -1e-12):
             raise ValueError("weights: T w is negative at some wavelength (violates eq 16)")
-        beam = water.path_model == "beam"
-        shapes = np.vstack([phyto, nap, particles * beam])
-        base = a_w + (b_w + bk if beam else 0.0)
-        arrays = [_readonly(x) for x in (wl, a_w, b_w, bk, particles, cdom, nap, T, t440, phyto,
-                                         shapes, base)]
+        arrays = [_readonly(x) for x in (wl, a_w, b_w, bk, particles, cdom, nap, T, t440, phyto)]
         return cls(water, *arrays, free_only)
 
     def _check_shape(self, w):
@@ -719,7 +709,8 @@ class WaterTerms:
             raise ValueError(f"weights: required for a basis of z = {self.T.shape[1]} functions")
 
     # ---------------------------------------------------------------- the path coefficient
-    def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0):
+    def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0,
+                         terms=None):
         """The path coefficient c(x) and its analytic derivatives: the one place they are built.
 
         Parameters
@@ -739,6 +730,9 @@ class WaterTerms:
             :data:`COEFFICIENT_PARAMS`.
         floor : float
             d/dC is evaluated at max(C, floor): C^0.627 and C^0.724 have infinite slopes at 0.
+        terms : sequence of term functions, optional
+            Which terms to add (default: the path model's, :data:`PATH_TERMS`); e.g.
+            :data:`ABSORPTION_TERMS` gives a, :data:`SCATTERING_TERMS` b.
 
         Returns
         -------
@@ -773,7 +767,7 @@ class WaterTerms:
         lead = np.broadcast_shapes(x.chl.shape[:-1], x.cdom.shape[:-1])
         q = self.wavelengths.size
         pieces, by_name = [], {}
-        for term in PATH_TERMS:
+        for term in PATH_TERMS[self.water.path_model] if terms is None else terms:
             value, parts = term(x, wrt)
             pieces += value
             for name, d in parts.items():
@@ -865,12 +859,7 @@ class WaterTerms:
         ----------
         Blasinski & Farrell, eqs 5-10.
         """
-        self._check_shape(w)
-        phi = self.water.chl_weights(chl)
-        a_phi = (phi[..., :1] @ self.shapes[:1] if w is None
-                 else np.asarray(w, float) @ self.T.T)
-        return (self.pure_water_absorption + a_phi + phi[..., 1:2] @ self.shapes[1:2]
-                + np.multiply.outer(np.asarray(cdom, float), self.cdom_shape))
+        return np.array(self.path_coefficient(chl, cdom, w=w, terms=ABSORPTION_TERMS)[0])
 
     def particle_scattering(self, chl) -> np.ndarray:
         """Particle scattering b_p (eq 12, all three terms), m^-1.
@@ -889,8 +878,7 @@ class WaterTerms:
         ----------
         Blasinski & Farrell, eq 12 and Table 1 (Brewin et al. 2012).
         """
-        phi = self.water.chl_weights(chl)
-        return phi[..., 2:] @ self.particle_shapes + self.background_scattering
+        return np.array(self.path_coefficient(chl, 0.0, terms=PARTICLE_TERMS)[0])
 
     def scattering(self, chl) -> np.ndarray:
         """Total scattering b = b_w + b_p (eq 11), m^-1.
@@ -909,7 +897,7 @@ class WaterTerms:
         ----------
         Blasinski & Farrell, eqs 11 and 12; Morel 1974 (b_w).
         """
-        return self.pure_water_scattering + self.particle_scattering(chl)
+        return np.array(self.path_coefficient(chl, 0.0, terms=SCATTERING_TERMS)[0])
 
     def beam_coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """Beam attenuation coefficient c = a + b (eq 4), m^-1, whatever the path model.
@@ -932,7 +920,8 @@ class WaterTerms:
         ----------
         Blasinski & Farrell, eqs 4-12.
         """
-        return self.absorption(chl, cdom, w) + self.scattering(chl)
+        return np.array(self.path_coefficient(chl, cdom, w=w,
+                                              terms=ABSORPTION_TERMS + SCATTERING_TERMS)[0])
 
     def backscattering(self, chl) -> np.ndarray:
         """Backscattering b_b = f_w b_w + f_p b_p, m^-1 (the veiling light's scattering).
@@ -976,7 +965,6 @@ class _TermInputs:
 
     def __init__(self, terms, chl, cdom, w, values, floor):
         self.terms, self.chl, self.cdom, self.w, self.values = terms, chl, cdom, w, values
-        self.beam = terms.water.path_model == "beam"
         self.chl_floor = np.maximum(chl, floor)
         self.offset = terms.wavelengths - terms.water.reference_nm  # lambda - 440, nm
         self.ratio = terms.wavelengths / terms.water.scattering_reference_nm  # lambda / 470
@@ -999,20 +987,22 @@ class _TermInputs:
 # weight is a scalar or of shape S + (1,), a spectrum (q,) or S + (q,).
 # :meth:`WaterTerms.path_coefficient` adds the pieces up (those with one spectrum for all
 # charts by one matrix product).
-def _pure_water_term(x, wrt):
-    """a_w (eq 5) and, for the 'beam' path model, b_w = 0.00288 (lambda/500)^-4.32 (eq 11)."""
+def _water_absorption_term(x, wrt):
+    """a_w, pure-water absorption (eq 5; Smith & Baker 1981): no free constant."""
+    return [(1.0, x.terms.pure_water_absorption)], {}
+
+
+def _water_scattering_term(x, wrt):
+    """b_w = 0.00288 (lambda/500)^-4.32, pure-water scattering (eq 11; Morel 1974)."""
     t, out = x.terms, {}
-    parts = [(1.0, t.pure_water_absorption)]
-    if not x.beam:
-        return parts, out
     if x.given("water_scattering") or x.given("water_scattering_exponent"):
         shape = (t.wavelengths / 500.0) ** -x.get("water_scattering_exponent")
         scale = x.get("water_scattering")
-        parts.append((scale, shape))
+        parts = [(scale, shape)]
     else:
         shape = t.pure_water_scattering / t.water.water_scattering
         scale = t.water.water_scattering
-        parts.append((1.0, t.pure_water_scattering))
+        parts = [(1.0, t.pure_water_scattering)]
     if "water_scattering" in wrt:
         out["water_scattering"] = [(1.0, shape)]
     if "water_scattering_exponent" in wrt:
@@ -1021,10 +1011,8 @@ def _pure_water_term(x, wrt):
 
 
 def _background_term(x, wrt):
-    """b_k (lambda/470)^-gamma_k, eq 12's third term ('beam' only)."""
+    """b_k (lambda/470)^-gamma_k, eq 12's third term."""
     t, out = x.terms, {}
-    if not x.beam:
-        return [], out
     if x.given("b_k") or x.given("gamma_k"):
         shape = x.ratio ** -x.get("gamma_k")
         scale = x.get("b_k")
@@ -1089,11 +1077,9 @@ def _nap_term(x, wrt):
 
 
 def _particle_term(x, wrt):
-    """eq 12's two chlorophyll terms ('beam' only): C_12 (1 - e^(-S_12 C)) b*_p12 (l/l0)^-g12
-    (pico + nano) and (C - C_12 (1 - e^(-S_12 C))) b*_p3 (l/l0)^-g3 (micro)."""
+    """eq 12's two chlorophyll terms: C_12 (1 - e^(-S_12 C)) b*_p12 (l/l0)^-g12 (pico + nano)
+    and (C - C_12 (1 - e^(-S_12 C))) b*_p3 (l/l0)^-g3 (micro)."""
     t, out = x.terms, {}
-    if not x.beam:
-        return [], out
     c12, s12 = x.get("c_12"), x.get("s_12")
     r12, r3 = x.ratio ** -x.get("gamma_12"), x.ratio ** -x.get("gamma_3")
     if any(x.given(k) for k in ("b_p12_star", "gamma_12", "b_p3_star", "gamma_3")):
@@ -1148,9 +1134,13 @@ def _sum_pieces(pieces, lead, q):
     return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))
 
 
-#: The terms of c(x) (eqs 4-12), each returning its value and its derivatives by name.
-PATH_TERMS = (_pure_water_term, _background_term, _cdom_term, _phytoplankton_term, _nap_term,
-              _particle_term)
+#: The terms of the absorption a (eq 5) and of the scattering b (eqs 11-12), each returning
+#: its value and its derivatives by name; the path coefficient is a + b ('beam', eqs 3-4) or
+#: a ('absorption', eq 13 as printed).
+ABSORPTION_TERMS = (_water_absorption_term, _cdom_term, _phytoplankton_term, _nap_term)
+PARTICLE_TERMS = (_background_term, _particle_term)
+SCATTERING_TERMS = (_water_scattering_term,) + PARTICLE_TERMS
+PATH_TERMS = {"beam": ABSORPTION_TERMS + SCATTERING_TERMS, "absorption": ABSORPTION_TERMS}
 
 
 # =========================================================================== public functions

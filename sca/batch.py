@@ -43,7 +43,6 @@ from .projection import grid_best
 from .model import (
     TINY,
     ChartModel,
-    du_chain,
     profiled_covariance,
     u_from_chl,
     upper_cap,
@@ -466,9 +465,7 @@ def gain_variance(prob: Problem, theta, gain, s):
     params = prob.params(np.arange(N), theta)
     pred = mdl.predict(params, prob.names, chl_floor=TINY)
     sc = prob.scale[:, None]
-    J = pred.jacobian / sc[:, :, None]
-    if prob.chl_col >= 0:
-        J[..., prob.chl_col] *= du_chain(params["chl"], mdl.e0)[:, None]
+    J = pred.jacobian * prob.column_scales(np.arange(N), params.get("chl"))[:, None, :]
     shape = (N, mdl.m, mdl.n)
     active = (s > 0) if prob.fixed_s is None else np.zeros((N, mdl.m), bool)
     cov = profiled_covariance((gain[:, None, None] * J).reshape(shape + (-1,)),

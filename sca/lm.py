@@ -116,6 +116,14 @@ class Problem:
             out[name] = chl_from_u(theta[:, j], self.model.e0) if j == self.chl_col else theta[:, j]
         return out
 
+    def column_scales(self, idx, chl) -> np.ndarray:
+        """(k, p) factors taking the model's dG/dtheta (data units, C in mg m^-3) to the
+        problem's: 1 / scale, times dC/du for C."""
+        out = np.repeat((1.0 / self.scale[idx])[:, None], len(self.names), axis=1)
+        if self.chl_col >= 0:
+            out[:, self.chl_col] *= du_chain(chl, self.model.e0)
+        return out
+
 
 def evaluate(prob: Problem, idx, theta, grad: bool = True):
     """Objective, variable-projection gradient and Gauss-Newton matrix of charts ``idx``.
@@ -162,9 +170,7 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
     JR = np.zeros((len(idx), 0, m * n))
     col_scale = np.zeros((len(idx), 0))
     if grad:
-        col_scale = np.repeat(inv, len(prob.names), axis=1)
-        if prob.chl_col >= 0:
-            col_scale[:, prob.chl_col] *= du_chain(params["chl"], mdl.e0)
+        col_scale = prob.column_scales(idx, params.get("chl"))
         JR = pred.jacobian_rows
     f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
                                     prob.free_gain, m, n, grad, col_scale)
