@@ -30,9 +30,11 @@ Reference: H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Form
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -151,6 +153,10 @@ def chl_weight(c, p, e, g, h):
     ----------
     Blasinski & Farrell, eqs 8, 10 and 12 (Bricaud et al. 1998; Brewin et al. 2012).
     """
+    if _is_zero(g):  # (the same numbers, without the work of a zero term)
+        return p * c ** e
+    if _is_zero(p):
+        return g * -np.expm1(-h * c)
     return p * c ** e + g * -np.expm1(-h * c)
 
 
@@ -176,7 +182,16 @@ def chl_weight_derivative(c, p, e, g, h):
     ----------
     Blasinski & Farrell, eqs 8, 10 and 12 (derivatives of).
     """
+    if _is_zero(g):
+        return p * e * c ** (e - 1.0)
+    if _is_zero(p):
+        return g * h * np.exp(-h * c)
     return p * e * c ** (e - 1.0) + g * h * np.exp(-h * c)
+
+
+def _is_zero(v) -> bool:
+    """True for a plain number equal to zero (an array is never treated as zero)."""
+    return isinstance(v, (int, float)) and v == 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -704,6 +719,16 @@ class WaterTerms:
         arrays = [_readonly(x) for x in (wl, a_w, b_w, bk, particles, cdom, nap, T, t440, phyto)]
         return cls(water, *arrays, free_only)
 
+    @functools.cached_property
+    def offset(self) -> np.ndarray:
+        """lambda - 440 nm (the CDOM and NAP exponentials of eqs 6-7), nm."""
+        return _readonly(self.wavelengths - self.water.reference_nm)
+
+    @functools.cached_property
+    def ratio(self) -> np.ndarray:
+        """lambda / 470 nm (the power laws of eq 12), dimensionless."""
+        return _readonly(self.wavelengths / self.water.scattering_reference_nm)
+
     def _check_shape(self, w):
         if w is None and self.free_only:
             raise ValueError(f"weights: required for a basis of z = {self.T.shape[1]} functions")
@@ -764,7 +789,8 @@ class WaterTerms:
             self._check_shape(None)
         x = _TermInputs(self, np.asarray(chl, float)[..., None], np.asarray(cdom, float)[..., None],
                         None if w is None else np.asarray(w, float), values, floor)
-        lead = np.broadcast_shapes(x.chl.shape[:-1], x.cdom.shape[:-1])
+        lead = x.chl.shape[:-1] if x.chl.shape == x.cdom.shape else \
+            np.broadcast_shapes(x.chl.shape[:-1], x.cdom.shape[:-1])
         q = self.wavelengths.size
         pieces, by_name = [], {}
         for term in PATH_TERMS[self.water.path_model] if terms is None else terms:
@@ -966,8 +992,11 @@ class _TermInputs:
     def __init__(self, terms, chl, cdom, w, values, floor):
         self.terms, self.chl, self.cdom, self.w, self.values = terms, chl, cdom, w, values
         self.chl_floor = np.maximum(chl, floor)
-        self.offset = terms.wavelengths - terms.water.reference_nm  # lambda - 440, nm
-        self.ratio = terms.wavelengths / terms.water.scattering_reference_nm  # lambda / 470
+        self.offset = terms.offset  # lambda - 440, nm
+        self.ratio = terms.ratio  # lambda / 470
+        #: the slopes d/dC may be infinite (C^e at 0, e < 1) only where the floor is not positive
+        self.guard = (functools.partial(np.errstate, divide="ignore", invalid="ignore")
+                      if not floor > 0 else contextlib.nullcontext)
 
     def given(self, name) -> bool:
         return name in self.values
@@ -1000,9 +1029,11 @@ def _water_scattering_term(x, wrt):
         scale = x.get("water_scattering")
         parts = [(scale, shape)]
     else:
+        parts = [(1.0, t.pure_water_scattering)]
+        if not wrt:
+            return parts, out
         shape = t.pure_water_scattering / t.water.water_scattering
         scale = t.water.water_scattering
-        parts = [(1.0, t.pure_water_scattering)]
     if "water_scattering" in wrt:
         out["water_scattering"] = [(1.0, shape)]
     if "water_scattering_exponent" in wrt:
@@ -1018,8 +1049,10 @@ def _background_term(x, wrt):
         scale = x.get("b_k")
         parts = [(scale, shape)]
     else:
-        shape, scale = x.ratio ** -t.water.gamma_k, t.water.b_k
         parts = [(1.0, t.background_scattering)]
+        if "b_k" not in wrt and "gamma_k" not in wrt:
+            return parts, out
+        shape, scale = x.ratio ** -t.water.gamma_k, t.water.b_k
     if "b_k" in wrt:
         out["b_k"] = [(1.0, shape)]
     if "gamma_k" in wrt:
@@ -1049,7 +1082,7 @@ def _phytoplankton_term(x, wrt):
     weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
     shape = t.phyto_shape
     if "chl" in wrt:
-        with np.errstate(divide="ignore"):
+        with x.guard():
             out["chl"] = [(chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0), shape)]
     if "phyto_scale" in wrt:
         out["phyto_scale"] = [(x.chl ** exponent, shape)]
@@ -1065,7 +1098,7 @@ def _nap_term(x, wrt):
     shape = np.exp(-x.get("nap_slope") * x.offset) if x.given("nap_slope") else t.nap_shape
     weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
     if "chl" in wrt:
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with x.guard():
             out["chl"] = [(chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0), shape)]
     if "nap_scale" in wrt:
         out["nap_scale"] = [(x.chl ** exponent, shape)]
@@ -1081,9 +1114,9 @@ def _particle_term(x, wrt):
     and (C - C_12 (1 - e^(-S_12 C))) b*_p3 (l/l0)^-g3 (micro)."""
     t, out = x.terms, {}
     c12, s12 = x.get("c_12"), x.get("s_12")
-    r12, r3 = x.ratio ** -x.get("gamma_12"), x.ratio ** -x.get("gamma_3")
-    if any(x.given(k) for k in ("b_p12_star", "gamma_12", "b_p3_star", "gamma_3")):
-        small, large = x.get("b_p12_star") * r12, x.get("b_p3_star") * r3
+    if x.values and any(x.given(k) for k in ("b_p12_star", "gamma_12", "b_p3_star", "gamma_3")):
+        small = x.get("b_p12_star") * x.ratio ** -x.get("gamma_12")
+        large = x.get("b_p3_star") * x.ratio ** -x.get("gamma_3")
     else:
         small, large = t.particle_shapes
     w_small = chl_weight(x.chl, 0.0, 1.0, c12, s12)
@@ -1098,11 +1131,11 @@ def _particle_term(x, wrt):
         d = c12 * x.chl * np.exp(-s12 * x.chl)
         out["s_12"] = [(d, small), (-d, large)]
     if "b_p12_star" in wrt:
-        out["b_p12_star"] = [(w_small, r12)]
+        out["b_p12_star"] = [(w_small, x.ratio ** -x.get("gamma_12"))]
     if "gamma_12" in wrt:
         out["gamma_12"] = [(w_small, -small * np.log(x.ratio))]
     if "b_p3_star" in wrt:
-        out["b_p3_star"] = [(w_large, r3)]
+        out["b_p3_star"] = [(w_large, x.ratio ** -x.get("gamma_3"))]
     if "gamma_3" in wrt:
         out["gamma_3"] = [(w_large, -large * np.log(x.ratio))]
     return [(w_small, small), (w_large, large)], out
@@ -1116,7 +1149,7 @@ def _sum_pieces(pieces, lead, q):
     """sum of weight x spectrum over ``pieces``, shape lead + (q,): the pieces whose spectrum
     is one for all charts by one matrix product (for many charts), constant ones once, the
     rest elementwise."""
-    few = int(np.prod(lead)) < _FEW_CHARTS
+    few = math.prod(lead) < _FEW_CHARTS
     weights, spectra, total = [], [], None
     for w, sh in pieces:
         if few or sh.ndim > 1 or not isinstance(w, np.ndarray) or w.ndim == 0:

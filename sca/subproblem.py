@@ -256,15 +256,15 @@ def _rows(sub: Subproblem):
         idx = np.arange(nv)[sl]
         if kind in ("lower", "box"):
             val = np.broadcast_to(params[0].value, idx.shape)
-            for i, l_val in zip(idx, val):
-                e = np.zeros(nv)
-                e[i] = 1.0
-                if kind == "lower":
-                    ineq.append(e)
-                    lbs.append(l_val)
-                else:
-                    ineq += [-e, e]
-                    lbs += [-l_val, -l_val]
+            E = np.eye(nv)[idx]
+            if kind == "lower":  # v_i >= lo_i
+                ineq += list(E)
+                lbs += list(val)
+            else:  # -hi_i <= v_i <= hi_i, as -v_i >= -hi_i and v_i >= -hi_i
+                both = np.empty((2 * idx.size, nv))
+                both[0::2], both[1::2] = -E, E
+                ineq += list(both)
+                lbs += list(np.repeat(-val, 2))
             continue
         A = np.zeros((np.atleast_2d(params[0].value).shape[0], nv))
         A[:, idx] = np.atleast_2d(params[0].value)
