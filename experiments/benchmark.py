@@ -45,7 +45,14 @@ CDOMS = (0.0, 0.05, 0.5, 2.0)
 DEPTHS = (1.0, 10.0, 30.0)
 DISTANCES = (0.5, 5.0)
 METHODS = ("cvx_rebuild", "sca_paper", "sca_safeguarded", "scipy_least_squares",
-           "batch_no_intervals", "batch")
+           "batch_no_intervals", "batch", "sca_budget", "batch_budget")
+#: The uncertainty budget of each method: the paper's exact model, except the ``*_budget``
+#: rows, which run the estimators' default budget (sca.budget.DEFAULT_UNCERTAIN).
+PAPER_MODEL = {}
+
+
+def _uncertain(method):
+    return None if method.endswith("_budget") else PAPER_MODEL
 #: light levels of the coverage study (lx): the default sensor's daylight and a dim scene
 COVERAGE_LUX = (20000.0, 200.0)
 #: Charts in the batch throughput stack (the chart set tiled); QUICK_BATCH_N with --quick
@@ -149,13 +156,14 @@ def run_single(method, conds, rgbs, sigmas, grid):
     setup = forward.chart_setup(wavelengths=grid)
     ests, times, iters, solve_t, clarabel_t = [], [], [], 0.0, 0.0
     for cond, rgb, sig in zip(conds, rgbs, sigmas):
-        kw = dict(depth=cond["depth"], distance=cond["distance"], setup=setup, sigma=sig)
+        kw = dict(depth=cond["depth"], distance=cond["distance"], setup=setup, sigma=sig,
+                  uncertain=_uncertain(method))
         trace = dict(n_solves=0, solve_time_s=0.0, clarabel_time_s=0.0)
         t0 = time.perf_counter()
-        if method in ("cvx_rebuild", "sca_paper", "sca_safeguarded"):
+        if method in ("cvx_rebuild", "sca_paper", "sca_safeguarded", "sca_budget"):
             sig = kw.pop("sigma")
             cls = RebuildEstimator if method == "cvx_rebuild" else sca.Estimator
-            mode = "safeguarded" if method == "sca_safeguarded" else "paper"
+            mode = "paper" if method in ("cvx_rebuild", "sca_paper") else "safeguarded"
             e = cls(**kw).fit(rgb, sigma=sig, mode=mode, trace=trace)
         elif method == "scipy_least_squares":
             e = estimate_least_squares(rgb, **kw)
@@ -169,14 +177,14 @@ def run_single(method, conds, rgbs, sigmas, grid):
     return ests, times, iters, dict(solve_call_s=solve_t, clarabel_s=clarabel_t)
 
 
-def run_batch(conds, rgbs, sigmas, grid, n_total, intervals):
+def run_batch(conds, rgbs, sigmas, grid, n_total, intervals, uncertain=PAPER_MODEL):
     """:func:`sca.estimate_batch` on the chart set (for the errors), then timed on ``n_total``
     charts (the set tiled; the median of BATCH_REPEATS runs after a warm-up of WARMUP_N);
     returns estimates, per-fit times, iterations and the batch timings, as :func:`run_single`."""
     setup = forward.chart_setup(wavelengths=grid)
     depth = np.array([c["depth"] for c in conds])
     dist = np.array([c["distance"] for c in conds])
-    kw = dict(setup=setup, intervals=intervals)
+    kw = dict(setup=setup, intervals=intervals, uncertain=uncertain)
     res = sca.estimate_batch(rgbs, depth=depth, distance=dist, sigma=sigmas, **kw)
     ests = [dict(chl=res.chl[i], cdom=res.cdom[i], attenuation=res.attenuation[i],
                  converged=res.converged[i], objective=res.objective[i], chl_ci=res.chl_ci[i],
@@ -224,12 +232,13 @@ def coverage(quick=False):
         S = np.array([s.rgb_sigma for s in sims])
         D = np.array([s.depth for s in sims])
         R = np.array([s.distance for s in sims])
-        b = sca.estimate_batch(M, depth=D, distance=R, sigma=S)
+        b = sca.estimate_batch(M, depth=D, distance=R, sigma=S, uncertain=PAPER_MODEL)
         chl = np.array([c[0] for c in cells])
         cdom = np.array([c[1] for c in cells])
         cov_c = (b.chl_ci[:, 0] <= chl) & (chl <= b.chl_ci[:, 1])
         cov_a = (b.cdom_ci[:, 0] <= cdom) & (cdom <= b.cdom_ci[:, 1])
-        agree = [sca.estimate(M[j], depth=D[j], distance=R[j], sigma=S[j]).reliable == b.reliable[j]
+        agree = [sca.estimate(M[j], depth=D[j], distance=R[j], sigma=S[j],
+                              uncertain=PAPER_MODEL).reliable == b.reliable[j]
                  for j in range(0, len(cells), AGREE_STRIDE)]
         out.append(dict(
             illuminance_lux=lux, n=len(cells), coverage_chl=float(cov_c.mean()),
@@ -257,8 +266,9 @@ def equal_optimum(n=EQUAL_OPTIMUM_N, seed=11):
     for noise in (False, True):
         M = np.array([forward.simulate_chart(C[i], A[i], D[i], R[i], noise=noise, seed=i).rgb
                       for i in range(n)])
-        b = sca.estimate_batch(M, depth=D, distance=R)
-        ref = [sca.estimate(M[i], depth=D[i], distance=R[i]) for i in range(n)]
+        b = sca.estimate_batch(M, depth=D, distance=R, uncertain=PAPER_MODEL)
+        ref = [sca.estimate(M[i], depth=D[i], distance=R[i], uncertain=PAPER_MODEL)
+               for i in range(n)]
         chl = np.array([e.chl for e in ref])
         cdom = np.array([e.cdom for e in ref])
         obj = np.array([e.objective for e in ref])
@@ -386,7 +396,8 @@ def main(argv=None):
             if method.startswith("batch"):
                 ests, times, iters, extra = run_batch(conds, rgbs, sigmas, grid,
                                                       QUICK_BATCH_N if args.quick else BATCH_N,
-                                                      intervals=method == "batch")
+                                                      intervals=method != "batch_no_intervals",
+                                                      uncertain=_uncertain(method))
             else:
                 ests, times, iters, extra = run_single(method, conds, rgbs, sigmas, grid)
             rec = _record(method, res_nm, conds, ests, times, iters, grid, extra)

@@ -34,7 +34,7 @@ def run(outdir=None):
         ok, iters = 0, []
         for chl, cdom, depth, distance in itertools.product(CHLS, CDOMS, DEPTHS, DISTANCES):
             sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False)
-            est = sca.estimate(sim.rgb, depth=depth, distance=distance, mode=mode)
+            est = sca.estimate(sim.rgb, depth=depth, distance=distance, mode=mode, uncertain={})
             err_k = sca.rrmse(est.attenuation, sim.attenuation)
             good = (est.converged and abs(est.chl / chl - 1) < 1e-4
                     and abs(est.cdom / cdom - 1) < 1e-4 and err_k < 1e-6)

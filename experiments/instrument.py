@@ -70,7 +70,7 @@ def cameras(camera_csv=None) -> dict:
 def _precision(cam, chl, cdom, depth, distance, lux, **kw):
     setup = forward.chart_setup(cam["camera"], wavelengths=cam["wavelengths"])
     return sca.precision(chl, cdom, depth=depth, distance=distance, setup=setup,
-                         sensor=forward.SensorSettings(illuminance_lux=lux), **kw)
+                         sensor=forward.SensorSettings(illuminance_lux=lux), uncertain={}, **kw)
 
 
 def precision_table(cams) -> list:
@@ -103,11 +103,11 @@ def validation() -> list:
     for (water, (c, a)), d, lux in itertools.product(WATERS.items(), VALIDATION_DEPTHS_M,
                                                      LIGHTS_LUX):
         sensor = forward.SensorSettings(illuminance_lux=lux)
-        p = sca.precision(c, a, depth=d, distance=r, sensor=sensor)
+        p = sca.precision(c, a, depth=d, distance=r, sensor=sensor, uncertain={})
         sims = [forward.simulate_chart(c, a, d, r, seed=VALIDATION_SEED + s, sensor=sensor)
                 for s in range(DRAWS)]
         b = sca.estimate_batch(np.array([s.rgb for s in sims]), depth=d, distance=r,
-                               sigma=np.array([s.rgb_sigma for s in sims]), intervals=False)
+                               sigma=np.array([s.rgb_sigma for s in sims]), intervals=False, uncertain={})
         rows.append(dict(water=water, chl=c, cdom=a, depth=d, lux=lux,
                          chl_sd_bound=float(p.chl_sd), chl_sd_estimator=float(b.chl.std(ddof=1)),
                          chl_ratio=float(b.chl.std(ddof=1) / p.chl_sd),
@@ -143,7 +143,7 @@ def paper_connection(figdir: Path):
         cells = list(itertools.product(g["fig12_chl"], g["fig12_cdom"]))
         c = np.array([x[0] for x in cells])
         a = np.array([x[1] for x in cells])
-        p = sca.precision(c, a, depth=d, distance=g["fig12_distance_m"], sensor=sensor)
+        p = sca.precision(c, a, depth=d, distance=g["fig12_distance_m"], sensor=sensor, uncertain={})
         var_t = c.var()
         r2 = var_t / (var_t + np.mean(p.chl_sd ** 2))
         out.append(dict(depth=d, r2_bound=float(r2), r2_figure=observed.get(d, float("nan")),

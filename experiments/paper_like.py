@@ -77,7 +77,7 @@ def _fit(cells, sensor, seed0):
     M = np.array([s.rgb for s in sims])
     D = np.array([s.depth for s in sims])
     R = np.array([s.distance for s in sims])
-    b = sca.estimate_batch(M, depth=D, distance=R, intervals=False)
+    b = sca.estimate_batch(M, depth=D, distance=R, intervals=False, uncertain={})
     return sims, b
 
 

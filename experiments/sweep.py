@@ -82,7 +82,7 @@ def fit_condition(cond: dict) -> dict:
                                     exposure_mode=cond.get("exposure", "capped"))
     sim = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], cond["distance"],
                                  seed=cond["seed"], sensor=sensor)
-    est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"])
+    est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"], uncertain={})
     return dict(
         cond,
         chl_hat=est.chl, cdom_hat=est.cdom, converged=est.converged, status=est.status,

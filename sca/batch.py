@@ -36,11 +36,13 @@ from .assess import (
     input_flag_table,
     profile_delta,
 )
+from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
 from .projection import grid_best
 from .model import (
+    CHL_DERIVATIVE_FLOOR,
     TINY,
     ChartModel,
     profiled_covariance,
@@ -159,6 +161,12 @@ class BatchEstimate:
     elapsed_s: float
     values: dict = field(default_factory=dict)
     intervals: dict = field(default_factory=dict)
+    #: the uncertainty budget applied: name -> sd as given (:mod:`sca.budget`); {} for the
+    #: paper's exact model or where it could not be applied (noise unknown)
+    uncertain: dict = field(default_factory=dict)
+    #: each source's share of the variance of C and a_CDOM: {'chl': {'sd': (N,), 'shares':
+    #: {source: (N,)}}, 'cdom': ...} (:func:`sca.budget.variance_shares`); {} without a budget
+    budget: dict = field(default_factory=dict)
 
     def __len__(self):
         return self.chl.size
@@ -195,7 +203,8 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    basis=None, water: Water | None = None, path_model: str | None = None,
                    cdom_slope: float | None = None, fix=None, free=(), intervals: bool = True,
                    max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
-                   engine: str = DEFAULT_ENGINE, gain: str = "known") -> BatchEstimate:
+                   engine: str = DEFAULT_ENGINE, gain: str = "known",
+                   uncertain=None) -> BatchEstimate:
     """Estimate the water of a stack of charts ``rgb_stack`` (N, m, n).
 
     Parameters
@@ -231,6 +240,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         (:mod:`sca.projection`).
     gain : {'known', 'free'}
         'free': M = gain G + s with one unknown gain per chart (a photograph's exposure).
+    uncertain : dict, optional
+        The uncertainty budget, name -> sd (:mod:`sca.budget`): nuisance parameters with
+        Gaussian priors ('depth', 'distance', Water constants, 'balance') and the per-patch
+        systematic term ('patch'). Default (None): :data:`sca.budget.DEFAULT_UNCERTAIN`;
+        ``{}``: the paper's exact model. Applied only with ``sigma``.
 
     Returns
     -------
@@ -276,14 +290,23 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     tol = validate.scalar("tol", tol, positive=True)
     if engine not in ENGINES:
         raise ValueError(f"engine: must be one of {ENGINES}, got {engine!r}")
-    parts = [_solve_chunk(mdl, spec, M[i:i + CHUNK], None if sig is None else sig[i:i + CHUNK],
+    budget = resolve_budget(uncertain, depth=geometry["depth"], distance=geometry["distance"],
+                            water=spec.water, free=spec.names, fixed=tuple(fix or {}))
+    if sig is None or budget.exact:
+        budget = None  # the paper's exact model (or no noise to weigh a budget against)
+
+    def rows(a, i):
+        return None if a is None else a[i:i + CHUNK]
+    parts = [_solve_chunk(mdl, spec, M[i:i + CHUNK], rows(sig, i),
                           {k: v[i:i + CHUNK] for k, v in geometry.items()}, scale[i:i + CHUNK],
-                          int(max_iter), tol, bool(intervals))
+                          int(max_iter), tol, bool(intervals),
+                          None if budget is None else budget.rows(slice(i, i + CHUNK)))
              for i in range(0, N, CHUNK)] or [_empty(mdl, spec)]
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]
-           if key not in ("values", "intervals")}
+           if key not in ("values", "intervals", "budget")}
     values = {k: np.concatenate([p["values"][k] for p in parts]) for k in parts[0]["values"]}
     ints = {k: np.concatenate([p["intervals"][k] for p in parts]) for k in parts[0]["intervals"]}
+    shares = _concatenate_budgets([p["budget"] for p in parts])
     code = out["code"]
     converged = code <= 2
     chl = values.get("chl", np.full(N, spec.fixed.get("chl", np.nan)))
@@ -312,7 +335,20 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         objective=objective, iterations=out["it"], converged=converged,
         status=np.array([STATUS[c] for c in code]), status_code=code,
         elapsed_s=time.perf_counter() - t0, values=values, intervals=ints,
+        uncertain={} if budget is None else dict(budget.sd), budget=shares,
     )
+
+
+def _concatenate_budgets(parts):
+    """One budget dict from the chunks' (:func:`sca.budget.variance_shares` layout)."""
+    if not parts or not parts[0]:
+        return {}
+    out = {}
+    for name in parts[0]:
+        out[name] = {"sd": np.concatenate([p[name]["sd"] for p in parts]),
+                     "shares": {k: np.concatenate([p[name]["shares"][k] for p in parts])
+                                for k in parts[0][name]["shares"]}}
+    return out
 
 
 def _empty(mdl, spec):
@@ -321,24 +357,38 @@ def _empty(mdl, spec):
     return dict(code=np.zeros(0, int), f=z, s=np.zeros((0, mdl.m)), k=np.zeros((0, mdl.wavelengths.size)),
                 it=np.zeros(0, int), gain=z, fit_rms=z, dof=np.zeros(0, int), chi2_dof=z,
                 chi2_p=z, gain_ci=np.zeros((0, 2)), ci_codes=np.zeros((0, 4), int),
-                values={n: z for n in names}, intervals={n: np.zeros((0, 2)) for n in names})
+                values={n: z for n in names}, intervals={n: np.zeros((0, 2)) for n in names},
+                budget={})
 
 
-def make_problem(mdl, spec, M, sig, geometry, scale) -> Problem:
-    """The scaled :class:`sca.lm.Problem` of charts ``M`` (N, m, n) (data units)."""
+def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> Problem:
+    """The scaled :class:`sca.lm.Problem` of charts ``M`` (N, m, n) (data units); with a
+    ``budget`` (:class:`sca.budget.Budget` of these charts) its nuisance parameters follow the
+    free names, with their Gaussian priors, and ``sig`` includes the per-patch term."""
     N = M.shape[0]
     Ms = np.ascontiguousarray((M / scale[:, None, None]).reshape(N, -1))  # every chart max 1
     W2 = np.ones_like(Ms) if sig is None else np.ascontiguousarray(
         (scale[:, None] / sig.reshape(N, -1)) ** 2)
+    names = tuple(spec.names)
+    mean = weight = None
+    if budget is not None and budget.priors:
+        extra = [n for n in budget.priors for _ in range(mdl.m if n == "balance" else 1)]
+        names = names + tuple(extra)
+        mean = np.zeros((N, len(names)))
+        weight = np.zeros((N, len(names)))
+        for j, n in enumerate(names):
+            if n in budget.priors:
+                mu, sd = budget.priors[n]
+                mean[:, j], weight[:, j] = mu, 1.0 / sd ** 2
     fixed = dict(geometry)
     for k in ("chl", "cdom"):
         if k in spec.fixed:
             fixed[k] = np.full(N, spec.fixed[k])
-    fixed = {k: v for k, v in fixed.items() if k not in spec.names}
+    fixed = {k: v for k, v in fixed.items() if k not in names}
     fs = None if spec.free_s else np.ascontiguousarray(
         spec.fixed["backscatter"][None, :] / scale[:, None])
-    return Problem(mdl, Ms, W2, np.ascontiguousarray(scale), spec.names, fixed,
-                   spec.free_gain, fs)
+    return Problem(mdl, Ms, W2, np.ascontiguousarray(scale), names, fixed,
+                   spec.free_gain, fs, mean, weight)
 
 
 def start_values(prob: Problem, geometry) -> np.ndarray:
@@ -354,6 +404,8 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
             theta[:, j] = A0
         elif name in geometry:
             theta[:, j] = geometry[name]
+        elif name == "balance":
+            theta[:, j] = 0.0
         else:
             theta[:, j] = prob.model.default(name)
     return theta
@@ -405,11 +457,14 @@ def start_grid(prob: Problem, geometry):
     return C[best].copy(), A[best].copy()
 
 
-def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals):
+def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget=None):
     """Levenberg-Marquardt (and the intervals) on one chunk of charts: a dict of results, s
     and f in the chunk's scaled units."""
     N = M.shape[0]
-    prob = make_problem(mdl, spec, M, sig, geometry, scale)
+    sig_photon = sig
+    if budget is not None:
+        sig = budget.noise_sd(M, sig)
+    prob = make_problem(mdl, spec, M, sig, geometry, scale, budget)
     theta0 = start_values(prob, geometry)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M)
     theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
@@ -427,23 +482,59 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals):
     if spec.free_gain:
         res["gain_ci"] = gain_wald(gain, gain_variance(prob, theta, gain, s), f, dof, noise_known)
     values = prob.params(idx, theta)
-    p = len(spec.names)
+    p = len(prob.names)
     ends = np.full((N, p, 2), np.nan)
     codes = np.full((N, p, 2), BOUND_FAILED)
-    if intervals and p:
+    if intervals and spec.names:
         delta = profile_delta(noise_known, f, dof, np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M))
-        caps = np.array([upper_cap(n, mdl.water) for n in spec.names])
+        caps = np.array([upper_cap(n, mdl.water) for n in prob.names])
         if prob.chl_col >= 0:
             caps[prob.chl_col] = u_from_chl(caps[prob.chl_col], mdl.e0)
-        ends, codes = profile_intervals(prob, theta, f, delta, H, caps)
+        # the intervals of the free names; the nuisances are profiled, not bounded
+        ends, codes = profile_intervals(prob, theta, f, delta, H, caps,
+                                        which=range(len(spec.names)))
         if prob.chl_col >= 0:
             ends[:, prob.chl_col] = np.where(ends[:, prob.chl_col] > 0,
                                              ends[:, prob.chl_col], 0.0) ** (1.0 / mdl.e0)
         ends = np.where(codes == BOUND_OPEN, np.array([-np.inf, np.inf]), ends)
-    res["values"] = {n: np.asarray(values[n], float) for n in spec.names}
+    res["values"] = {n: np.asarray(values[n], float) for n in prob.free}
     res["intervals"] = {n: ends[:, j] for j, n in enumerate(spec.names)}
     res["ci_codes"] = _chl_cdom_codes(spec.names, codes)
+    res["budget"] = {} if budget is None else _budget_shares(
+        prob, theta, gain, s, spec.free_s, sig, sig_photon)
     return res
+
+
+#: Charts per block of the budget's variance shares (bounds its memory).
+BUDGET_BLOCK = 4096
+
+
+def _budget_shares(prob, theta, gain, s, free_s, sig_total, sig_photon):
+    """Each source's share of the variance of C and a_CDOM (:func:`sca.budget.variance_shares`)
+    at the fits, in data units: every nonlinear column, the gain (if free) and the active
+    backscatter channels."""
+    mdl, N = prob.model, prob.size
+    blocks = []
+    for lo in range(0, N, BUDGET_BLOCK):
+        idx = np.arange(lo, min(N, lo + BUDGET_BLOCK))
+        params = prob.params(idx, theta[idx])
+        params["gain"] = gain[idx]
+        params["backscatter"] = s[idx] * prob.scale[idx, None]
+        free = prob.free + (("gain",) if prob.free_gain else ()) + ("backscatter",)
+        pred = mdl.predict(params, free, chl_floor=CHL_DERIVATIVE_FLOOR)
+        names = list(pred.columns)
+        k = idx.size
+        active = np.ones((k, len(names)), bool)
+        s_cols = [j for j, n in enumerate(names) if n == "backscatter"]
+        active[:, s_cols] = (s[idx] > 0) if free_s else False
+        weight = np.zeros((k, len(names)))
+        if prob.prior_weight is not None:
+            weight[:, :len(prob.names)] = prob.prior_weight[idx]
+            # C's prior-free column is in mg m^-3 here; nuisances are in their own units
+        w2t = 1.0 / sig_total[idx].reshape(k, -1) ** 2
+        w2p = 1.0 / sig_photon[idx].reshape(k, -1) ** 2
+        blocks.append(variance_shares(pred.jacobian, names, w2t, w2p, active, weight))
+    return _concatenate_budgets(blocks)
 
 
 def _chl_cdom_codes(names, codes):
@@ -463,7 +554,7 @@ def gain_variance(prob: Problem, theta, gain, s):
     mdl = prob.model
     N = prob.size
     params = prob.params(np.arange(N), theta)
-    pred = mdl.predict(params, prob.names, chl_floor=TINY)
+    pred = mdl.predict(params, prob.free, chl_floor=TINY)
     sc = prob.scale[:, None]
     J = pred.jacobian * prob.column_scales(np.arange(N), params.get("chl"))[:, None, :]
     shape = (N, mdl.m, mdl.n)

@@ -36,6 +36,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
 from .assess import flag_tuples, input_flag_table
+from .budget import limiting_source, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, profiled_covariance
@@ -81,6 +82,15 @@ class Precision:
     sd : dict
         name -> standard deviation of every free parameter (and 'gain' for ``gain='free'``),
         in its own units.
+    uncertain : dict
+        The uncertainty budget included (:mod:`sca.budget`), name -> sd as given; {}: photon
+        and read noise only.
+    budget : dict
+        Each source's share of the variance of C and a_CDOM (:func:`sca.budget.variance_shares`;
+        arrays, floats for scalar conditions); {} without a budget.
+    limiting : list of str or str
+        The source with the largest share of C's variance per condition ('noise' without a
+        budget).
     chl_rel95, cdom_rel95 : ndarray or float
         (Properties) 1.96 sd / value of C and of a_CDOM.
     """
@@ -98,6 +108,9 @@ class Precision:
     gain: str
     fixed: dict
     sd: dict = field(default_factory=dict)
+    uncertain: dict = field(default_factory=dict)
+    budget: dict = field(default_factory=dict)
+    limiting: list = field(default_factory=list)
 
     @property
     def chl_rel95(self) -> np.ndarray:
@@ -118,7 +131,7 @@ class Precision:
 def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
               reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
               water: Water | None = None, gain: str = "known", fix=None, free=(),
-              setup: ChartSetup | None = None) -> Precision:
+              setup: ChartSetup | None = None, uncertain=None) -> Precision:
     """The Cramér-Rao bound of C, a_CDOM(440) and any free parameter for every condition.
 
     Parameters
@@ -146,6 +159,11 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         More parameters estimated: forward.Water coefficients (e.g. 'cdom_slope') or the
         geometry ('depth', 'distance'). ('gain' here has no effect: the exposure is set by
         ``gain``.)
+    uncertain : dict, optional
+        The uncertainty budget (:mod:`sca.budget`): its per-patch term joins the sensor's
+        noise and its nuisances enter with their Gaussian priors, as in the estimators.
+        Default (None): :data:`sca.budget.DEFAULT_UNCERTAIN`; ``{}``: the sensor's photon and
+        read noise only (the camera's own limit).
 
     Returns
     -------
@@ -202,25 +220,40 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     names = list(spec.names)
     if "chl" not in names:
         names.insert(0, "chl")
+    budget = resolve_budget(uncertain, depth=depth, distance=distance, water=spec.water,
+                            free=names, fixed=tuple(fix))
+    extra = [nm for nm in budget.priors if nm not in names]
     params = {"chl": chl, "cdom": cdom, "depth": depth, "distance": distance}
-    pred = mdl.predict(params, names, chl_floor=CHL_DERIVATIVE_FLOOR)
+    pred = mdl.predict(params, names + extra, chl_floor=CHL_DERIVATIVE_FLOOR)
+    columns = list(pred.columns)
+    prior = np.zeros((N, len(columns)))
+    for j, nm in enumerate(columns):
+        if nm in budget.priors:
+            prior[:, j] = 1.0 / budget.priors[nm][1] ** 2
     s = veiling_light(setup.wavelengths, chl, cdom, depth, distance, illuminant=setup.illuminant,
                       water=spec.water) @ setup.sensitivities  # (N, m)
     M0 = pred.signal.reshape(N, m, n) + s[:, :, None]
-    sigma, saturation, _, _ = noise_model(M0, setup, sensor)
+    sigma_photon, saturation, _, _ = noise_model(M0, setup, sensor)
+    sigma = budget.noise_sd(M0, sigma_photon)
     J = pred.jacobian.reshape(N, m, n, -1)
     if gain == "channels":  # one gain per channel: d M0 / d g_c = M0 in channel c
         per = np.zeros((N, m, n, m))
         for c in range(m):
             per[:, c, :, c] = M0[:, c, :]
         J = np.concatenate([J, per], axis=-1)
+    extra_cols = J.shape[-1] - len(columns)
+    if gain == "free":
+        extra_cols += 1
+    prior_all = np.concatenate([prior, np.zeros((N, extra_cols))], axis=1)
     active = np.full((N, m), spec.free_s)
     cov = profiled_covariance(J, 1.0 / sigma ** 2, active,
-                              gain_column=M0 if gain == "free" else None)
+                              gain_column=M0 if gain == "free" else None, prior_weight=prior_all)
     sd_all = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     sd = {nm: sd_all[:, j] for j, nm in enumerate(names)}
     if gain == "free":
         sd["gain"] = sd_all[:, -1]
+    shares = {} if budget.exact else _shares(J, M0, columns, gain, spec.free_s, sigma,
+                                             sigma_photon, prior_all)
     chl_sd = sd["chl"]
     cdom_free = "cdom" in names
     if cdom_free:
@@ -243,7 +276,10 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     flags, attained = _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, cdom_free)
     out = Precision(chl=chl, cdom=cdom, depth=depth, distance=distance, chl_sd=chl_sd,
                     cdom_sd=cdom_sd, correlation=corr, rrmse=rrmse, attained=attained,
-                    flags=flags, gain=gain, fixed=fix, sd=sd)
+                    flags=flags, gain=gain, fixed=fix, sd=sd,
+                    uncertain={} if budget.exact else dict(budget.sd), budget=shares,
+                    limiting=[limiting_source({k: v[i] for k, v in shares["chl"]["shares"].items()})
+                              if shares.get("chl") else "noise" for i in range(N)])
     if scalar:
         for name in ("chl", "cdom", "depth", "distance", "chl_sd", "cdom_sd", "correlation",
                      "rrmse"):
@@ -251,7 +287,33 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         out.attained = bool(out.attained[0])
         out.flags = out.flags[0]
         out.sd = {k_: float(v[0]) for k_, v in sd.items()}
+        out.budget = {k_: {"sd": float(v["sd"][0]),
+                           "shares": {a: float(b[0]) for a, b in v["shares"].items()}}
+                      for k_, v in shares.items()}
+        out.limiting = out.limiting[0]
     return out
+
+
+def _shares(J, M0, columns, gain, free_s, sigma, sigma_photon, prior):
+    """The budget's variance shares of C and a_CDOM (:func:`sca.budget.variance_shares`) from
+    the bound's Jacobian with the gain column(s) and the backscatter indicators appended."""
+    N, m, n, p = J.shape
+    cols = [J]
+    names = list(columns) + ["gain"] * (p - len(columns))
+    if gain == "free":
+        cols.append(M0[..., None])
+        names.append("gain")
+    ind = np.zeros((N, m, n, m))
+    for c in range(m):
+        ind[:, c, :, c] = 1.0
+    cols.append(ind)
+    names += ["backscatter"] * m
+    full = np.concatenate(cols, axis=-1).reshape(N, m * n, -1)
+    active = np.ones((N, full.shape[-1]), bool)
+    active[:, -m:] = free_s
+    weight = np.concatenate([prior, np.zeros((N, m))], axis=1)
+    return variance_shares(full, names, 1.0 / sigma.reshape(N, -1) ** 2,
+                           1.0 / sigma_photon.reshape(N, -1) ** 2, active, weight)
 
 
 def _flags(chl, cdom, chl_sd, cdom_sd, M0, sigma, saturation, cdom_free):

@@ -76,16 +76,10 @@ def _point(prob, idx, col, t, psi, atol):
     theta[rows, col] = t
     hold = np.zeros(theta.shape, bool)
     hold[rows, col] = True
-    sub = _subset(prob, idx)
+    sub = prob.subset(idx)
     theta, f, _, _ = levenberg_marquardt(sub, theta, max_iter=PROFILE_MAX_ITER, tol=0.0,
                                          f_exact=np.zeros(idx.size), atol=atol, hold=hold)
     return f, theta
-
-
-def _subset(prob: Problem, idx) -> Problem:
-    return Problem(prob.model, prob.M[idx], prob.W2[idx], prob.scale[idx], prob.names,
-                   {k: v[idx] for k, v in prob.fixed.items()}, prob.free_gain,
-                   None if prob.fixed_s is None else prob.fixed_s[idx])
 
 
 def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, limit_code):

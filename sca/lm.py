@@ -70,6 +70,12 @@ class Problem:
         The exposure gain is estimated (profiled out with s). Default False.
     fixed_s : ndarray, (N, m), or None
         Backscatter held (scaled units) or None (s free, s >= 0). Default None.
+    prior_mean : ndarray, (N, p), or None
+        Centre of each column's Gaussian prior (LM coordinates; the uncertainty budget's
+        nuisance parameters, :mod:`sca.budget`). Default None: no prior.
+    prior_weight : ndarray, (N, p), or None
+        1 / sd^2 of each column's prior in the objective's units (0: no prior on that column).
+        The objective is then f = ||r||^2 + sum prior_weight (theta - prior_mean)^2.
     lower : ndarray, (p,)
         Lower bound of each column of theta (:func:`sca.model.lower_bound`; set on
         construction).
@@ -85,11 +91,23 @@ class Problem:
     fixed: dict
     free_gain: bool = False
     fixed_s: np.ndarray | None = None
+    prior_mean: np.ndarray | None = None
+    prior_weight: np.ndarray | None = None
     lower: np.ndarray = field(init=False)
 
     def __post_init__(self):
         self.lower = np.array([lower_bound(n, self.model.water) for n in self.names])
         self.chl_col = self.names.index("chl") if "chl" in self.names else -1
+        #: the distinct names in column order (a name of m values, 'balance', has m columns)
+        self.free = tuple(dict.fromkeys(self.names))
+
+    def subset(self, idx) -> "Problem":
+        """The charts ``idx`` as a problem of their own."""
+        def rows(a):
+            return None if a is None else a[idx]
+        return Problem(self.model, self.M[idx], self.W2[idx], self.scale[idx], self.names,
+                       {k: v[idx] for k, v in self.fixed.items()}, self.free_gain,
+                       rows(self.fixed_s), rows(self.prior_mean), rows(self.prior_weight))
 
     @property
     def size(self) -> int:
@@ -112,8 +130,14 @@ class Problem:
             name -> (k,) values for :meth:`sca.model.ChartModel.predict` (C in mg m^-3).
         """
         out = {k: v[idx] for k, v in self.fixed.items()}
-        for j, name in enumerate(self.names):
-            out[name] = chl_from_u(theta[:, j], self.model.e0) if j == self.chl_col else theta[:, j]
+        for name in self.free:
+            cols = [j for j, n in enumerate(self.names) if n == name]
+            if len(cols) > 1:
+                out[name] = theta[:, cols]
+            elif cols[0] == self.chl_col:
+                out[name] = chl_from_u(theta[:, cols[0]], self.model.e0)
+            else:
+                out[name] = theta[:, cols[0]]
         return out
 
     def column_scales(self, idx, chl) -> np.ndarray:
@@ -164,7 +188,7 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
     mdl = prob.model
     m, n = mdl.m, mdl.n
     params = prob.params(idx, theta)
-    pred = mdl.predict(params, prob.names if grad else (), chl_floor=TINY, jacobian=grad)
+    pred = mdl.predict(params, prob.free if grad else (), chl_floor=TINY, jacobian=grad)
     inv = (1.0 / prob.scale[idx])[:, None]
     fs = None if prob.fixed_s is None else prob.fixed_s[idx]
     JR = np.zeros((len(idx), 0, m * n))
@@ -174,6 +198,13 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
         JR = pred.jacobian_rows
     f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
                                     prob.free_gain, m, n, grad, col_scale)
+    if prob.prior_mean is not None:  # the budget's Gaussian priors: f + sum w (theta - mu)^2
+        pw = prob.prior_weight[idx]
+        d = theta - prob.prior_mean[idx]
+        f = f + np.einsum("ip,ip->i", pw, d * d)
+        if grad:
+            g = g + pw * d
+            H = H + pw[:, :, None] * np.eye(theta.shape[1])
     if not grad:
         g = H = None
     return f, g, H, gain, s, ssr, pred.attenuation

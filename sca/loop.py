@@ -40,6 +40,7 @@ from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
+from .budget import resolve_budget
 from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, linear_part, lower_bound
@@ -114,6 +115,8 @@ class Estimator:
         Parameters estimated besides C and a_CDOM (see :func:`sca.estimate`).
     gain : {'known', 'free'}
         The exposure gain of M = gain G + s: known (model units) or estimated.
+    uncertain : dict, optional
+        The uncertainty budget (see :func:`sca.estimate`).
 
     Attributes
     ----------
@@ -145,7 +148,8 @@ class Estimator:
     def __init__(self, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
                  reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
                  path_model: str | None = None, cdom_slope: float | None = None, fix=None,
-                 free=(), setup: ChartSetup | None = None, gain: str = "known"):
+                 free=(), setup: ChartSetup | None = None, gain: str = "known",
+                 uncertain=None):
         self.depth = validate.scalar("depth", depth)
         self.distance = validate.scalar("distance", distance)
         self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -157,6 +161,9 @@ class Estimator:
         self.fixed = dict(spec.fixed)
         self.free_gain, self.free_s = spec.free_gain, spec.free_s
         self.free_chl, self.free_cdom = "chl" in spec.names, "cdom" in spec.names
+        #: the uncertainty budget (:mod:`sca.budget`), applied to fits with a known noise
+        self.budget = resolve_budget(uncertain, depth=self.depth, distance=self.distance,
+                                     water=spec.water, free=spec.names, fixed=tuple(fix or {}))
         self.extras = tuple(n for n in spec.names if n not in ("chl", "cdom"))
         tied = set(self.extras) & {"phyto_scale", "phyto_exponent"}
         if tied:
@@ -249,11 +256,12 @@ class Estimator:
         if scale <= 0:
             raise ValueError("rgb: all values are zero; nothing to fit")
         s_fixed = None if self.free_s else self.fixed["backscatter"] / scale
-        wt = np.ones(M.size) if sig is None else scale / sig.ravel()
+        wt = np.ones(M.size) if sig is None else scale / self.budget.noise_sd(M, sig).ravel()
         Mv = M.ravel() / scale
         Mw = wt * Mv
         return _FitState(mdl=self.model.scaled(scale), Mv=Mv, wt=wt, noise_known=sig is not None,
-                         scale=scale, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw))
+                         scale=scale, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw),
+                         wt_photon=None if sig is None else scale / sig.ravel())
 
     def initial_point(self, st, x0=None) -> dict:
         """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
@@ -596,6 +604,11 @@ class _FitState:
     t_solve: float = 0.0
     t_clarabel: float = 0.0
     rescues: int = 0
+    #: 1 / sigma (scaled units) of the photon and read noise alone (``wt`` adds the budget's
+    #: per-patch term); None where the noise is unknown
+    wt_photon: np.ndarray | None = None
+    #: the budget's nuisance values at the fit (name -> float, or (m,) for 'balance')
+    nuisance: dict = field(default_factory=dict)
 
     def stop(self, status: str, converged: bool) -> bool:
         self.status, self.converged = status, converged
@@ -628,7 +641,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
              mode: str = "safeguarded", max_iter: int = 100,
              tol: float = 1e-10, fix=None, free=(), x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
-             setup: ChartSetup | None = None, gain: str = "known") -> Estimate:
+             setup: ChartSetup | None = None, gain: str = "known", uncertain=None) -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -673,6 +686,15 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         'known' (default: ``rgb`` in model units) or 'free': M = gain G(x) + s 1^T with the
         unknown exposure gain estimated with the water (``Estimate.gain``, ``gain_ci``); the
         intervals of the other parameters include its uncertainty.
+    uncertain : dict, optional
+        The uncertainty budget, name -> standard deviation (:mod:`sca.budget`): 'depth' and
+        'distance' (m, or ``"5%"``), forward.Water constants (e.g. 'cdom_slope', nm^-1),
+        'balance' (relative, per channel) and 'patch' (relative per-patch systematic error).
+        Default (None): :data:`sca.budget.DEFAULT_UNCERTAIN`; ``{}``: the paper's exact model.
+        With ``sigma`` the loop fits with the per-patch term in the noise and the nuisances
+        at their priors' centres, then the one Levenberg-Marquardt engine (:mod:`sca.lm`)
+        moves every nuisance within its prior to the penalised optimum; the intervals profile
+        the nuisances, and ``Estimate.budget`` gives each source's share of the variance.
 
     Returns
     -------
@@ -693,6 +715,6 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
                     reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
                     path_model=path_model, cdom_slope=cdom_slope, fix=fix, free=free,
-                    setup=setup, gain=gain)
+                    setup=setup, gain=gain, uncertain=uncertain)
     return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
                    x0=x0)

@@ -30,7 +30,7 @@ from forward.water import COEFFICIENT_PARAMS, Water, resolve_water
 
 from .projection import linear_part_stats
 
-__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
+__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
            "check_names", "linear_part", "linear_part_stats", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
            "du_chain"]
@@ -39,11 +39,14 @@ __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CHL_DERIVATIVE_FLOOR", "
 GEOMETRY = ("depth", "distance")
 #: Parameters that enter M linearly (profiled out in closed form by the batch).
 LINEAR = ("gain", "backscatter")
+#: The camera's channel balance: relative errors beta of each channel's sensitivity (m values;
+#: M = gain diag(1 + beta) G(x) + s 1^T), a nuisance parameter of the uncertainty budget.
+CAMERA = ("balance",)
 #: Parameters of c(x): C, a_CDOM(440), the phytoplankton weights w of eq 9 and any
 #: coefficient field of :class:`forward.Water`.
 SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
 #: Every name the model differentiates by.
-PARAMS = SPECTRAL + GEOMETRY + LINEAR
+PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
 #: cvxpy loop: both are infinite at C = 0 (DECISIONS.md).
@@ -60,6 +63,9 @@ PREDICT_BLOCK_VALUES, PREDICT_BLOCK_MIN = 300_000, 256
 PREDICT_THREADS = 8
 #: Largest condition number of the (unit-diagonal) information matrix that is inverted.
 COND_MAX = 1e14
+#: Lower bound of a channel-balance error beta (the channel's sensitivity 1 + beta stays
+#: positive).
+BALANCE_MIN = -0.99
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
 
@@ -122,6 +128,8 @@ def lower_bound(name: str, water: Water) -> float:
     """
     if name in Water._ANY_SIGN:
         return -np.inf
+    if name == "balance":
+        return BALANCE_MIN
     return 0.0
 
 
@@ -345,7 +353,7 @@ class ChartModel:
             return float(getattr(self.water, name))
         if name == "gain":
             return 1.0
-        if name == "backscatter":
+        if name in ("backscatter", "balance"):
             return np.zeros(self.m)
         if name == "cdom":
             return 0.0
@@ -361,7 +369,8 @@ class ChartModel:
         params : dict
             name -> value, each of leading shape S (or broadcastable): 'chl' (mg m^-3), 'depth'
             and 'distance' (m) are required; 'cdom' (m^-1, default 0), 'gain' (default 1),
-            'backscatter' (S + (m,), default 0), 'w' (S + (z,), free phytoplankton weights of
+            'backscatter' (S + (m,), default 0), 'balance' (S + (m,), relative channel
+            sensitivity errors, default 0), 'w' (S + (z,), free phytoplankton weights of
             eq 9; default w on eq 17) and any :data:`forward.water.COEFFICIENT_PARAMS` field
             (default: the water's constant) are optional.
         free : sequence of str
@@ -396,6 +405,9 @@ class ChartModel:
         gain = np.asarray(params.get("gain", 1.0), float)
         s = np.asarray(params.get("backscatter", np.zeros(self.m)), float)
         w = params.get("w")
+        balance = params.get("balance")
+        if balance is not None:
+            balance = np.asarray(balance, float)
         if "w" in free and w is None:
             raise ValueError("free: 'w' needs the weights in params['w']")
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
@@ -407,10 +419,12 @@ class ChartModel:
         q, mn = self.wavelengths.size, self.m * self.n
         if not jacobian:
             G = k @ self.Bt
+            if balance is not None:
+                G = G * np.repeat(1.0 + balance, self.n, axis=-1)
             values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
             return Prediction(values, G, k, c, None, ())
-        count = {name: self.z if name == "w" else self.m if name == "backscatter" else 1
-                 for name in free}
+        count = {name: self.z if name == "w" else self.m if name in ("backscatter", "balance")
+                 else 1 for name in free}
         # k and every column of dk/dtheta stacked (S, 1 + p_q, q) and projected onto the
         # patches by one matrix product: dk = -L k dc/dtheta (spectral), -c k (path length)
         in_q = [name for name in free if name in SPECTRAL or name in GEOMETRY]
@@ -427,6 +441,10 @@ class ChartModel:
                 stack[..., row, :] = minus_Lk * dc[name]
             row += count[name]
         proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
+        G_raw = proj[..., 0, :]
+        if balance is not None:  # every row of channel c times 1 + beta_c
+            G_raw = G_raw.copy()
+            proj = proj * np.repeat(1.0 + balance, self.n, axis=-1)[..., None, :]
         G = proj[..., 0, :]
         values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
         if list(free) == in_q and np.ndim(gain) == 0 and gain == 1.0:
@@ -443,6 +461,9 @@ class ChartModel:
                 src += width
             elif name == "gain":
                 rows[..., at, :] = G
+            elif name == "balance":  # d M / d beta_c = gain G on channel c's patches
+                rows[..., at:at + width, :] = (self._indicators * G_raw[..., None, :]
+                                               * gain[..., None, None])
             else:  # backscatter: one indicator per channel
                 rows[..., at:at + width, :] = self._indicators
             names += [name] * width
@@ -457,7 +478,7 @@ class ChartModel:
                 v = np.asarray(v)
             if not isinstance(v, np.ndarray):
                 continue
-            nd = v.ndim - (1 if name in ("backscatter", "w") else 0)
+            nd = v.ndim - (1 if name in ("backscatter", "w", "balance") else 0)
             if nd > 1:
                 return 0
             if nd == 1:
@@ -471,7 +492,7 @@ class ChartModel:
     def _rows_of(params, n, sl) -> dict:
         out = {}
         for name, v in params.items():
-            nd = np.ndim(v) - (1 if name in ("backscatter", "w") else 0)
+            nd = np.ndim(v) - (1 if name in ("backscatter", "w", "balance") else 0)
             out[name] = np.asarray(v)[sl] if nd == 1 else v
         return out
 
@@ -529,7 +550,7 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     return linear_part_stats(*stats, fixed_s=fixed_s, free_gain=free_gain)
 
 
-def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
+def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
     """Gauss-Newton covariance sigma^2 (J^T J)^-1 of whitened Jacobians J (..., rows, p).
 
     The one covariance of the package (through :func:`profiled_covariance`): the estimators'
@@ -549,6 +570,9 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
     cond_max : float, optional
         Largest condition number of the unit-diagonal information matrix that is inverted
         (default :data:`COND_MAX`).
+    prior_weight : array_like, broadcastable to (..., p), optional
+        Information 1 / sd^2 of Gaussian priors on the parameters (0: none), added to the
+        diagonal of J^T J (the uncertainty budget's nuisance parameters, :mod:`sca.budget`).
 
     Returns
     -------
@@ -564,6 +588,8 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
     """
     J = np.asarray(J, float)
     F = np.swapaxes(J, -1, -2) @ J
+    if prior_weight is not None:
+        F = F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
     out = np.full(F.shape, np.inf)
     flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
     if F.shape[-1]:
@@ -578,7 +604,7 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX):
     return out.reshape(F.shape) * np.asarray(sigma2, float)[..., None, None]
 
 
-def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
+def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None, prior_weight=None):
     """Gauss-Newton covariance of parameters theta (and a free gain) with the backscatter of the
     ``active`` channels profiled out: the one covariance of the estimators' standard errors and
     Wald intervals and of :func:`sca.precision`'s Cramér-Rao bound.
@@ -596,6 +622,9 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
         Noise variance in the units of ``w2`` (1 where the noise is known).
     gain_column : ndarray, (N, m, n), optional
         d M / d gain (= G) of a free gain; it becomes the last parameter.
+    prior_weight : ndarray, (N, p [+ 1]), optional
+        Information 1 / sd^2 of Gaussian priors on the parameters (0: none; see
+        :func:`covariance`).
 
     Returns
     -------
@@ -615,4 +644,5 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None):
     a = np.asarray(active, bool)[..., None, None]
     cols = cols - a * (w2 * cols).sum(2, keepdims=True) / w2.sum(2, keepdims=True)
     N = cols.shape[0]
-    return covariance((np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1]), sigma2)
+    return covariance((np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1]), sigma2,
+                      prior_weight=prior_weight)

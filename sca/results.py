@@ -100,6 +100,14 @@ class Estimate:
     intervals : dict
         Every free parameter's 95 % interval (lo, hi), by name (profile likelihood; Wald for
         the gain and for z > 1).
+    uncertain : dict
+        The uncertainty budget applied (:mod:`sca.budget`), name -> sd as given; {} for the
+        paper's exact model or where it was not applied (noise unknown).
+    budget : dict
+        Each source's share of the variance of C and a_CDOM (:func:`sca.budget.variance_shares`):
+        {'chl': {'sd': float, 'shares': {source: fraction}}, 'cdom': ...}; {} without a budget.
+    nuisance : dict
+        The budget's nuisance parameters at the fit: name -> value ('balance': m values).
     """
 
     chl: float
@@ -146,6 +154,14 @@ class Estimate:
     values: dict = field(default_factory=dict)
     #: every free parameter's 95 % interval, by name
     intervals: dict = field(default_factory=dict)
+    #: the uncertainty budget applied: name -> sd as given (:mod:`sca.budget`); {} for the
+    #: paper's exact model or where it could not be applied (noise unknown)
+    uncertain: dict = field(default_factory=dict)
+    #: each source's share of the variance of C and a_CDOM: {'chl': {'sd': float, 'shares':
+    #: {source: fraction}}, 'cdom': ...}; {} without a budget
+    budget: dict = field(default_factory=dict)
+    #: the budget's nuisance parameters at the fit (name -> float, or (m,) list for 'balance')
+    nuisance: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Every field, JSON-ready (arrays as lists).
@@ -162,4 +178,5 @@ class Estimate:
         out["fixed"] = {k: (np.asarray(v).tolist()) for k, v in self.fixed.items()}
         out["values"] = {k: float(v) for k, v in self.values.items()}
         out["intervals"] = {k: [float(a) for a in v] for k, v in self.intervals.items()}
+        out["nuisance"] = {k: np.asarray(v, float).tolist() for k, v in self.nuisance.items()}
         return out

@@ -15,12 +15,32 @@ from scipy import stats
 
 from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
     profile_delta
+from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
-from .lm import Problem, evaluate
+from .lm import STATUS, Problem, evaluate, levenberg_marquardt
 from .model import CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .results import Estimate
 
-__all__ = ["assess"]
+__all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
+
+#: Levenberg-Marquardt iterations and relative tolerance of the budget's refinement (the
+#: nuisances moved within their priors from the loop's point).
+REFINE_MAX_ITER, REFINE_TOL = 100, 1e-12
+
+
+def _priors(est, st) -> dict:
+    """The budget's priors that apply to this fit: name -> (mean (1,), sd (1,)); none where
+    the noise is unknown or the basis has z > 1 functions (no eq-17 reduction)."""
+    if not st.noise_known or st.mdl.z != 1:
+        return {}
+    return est.budget.priors
+
+
+def _params(est, st, x) -> dict:
+    """The model's parameters at ``x`` with the budget's nuisances at their fitted values."""
+    params = est.params(x)
+    params.update(st.nuisance)
+    return params
 
 
 def _covariance(est, st, dof):
@@ -30,7 +50,7 @@ def _covariance(est, st, dof):
     names = list(est.spec.names)
     with_w = mdl.z > 1 or "chl" not in names
     free = names + (["w"] if with_w and "w" not in names else [])
-    params = est.params(x)
+    params = _params(est, st, x)
     if not with_w:
         params.pop("w")
     pred = mdl.predict(params, free, chl_floor=CHL_DERIVATIVE_FLOOR)
@@ -57,30 +77,105 @@ def _covariance(est, st, dof):
 
 
 def _problem(est, st) -> Problem:
-    """The fit as a one-chart :class:`sca.lm.Problem` (the model already in the data's units)."""
+    """The fit as a one-chart :class:`sca.lm.Problem` (the model already in the data's units),
+    with the budget's nuisances after the free names and their Gaussian priors."""
+    priors = _priors(est, st)
+    names = tuple(est.spec.names) + tuple(
+        n for n in priors for _ in range(st.mdl.m if n == "balance" else 1))
+    mean = weight = None
+    if priors:
+        mean, weight = np.zeros((1, len(names))), np.zeros((1, len(names)))
+        for j, n in enumerate(names):
+            if n in priors:
+                mean[0, j], weight[0, j] = priors[n][0][0], 1.0 / priors[n][1][0] ** 2
     fixed = {"depth": np.array([est.depth]), "distance": np.array([est.distance])}
     for k in ("chl", "cdom"):
         if k in est.fixed:
             fixed[k] = np.array([est.fixed[k]])
-    fixed = {k: v for k, v in fixed.items() if k not in est.spec.names}
-    return Problem(st.mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), est.spec.names, fixed,
-                   est.free_gain, None if st.s_fixed is None else st.s_fixed[None])
+    fixed = {k: v for k, v in fixed.items() if k not in names}
+    return Problem(st.mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
+                   est.free_gain, None if st.s_fixed is None else st.s_fixed[None], mean, weight)
+
+
+def _theta(est, st, prob) -> np.ndarray:
+    """The fit's point in the problem's LM coordinates (1, p): nuisances at their fitted values
+    (or their priors' centres)."""
+    row, seen = [], {}
+    for j, n in enumerate(prob.names):
+        if n == "chl":
+            row.append(u_from_chl(st.x["chl"], st.mdl.e0))
+        elif n in est.spec.names:
+            row.append(st.x[n])
+        else:
+            k = seen[n] = seen.get(n, -1) + 1
+            if n not in st.nuisance:
+                row.append(prob.prior_mean[0, j])
+            else:
+                row.append(np.asarray(st.nuisance[n], float).reshape(-1)[k])
+    return np.array([row], float)
+
+
+def _refine(est, st):
+    """With the budget's priors: move C, a_CDOM, the free names and every nuisance from the
+    loop's point to the penalised optimum (chi^2 + the priors' terms) with the one
+    Levenberg-Marquardt engine; ``st`` is updated (x, f, nuisance, status)."""
+    prob = _problem(est, st)
+    if prob.prior_mean is None:
+        return
+    theta, f, _, code = levenberg_marquardt(prob, _theta(est, st, prob), max_iter=REFINE_MAX_ITER,
+                                            tol=REFINE_TOL, f_exact=np.array([st.f_exact]))
+    _, _, _, gain, s, _, _ = evaluate(prob, np.arange(1), theta, False)
+    values = prob.params(np.arange(1), theta)
+    x = dict(st.x)
+    for n in est.spec.names:
+        x[n] = float(values[n][0])
+    x["w"] = st.mdl.feasible_w(x["chl"])
+    x["gain"] = float(gain[0]) if est.free_gain else x["gain"]
+    x["s"] = np.array(s[0], float) if est.free_s else x["s"]
+    st.x, st.f = x, float(f[0])
+    st.nuisance = {n: (np.array(values[n][0], float) if n == "balance" else float(values[n][0]))
+                   for n in prob.free if n not in est.spec.names}
+    if code[0] > 2:
+        st.converged = False
+        st.status = f"{st.status}; budget refinement: {STATUS[int(code[0])]}"
+
+
+def _shares(est, st, x) -> dict:
+    """Each source's share of the variance of C and a_CDOM at the fit
+    (:func:`sca.budget.variance_shares`): {} where no budget applies."""
+    if not st.noise_known or est.budget.exact or st.mdl.z != 1 or st.wt_photon is None:
+        return {}
+    prob = _problem(est, st)
+    params = _params(est, st, x)
+    params.pop("w")
+    free = prob.free + (("gain",) if est.free_gain else ()) + ("backscatter",)
+    pred = st.mdl.predict(params, free, chl_floor=CHL_DERIVATIVE_FLOOR)
+    names = list(pred.columns)
+    active = np.array([(x["s"][names[:j].count("backscatter")] > 0 and est.free_s)
+                       if n == "backscatter" else True for j, n in enumerate(names)])
+    weight = np.zeros(len(names))
+    if prob.prior_weight is not None:
+        weight[:len(prob.names)] = prob.prior_weight[0]
+    out = variance_shares(pred.jacobian[None], names, (st.wt ** 2)[None],
+                          (st.wt_photon ** 2)[None], active[None], weight[None])
+    return {n: {"sd": float(v["sd"][0]), "shares": {k: float(a[0]) for k, a in v["shares"].items()}}
+            for n, v in out.items()}
 
 
 def _profile(est, st, dof):
-    """95 % profile-likelihood intervals of every free name (z = 1): {name: (lo, hi)} and the
-    BOUND_* codes of (chl low, chl high, cdom low, cdom high)."""
+    """95 % profile-likelihood intervals of every free name (z = 1), the budget's nuisances
+    profiled: {name: (lo, hi)} and the BOUND_* codes of (chl low, chl high, cdom low, cdom
+    high)."""
     prob = _problem(est, st)
     names = est.spec.names
-    theta = np.array([[u_from_chl(st.x["chl"], st.mdl.e0) if n == "chl" else st.x[n]
-                       for n in names]], float)
+    theta = _theta(est, st, prob)
     f, _, H, *_ = evaluate(prob, np.arange(1), theta, True)
     Mw = st.wt * st.Mv
     delta = profile_delta(st.noise_known, f, np.array([dof]), np.array([Mw @ Mw]))
-    caps = np.array([upper_cap(n, est.water) for n in names])
+    caps = np.array([upper_cap(n, est.water) for n in prob.names])
     if "chl" in names:
         caps[names.index("chl")] = u_from_chl(caps[names.index("chl")], st.mdl.e0)
-    ends, codes = profile_intervals(prob, theta, f, delta, H, caps)
+    ends, codes = profile_intervals(prob, theta, f, delta, H, caps, which=range(len(names)))
     out = {}
     for j, n in enumerate(names):
         lo, hi = ends[0, j]
@@ -128,6 +223,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
+    _refine(est, st)
     mdl, x = st.mdl, st.x
     names = est.spec.names
     n_s = 0 if not est.free_s else int(np.sum(np.asarray(x["s"]) > 0))
@@ -164,10 +260,9 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     sigma = (st.scale / st.wt).reshape(mdl.m, mdl.n) if st.noise_known else None
     flags = input_flags(st.Mv.reshape(mdl.m, mdl.n) * st.scale, sigma, saturation) + flags
     unit = 1.0 if st.noise_known else st.scale ** 2  # objective: chi^2 or data units
-    G = est.signal(st, x)
-    r = st.Mv - x["gain"] * G - np.repeat(x["s"], mdl.n)
-    params = est.params(x)
+    params = _params(est, st, x)
     pred = mdl.predict(params, jacobian=False)
+    r = st.Mv - pred.values
     values = {n: float(x[n]) for n in names}
     ints = {n: intervals[n] for n in names}
     if est.free_gain:
@@ -188,4 +283,6 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         fixed=dict(est.fixed), eq17_residual=float(mdl.t440 @ x["w"] - mdl.phyto_scale(x["chl"])),
         trials=[f * unit for f in st.trials], path_model=est.water.path_model,
         gain=float(x["gain"]), gain_ci=gain_ci, values=values, intervals=ints,
+        uncertain=dict(est.budget.sd) if st.noise_known and not est.budget.exact else {},
+        budget=_shares(est, st, x), nuisance=dict(st.nuisance),
     )

@@ -25,14 +25,14 @@ def charts():
 
 
 def _reference(M, depth, distance):
-    return [sca.estimate(M[i], depth=depth[i], distance=distance[i]) for i in range(len(M))]
+    return [sca.estimate(M[i], depth=depth[i], distance=distance[i], uncertain={}) for i in range(len(M))]
 
 
 @pytest.mark.slow
 def test_noise_free_same_optimum_as_sca(charts):
     stacks, depth, distance = charts
     M = stacks[False]
-    b = sca.estimate_batch(M, depth=depth, distance=distance)
+    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={})
     ref = _reference(M, depth, distance)
     assert b.converged.all(), set(b.status[~b.converged])
     for i, e in enumerate(ref):
@@ -46,7 +46,7 @@ def test_noise_free_same_optimum_as_sca(charts):
 def test_noisy_objective_equal_or_lower_than_sca(charts):
     stacks, depth, distance = charts
     M = stacks[True]
-    b = sca.estimate_batch(M, depth=depth, distance=distance)
+    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={})
     ref = _reference(M, depth, distance)
     obj = np.array([e.objective for e in ref])
     # equal or lower, or honestly flagged (a chart too dark to decide can stall at max_iter)
@@ -54,7 +54,7 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
     assert np.all(ok), np.max(b.objective / obj - 1)
     assert np.sum(~b.converged) <= 2
     # a chart's result does not depend on the rest of the batch
-    few = sca.estimate_batch(M[:3], depth=depth[:3], distance=distance[:3])
+    few = sca.estimate_batch(M[:3], depth=depth[:3], distance=distance[:3], uncertain={})
     np.testing.assert_allclose(few.objective, b.objective[:3], rtol=1e-12)
 
 
@@ -63,10 +63,10 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
 def test_batch_reaches_the_loops_optimum(charts, noise):
     """The batch (variable projection + LM) and the cvxpy loop minimise the same objective."""
     stacks, depth, distance = charts
-    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance)
+    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, uncertain={})
     assert b.converged.sum() >= len(CASES) - 2
     for i in range(0, len(b), 3):
-        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]))
+        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]), uncertain={})
         if b.converged[i] and e.converged:
             # equal objective (noise-free ones are at rounding level: compared absolutely)
             assert b.objective[i] <= e.objective * (1 + 1e-6) + 1e-20, i
@@ -75,7 +75,7 @@ def test_batch_reaches_the_loops_optimum(charts, noise):
 def test_fields_shapes_and_fixed_backscatter():
     sim = forward.simulate_chart(2.0, 0.3, 5.0, 0.05, noise=False, backscatter=False)
     M = np.stack([sim.rgb, sim.rgb])
-    b = sca.estimate_batch(M, depth=5.0, distance=0.05, fix={"backscatter": 0})
+    b = sca.estimate_batch(M, depth=5.0, distance=0.05, fix={"backscatter": 0}, uncertain={})
     assert b.chl.shape == (2,) and b.backscatter.shape == (2, 3) and b.attenuation.shape == (2, 301)
     assert b.w.shape == (2, 1) and len(b) == 2
     np.testing.assert_array_equal(b.backscatter, 0.0)
@@ -84,23 +84,23 @@ def test_fields_shapes_and_fixed_backscatter():
 
 def test_non_convergence_is_flagged():
     sim = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False)
-    b = sca.estimate_batch(sim.rgb[None], depth=10.0, distance=5.0, max_iter=1)
+    b = sca.estimate_batch(sim.rgb[None], depth=10.0, distance=5.0, max_iter=1, uncertain={})
     assert not b.converged[0] and "maximum" in b.status[0]
 
 
 def test_bad_input():
     M = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False).rgb[None]
     with pytest.raises(ValueError, match="^rgb_stack:"):
-        sca.estimate_batch(M[0], depth=1, distance=1)
+        sca.estimate_batch(M[0], depth=1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^rgb_stack:"):
-        sca.estimate_batch(np.full_like(M, np.nan), depth=1, distance=1)
+        sca.estimate_batch(np.full_like(M, np.nan), depth=1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^rgb_stack:"):
-        sca.estimate_batch(np.zeros_like(M), depth=1, distance=1)
+        sca.estimate_batch(np.zeros_like(M), depth=1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^depth:"):
-        sca.estimate_batch(M, depth=-1, distance=1)
+        sca.estimate_batch(M, depth=-1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^basis:"):
-        sca.estimate_batch(M, depth=1, distance=1, basis=np.ones((301, 2)))
+        sca.estimate_batch(M, depth=1, distance=1, basis=np.ones((301, 2)), uncertain={})
     with pytest.raises(ValueError, match="^fix:"):
-        sca.estimate_batch(M, depth=1, distance=1, fix={"cdom"})
+        sca.estimate_batch(M, depth=1, distance=1, fix={"cdom"}, uncertain={})
     with pytest.raises(ValueError, match="^depth:"):
-        sca.estimate_batch(np.repeat(M, 3, axis=0), depth=[1.0, 2.0], distance=1)
+        sca.estimate_batch(np.repeat(M, 3, axis=0), depth=[1.0, 2.0], distance=1, uncertain={})

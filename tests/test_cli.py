@@ -250,9 +250,16 @@ def test_ctrl_c_stops_sweep_quickly_without_traceback(tmp_path):
 
 def test_design_says_what_a_field_scientist_can_act_on():
     code, out, err = run(["design", "--depth", "5", "--distance", "1", "--chl", "1", "--cdom", "0.1",
-                          "--gain", "known"])
+                          "--gain", "known", "--exact"])
     assert code == 0, err
     assert "verdict" in out and "a reliable measurement is possible" in out
+    # the default budget names the source that limits the instrument, and the camera's own limit
+    code, out, err = run(["design", "--depth", "5", "--distance", "1", "--chl", "1", "--cdom", "0.1",
+                          "--gain", "known"])
+    assert "limits the instrument here" in out and "the camera alone" in out, out
+    code, out, err = run(["design", "--depth", "5", "--distance", "1", "--chl", "1", "--cdom", "0.1",
+                          "--uncertain", "depth"])
+    assert code == 2 and "--uncertain" in err
     code, out, _ = run(["design", "--depth", "30", "--distance", "5", "--chl", "1", "--cdom", "0.1",
                         "--lux", "20"])
     assert code == 1 and ("cannot be measured" in out or "coarsely" in out or "fix a_CDOM" in out)

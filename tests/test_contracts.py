@@ -122,9 +122,9 @@ def test_unknown_or_inert_names_are_refused():
     with pytest.raises(ValueError, match="^free:"):
         mdl.predict(p, ("turbidity",))
     with pytest.raises(ValueError, match="^free:"):
-        sca.estimate(np.ones((3, 24)), depth=5, distance=1, free=("water_backscatter_fraction",))
+        sca.estimate(np.ones((3, 24)), depth=5, distance=1, free=("water_backscatter_fraction",), uncertain={})
     with pytest.raises(ValueError, match="^fix:"):
-        sca.estimate(np.ones((3, 24)), depth=5, distance=1, fix={"cdom"})
+        sca.estimate(np.ones((3, 24)), depth=5, distance=1, fix={"cdom"}, uncertain={})
 
 
 # ------------------------------------------------------------------------- every path uses it
@@ -132,7 +132,7 @@ def test_unknown_or_inert_names_are_refused():
 def test_every_estimator_path_equals_the_model_function(name):
     water = WATERS[name]
     sim = forward.simulate_chart(1.3, 0.2, 6.0, 2.0, water=water, seed=1)
-    est = sca.Estimator(depth=6.0, distance=2.0, water=water, free=("cdom_slope",))
+    est = sca.Estimator(depth=6.0, distance=2.0, water=water, free=("cdom_slope",), uncertain={})
     st_ = est.prepare(sim.rgb, sim.rgb_sigma)
     mdl = st_.mdl
     x = {"chl": 1.3, "cdom": 0.2, "w": mdl.feasible_w(1.3), "gain": 1.0, "s": S,
@@ -232,19 +232,19 @@ def test_every_estimator_follows_a_changed_constant(path_model):
     truth = (2.0, 0.3, 8.0, 3.0)
     sim = forward.simulate_chart(*truth, noise=False, water=water)
     fits = {
-        "sca": sca.estimate(sim.rgb, depth=8.0, distance=3.0, water=water),
-        "scipy": sca.estimate_least_squares(sim.rgb, depth=8.0, distance=3.0, water=water),
+        "sca": sca.estimate(sim.rgb, depth=8.0, distance=3.0, water=water, uncertain={}),
+        "scipy": sca.estimate_least_squares(sim.rgb, depth=8.0, distance=3.0, water=water, uncertain={}),
     }
     for engine in sca_batch.ENGINES:
-        b = sca.estimate_batch(sim.rgb[None], depth=8.0, distance=3.0, water=water, engine=engine)
+        b = sca.estimate_batch(sim.rgb[None], depth=8.0, distance=3.0, water=water, engine=engine, uncertain={})
         fits[engine] = b
     for name, e in fits.items():
         chl, cdom = float(np.ravel(e.chl)[0]), float(np.ravel(e.cdom)[0])
         assert abs(chl / 2.0 - 1) < 1e-6 and abs(cdom / 0.3 - 1) < 1e-6, (name, chl, cdom)
     # and the paper's constants do not fit this water: the estimators did use `water`
-    wrong = sca.estimate(sim.rgb, depth=8.0, distance=3.0, path_model=path_model)
+    wrong = sca.estimate(sim.rgb, depth=8.0, distance=3.0, path_model=path_model, uncertain={})
     assert abs(wrong.chl / 2.0 - 1) > 1e-3
     for engine in sca_batch.ENGINES:
         b = sca.estimate_batch(sim.rgb[None], depth=8.0, distance=3.0, path_model=path_model,
-                               engine=engine)
+                               engine=engine, uncertain={})
         assert abs(b.chl[0] / 2.0 - 1) > 1e-3, engine

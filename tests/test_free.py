@@ -27,9 +27,9 @@ def draws():
 
 def test_single_fits_recover_the_slope_with_an_interval(chart):
     fits = {"loop": sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma,
-                                 free=("cdom_slope",)),
+                                 free=("cdom_slope",), uncertain={}),
             "scipy": sca.estimate_least_squares(chart.rgb, depth=D, distance=R,
-                                                sigma=chart.rgb_sigma, free=("cdom_slope",))}
+                                                sigma=chart.rgb_sigma, free=("cdom_slope",), uncertain={})}
     ref = fits["loop"]
     assert ref.reliable and set(ref.values) == {"chl", "cdom", "cdom_slope"}
     lo, hi = ref.intervals["cdom_slope"]
@@ -39,20 +39,20 @@ def test_single_fits_recover_the_slope_with_an_interval(chart):
         assert e.values["cdom_slope"] == pytest.approx(ref.values["cdom_slope"], rel=1e-6), name
         assert e.intervals["cdom_slope"] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-5)
     b = sca.estimate_batch(chart.rgb[None], depth=D, distance=R, sigma=chart.rgb_sigma,
-                           free=("cdom_slope",))
+                           free=("cdom_slope",), uncertain={})
     assert b.values["cdom_slope"][0] == pytest.approx(ref.values["cdom_slope"], rel=1e-6)
     assert b.intervals["cdom_slope"][0] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-4)
 
 
 def test_the_fixed_slope_fit_of_this_world_is_a_misfit_not_an_answer(chart):
-    e = sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma)
+    e = sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma, uncertain={})
     assert not e.reliable and "misfit" in e.flags
 
 
 def test_batch_intervals_are_calibrated_and_the_bound_predicts_the_spread(draws):
     rgb, sigma = draws
-    b = sca.estimate_batch(rgb, depth=D, distance=R, sigma=sigma, free=("cdom_slope",))
-    p = sca.precision(C, A, depth=D, distance=R, water=WORLD, free=("cdom_slope",))
+    b = sca.estimate_batch(rgb, depth=D, distance=R, sigma=sigma, free=("cdom_slope",), uncertain={})
+    p = sca.precision(C, A, depth=D, distance=R, water=WORLD, free=("cdom_slope",), uncertain={})
     assert np.all(b.converged)
     for name, truth in (("chl", C), ("cdom", A), ("cdom_slope", SLOPE)):
         lo, hi = b.intervals[name].T
@@ -66,30 +66,30 @@ def test_batch_intervals_are_calibrated_and_the_bound_predicts_the_spread(draws)
 
 def test_fix_holds_any_constant_and_free_adds_any_name(chart):
     held = sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma,
-                        fix={"cdom_slope": SLOPE})
+                        fix={"cdom_slope": SLOPE}, uncertain={})
     assert held.reliable and "cdom_slope" not in held.values
     assert held.chl_ci[0] <= C <= held.chl_ci[1]
     with pytest.raises(ValueError, match="^free:"):
         sca.estimate(chart.rgb, depth=D, distance=R, free=("cdom_slope",),
-                     fix={"cdom_slope": SLOPE})
+                     fix={"cdom_slope": SLOPE}, uncertain={})
     with pytest.raises(ValueError, match="^free:"):
-        sca.estimate_batch(chart.rgb[None], depth=D, distance=R, free=("colour",))
+        sca.estimate_batch(chart.rgb[None], depth=D, distance=R, free=("colour",), uncertain={})
 
 
 def test_with_c_and_cdom_known_only_the_backscatter_is_fitted_and_it_can_be_reliable():
     sim = forward.simulate_chart(C, A, D, R, seed=5)
     e = sca.estimate(sim.rgb, depth=D, distance=R, sigma=sim.rgb_sigma,
-                     fix={"chl": C, "cdom": A})
+                     fix={"chl": C, "cdom": A}, uncertain={})
     assert e.converged and e.values == {} and e.chl_ci == (C, C)
     assert e.reliable, e.flags
 
 
 def test_precision_names_the_gain_either_way_and_refuses_a_fixed_backscatter_value():
-    a = sca.precision(C, A, depth=D, distance=R, gain="free")
-    b = sca.precision(C, A, depth=D, distance=R, free=("gain",))
+    a = sca.precision(C, A, depth=D, distance=R, gain="free", uncertain={})
+    b = sca.precision(C, A, depth=D, distance=R, free=("gain",), uncertain={})
     assert a.chl_sd == b.chl_sd and "gain" in b.sd
     with pytest.raises(ValueError, match=r"^fix\['backscatter'\]:"):
-        sca.precision(C, A, depth=D, distance=R, fix={"backscatter": 0.01})
+        sca.precision(C, A, depth=D, distance=R, fix={"backscatter": 0.01}, uncertain={})
 
 
 def test_two_basis_functions_with_a_free_slope_keep_eq16_and_eq17():
@@ -99,7 +99,7 @@ def test_two_basis_functions_with_a_free_slope_keep_eq16_and_eq17():
     T = np.column_stack([T1, np.linspace(1.0, 0.2, T1.size)])
     sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], noise=False,
                                  water=WORLD)
-    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T, free=("cdom_slope",))
+    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T, free=("cdom_slope",), uncertain={})
     assert est.w.shape == (2,) and np.all(T @ est.w >= -1e-12)
     assert abs(est.eq17_residual) < 1e-8
     assert est.values["cdom_slope"] == pytest.approx(SLOPE, rel=1e-3), est.status

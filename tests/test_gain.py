@@ -20,12 +20,12 @@ def chart():
 
 
 def _all(rgb, sigma, **kw):
-    out = {"loop": sca.estimate(rgb, depth=8.0, distance=3.0, sigma=sigma, gain="free", **kw),
+    out = {"loop": sca.estimate(rgb, depth=8.0, distance=3.0, sigma=sigma, gain="free", **kw, uncertain={}),
            "scipy": sca.estimate_least_squares(rgb, depth=8.0, distance=3.0, sigma=sigma,
-                                               gain="free", **kw)}
+                                               gain="free", **kw, uncertain={})}
     for eng in sca_batch.ENGINES:
         b = sca.estimate_batch(rgb[None], depth=8.0, distance=3.0, sigma=sigma, gain="free",
-                               engine=eng, **kw)
+                               engine=eng, **kw, uncertain={})
         out[eng] = b
     return out
 
@@ -51,30 +51,30 @@ def test_every_estimator_reaches_the_same_optimum_in_any_units(chart):
 
 
 def test_the_units_do_not_matter(chart):
-    a = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma, gain="free")
+    a = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma, gain="free", uncertain={})
     b = sca.estimate(chart.rgb * DN, depth=8.0, distance=3.0, sigma=chart.rgb_sigma * DN,
-                     gain="free")
+                     gain="free", uncertain={})
     assert b.chl == pytest.approx(a.chl, rel=1e-6) and b.gain == pytest.approx(a.gain * DN, rel=1e-6)
     assert b.chl_ci == pytest.approx(a.chl_ci, rel=1e-5)
 
 
 def test_a_known_gain_with_the_wrong_units_is_a_misfit_not_an_answer(chart):
-    r = sca.estimate(chart.rgb * DN, depth=8.0, distance=3.0, sigma=chart.rgb_sigma * DN)
+    r = sca.estimate(chart.rgb * DN, depth=8.0, distance=3.0, sigma=chart.rgb_sigma * DN, uncertain={})
     assert not r.reliable and "misfit" in r.flags
 
 
 def test_the_free_gain_costs_precision(chart):
-    known = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma)
-    free = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma, gain="free")
+    known = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma, uncertain={})
+    free = sca.estimate(chart.rgb, depth=8.0, distance=3.0, sigma=chart.rgb_sigma, gain="free", uncertain={})
     assert free.dof == known.dof - 1
     assert np.diff(free.chl_ci)[0] > np.diff(known.chl_ci)[0]
 
 
 def test_paper_mode_takes_the_gain_step_too(chart):
     r = sca.estimate(chart.rgb * DN, depth=8.0, distance=3.0, sigma=chart.rgb_sigma * DN,
-                     gain="free", mode="paper")
+                     gain="free", mode="paper", uncertain={})
     s = sca.estimate(chart.rgb * DN, depth=8.0, distance=3.0, sigma=chart.rgb_sigma * DN,
-                     gain="free")
+                     gain="free", uncertain={})
     assert r.objective >= s.objective * (1 - 1e-9)
     assert r.chl == pytest.approx(s.chl, rel=0.05) and r.gain == pytest.approx(s.gain, rel=0.02)
 
@@ -120,11 +120,11 @@ def test_gain_free_bound_matches_the_free_gain_estimators_spread():
     """Issue 12's gain-free rows of sca.precision, validated against the estimator that fits a
     gain: the spread of 300 noisy charts in arbitrary units."""
     c, a, d, r = 1.0, 0.1, 5.0, 1.0
-    p = sca.precision(c, a, depth=d, distance=r, gain="free")
+    p = sca.precision(c, a, depth=d, distance=r, gain="free", uncertain={})
     sims = [forward.simulate_chart(c, a, d, r, seed=s) for s in range(300)]
     b = sca.estimate_batch(np.array([s.rgb for s in sims]) * DN, depth=d, distance=r,
                            sigma=np.array([s.rgb_sigma for s in sims]) * DN, intervals=False,
-                           gain="free")
+                           gain="free", uncertain={})
     assert np.all(b.converged)
     assert 0.8 < b.chl.std(ddof=1) / p.chl_sd < 1.25
     assert 0.8 < b.cdom.std(ddof=1) / p.cdom_sd < 1.25
@@ -133,7 +133,7 @@ def test_gain_free_bound_matches_the_free_gain_estimators_spread():
 def test_gain_interval_coverage_in_a_batch():
     sims = [forward.simulate_chart(1.0, 0.1, 5.0, 1.0, seed=s) for s in range(200)]
     b = sca.estimate_batch(np.array([s.rgb for s in sims]) * DN, depth=5.0, distance=1.0,
-                           sigma=np.array([s.rgb_sigma for s in sims]) * DN, gain="free")
+                           sigma=np.array([s.rgb_sigma for s in sims]) * DN, gain="free", uncertain={})
     cover_g = np.mean((b.gain_ci[:, 0] <= DN) & (DN <= b.gain_ci[:, 1]))
     cover_c = np.mean((b.chl_ci[:, 0] <= 1.0) & (1.0 <= b.chl_ci[:, 1]))
     # 95 % nominal; 200 draws: binomial 2-SE band ~ +-3 %
@@ -142,6 +142,6 @@ def test_gain_interval_coverage_in_a_batch():
 
 def test_bad_gain_is_refused(chart):
     with pytest.raises(ValueError, match="gain"):
-        sca.estimate(chart.rgb, depth=8.0, distance=3.0, gain="maybe")
+        sca.estimate(chart.rgb, depth=8.0, distance=3.0, gain="maybe", uncertain={})
     with pytest.raises(ValueError, match="gain"):
-        sca.estimate_batch(chart.rgb[None], depth=8.0, distance=3.0, gain="maybe")
+        sca.estimate_batch(chart.rgb[None], depth=8.0, distance=3.0, gain="maybe", uncertain={})

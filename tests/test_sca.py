@@ -28,10 +28,10 @@ def test_subproblem_is_dpp_and_compiled_once(trust_region):
         assert sub.problem.is_dpp() and sub.problem.is_dcp(dpp=True)
     sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.0, noise=False)
     mode = "safeguarded" if trust_region else "paper"
-    sca.estimate(sim.rgb, depth=5.0, distance=1.0, mode=mode)  # builds (or reuses) its problem
+    sca.estimate(sim.rgb, depth=5.0, distance=1.0, mode=mode, uncertain={})  # builds (or reuses) its problem
     before = thread_builds()
-    sca.estimate(sim.rgb, depth=9.0, distance=2.0, mode=mode)
-    sca.estimate(sim.rgb * 0.5, depth=20.0, distance=0.5, mode=mode)
+    sca.estimate(sim.rgb, depth=9.0, distance=2.0, mode=mode, uncertain={})
+    sca.estimate(sim.rgb * 0.5, depth=20.0, distance=0.5, mode=mode, uncertain={})
     assert thread_builds() == before  # the same compiled problem served every fit
 
 
@@ -40,7 +40,7 @@ def test_subproblem_is_dpp_and_compiled_once(trust_region):
 def test_noise_free_round_trip_grid(depth, distance):
     for chl, cdom in itertools.product(CHLS, CDOMS):
         sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False)
-        est = sca.estimate(sim.rgb, depth=depth, distance=distance)
+        est = sca.estimate(sim.rgb, depth=depth, distance=distance, uncertain={})
         case = f"C={chl:g} cdom={cdom:g}: {est.status}"
         assert est.converged, case
         assert rel(est.chl, chl) < 1e-4, case
@@ -51,8 +51,8 @@ def test_noise_free_round_trip_grid(depth, distance):
 
 def test_paper_mode_stops_early_where_safeguarded_reaches_truth():
     sim = forward.simulate_chart(1.0, 0.1, 10.0, 5.0, noise=False)
-    paper = sca.estimate(sim.rgb, depth=10.0, distance=5.0, mode="paper")
-    safe = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
+    paper = sca.estimate(sim.rgb, depth=10.0, distance=5.0, mode="paper", uncertain={})
+    safe = sca.estimate(sim.rgb, depth=10.0, distance=5.0, uncertain={})
     assert not paper.converged and "not stationary" in paper.status
     assert rel(paper.chl, 1.0) > 0.1
     assert safe.converged and rel(safe.chl, 1.0) < 1e-8 and rel(safe.cdom, 0.1) < 1e-8
@@ -69,7 +69,7 @@ def test_paper_mode_stops_early_where_safeguarded_reaches_truth():
 
 def _recovered_or_flagged(chl, cdom, depth, distance, **kw):
     sim = forward.simulate_chart(chl, cdom, depth, distance, noise=False, **kw.pop("sim_kw", {}))
-    est = sca.estimate(sim.rgb, depth=depth, distance=distance, **kw)
+    est = sca.estimate(sim.rgb, depth=depth, distance=distance, **kw, uncertain={})
     for v in (est.chl, est.cdom, est.objective, *est.attenuation, *est.backscatter):
         assert np.isfinite(v)
     if est.converged:
@@ -127,7 +127,7 @@ def test_zero_chlorophyll_never_nan():
 def test_noisy_estimates_unbiased_at_5m():
     chl, cdom, depth, distance = 1.0, 0.1, 5.0, 2.0
     est = [sca.estimate(forward.simulate_chart(chl, cdom, depth, distance, seed=s).rgb,
-                        depth=depth, distance=distance) for s in range(40)]
+                        depth=depth, distance=distance, uncertain={}) for s in range(40)]
     assert all(e.converged for e in est)
     for name, truth in (("chl", chl), ("cdom", cdom)):
         vals = np.array([getattr(e, name) for e in est])
@@ -139,16 +139,16 @@ def test_noisy_estimates_unbiased_at_5m():
 def test_fixing_at_truth_gives_same_answer():
     # a chart a few centimetres away: no backscatter
     sim = forward.simulate_chart(2.0, 0.3, 5.0, 0.05, noise=False, backscatter=False)
-    free = sca.estimate(sim.rgb, depth=5.0, distance=0.05)
-    fixed = sca.estimate(sim.rgb, depth=5.0, distance=0.05, fix={"backscatter": 0})
+    free = sca.estimate(sim.rgb, depth=5.0, distance=0.05, uncertain={})
+    fixed = sca.estimate(sim.rgb, depth=5.0, distance=0.05, fix={"backscatter": 0}, uncertain={})
     np.testing.assert_array_equal(fixed.backscatter, 0.0)
     for e in (free, fixed):
         assert e.converged and rel(e.chl, 2.0) < 1e-6 and rel(e.cdom, 0.3) < 1e-6
     assert rel(free.chl, fixed.chl) < 1e-6
     sim = forward.simulate_chart(2.0, 0.3, 10.0, 3.0, noise=False)
-    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"cdom": 0.3})
+    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"cdom": 0.3}, uncertain={})
     assert fixed.converged and fixed.cdom == 0.3 and rel(fixed.chl, 2.0) < 1e-6
-    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"chl": 2.0, "backscatter": sim.backscatter})
+    fixed = sca.estimate(sim.rgb, depth=10.0, distance=3.0, fix={"chl": 2.0, "backscatter": sim.backscatter}, uncertain={})
     assert fixed.converged and rel(fixed.cdom, 0.3) < 1e-6
 
 
@@ -156,7 +156,7 @@ def test_two_basis_functions():
     T1, _ = forward.phytoplankton_basis()
     T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 301)])
     sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], noise=False)
-    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T)
+    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, basis=T, uncertain={})
     assert est.w.shape == (2,)
     assert np.all(T @ est.w >= -1e-12)
     assert abs(est.eq17_residual) < 1e-8
@@ -169,28 +169,28 @@ def test_two_basis_functions():
 ])
 def test_bad_rgb(rgb, match):
     with pytest.raises(ValueError, match=match):
-        sca.estimate(rgb, depth=5, distance=1)
+        sca.estimate(rgb, depth=5, distance=1, uncertain={})
 
 
 def test_bad_arguments():
     rgb = forward.simulate_chart(1, 0.1, 5, 1, noise=False).rgb
     with pytest.raises(ValueError, match="^depth:"):
-        sca.estimate(rgb, depth=-1, distance=1)
+        sca.estimate(rgb, depth=-1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^distance:"):
-        sca.estimate(rgb, depth=1, distance=np.nan)
+        sca.estimate(rgb, depth=1, distance=np.nan, uncertain={})
     with pytest.raises(ValueError, match="^mode:"):
-        sca.estimate(rgb, depth=1, distance=1, mode="fast")
+        sca.estimate(rgb, depth=1, distance=1, mode="fast", uncertain={})
     with pytest.raises(ValueError, match="^fix:"):
-        sca.estimate(rgb, depth=1, distance=1, fix={"depth": 3})
+        sca.estimate(rgb, depth=1, distance=1, fix={"depth": 3}, uncertain={})
     with pytest.raises(ValueError, match=r"^fix\['backscatter'\]:"):
-        sca.estimate(rgb, depth=1, distance=1, fix={"backscatter": -1})
+        sca.estimate(rgb, depth=1, distance=1, fix={"backscatter": -1}, uncertain={})
     # mismatched wavelength grids: a camera or basis array on another grid
     with pytest.raises(ValueError, match="^camera:"):
-        sca.estimate(rgb, depth=1, distance=1, camera=np.ones((61, 3)))
+        sca.estimate(rgb, depth=1, distance=1, camera=np.ones((61, 3)), uncertain={})
     with pytest.raises(ValueError, match="^basis:"):
-        sca.estimate(rgb, depth=1, distance=1, basis=np.ones(61))
+        sca.estimate(rgb, depth=1, distance=1, basis=np.ones(61), uncertain={})
     with pytest.raises(ValueError, match="^wavelengths:"):
-        sca.estimate(rgb, depth=1, distance=1, wavelengths=np.arange(380, 701, 10))
+        sca.estimate(rgb, depth=1, distance=1, wavelengths=np.arange(380, 701, 10), uncertain={})
 
 
 def test_solver_failure_is_reported(monkeypatch):
@@ -200,7 +200,7 @@ def test_solver_failure_is_reported(monkeypatch):
         raise cp.SolverError("injected failure")
 
     monkeypatch.setattr(cp.Problem, "solve", boom)
-    est = sca.estimate(rgb, depth=5, distance=1)
+    est = sca.estimate(rgb, depth=5, distance=1, uncertain={})
     assert not est.converged and "solver failed" in est.status and "injected" in est.status
     assert np.isfinite(est.chl)  # the best point so far (the initial point) is returned
 
@@ -211,7 +211,7 @@ def test_rebuild_baseline_reaches_the_same_iterates():
     from experiments.baselines import RebuildEstimator
 
     sim = forward.simulate_chart(2.0, 0.2, 10.0, 5.0, seed=1)
-    fast = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
+    fast = sca.estimate(sim.rgb, depth=10.0, distance=5.0, uncertain={})
     slow = RebuildEstimator(depth=10.0, distance=5.0).fit(sim.rgb)
     assert fast.converged and slow.converged and fast.iterations == slow.iterations
     assert abs(fast.chl / slow.chl - 1) < 1e-7 and abs(fast.cdom / slow.cdom - 1) < 1e-7
@@ -222,8 +222,8 @@ def test_scipy_reference_reaches_the_same_optimum():
     from sca.lsq import estimate_least_squares
 
     sim = forward.simulate_chart(2.0, 0.2, 10.0, 5.0, seed=1)
-    ref = sca.estimate(sim.rgb, depth=10.0, distance=5.0)
-    lsq = estimate_least_squares(sim.rgb, depth=10.0, distance=5.0)
+    ref = sca.estimate(sim.rgb, depth=10.0, distance=5.0, uncertain={})
+    lsq = estimate_least_squares(sim.rgb, depth=10.0, distance=5.0, uncertain={})
     assert lsq.converged
     assert lsq.objective <= ref.objective * (1 + 1e-9)
 
@@ -231,15 +231,15 @@ def test_scipy_reference_reaches_the_same_optimum():
 @pytest.mark.slow
 def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
     fits = [sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, seed=s).rgb, depth=5.0,
-                         distance=2.0) for s in range(30)]
+                         distance=2.0, uncertain={}) for s in range(30)]
     sd = np.std([e.chl for e in fits], ddof=1)
     se = np.median([e.chl_se for e in fits])
     assert 0.5 < sd / se < 3.0  # Gauss-Newton errors, homoscedastic: indicative, not exact
     # a chart too dark to measure (depth 30 m, C 100): the error is as large as the value
     dark = forward.simulate_chart(100.0, 0.5, 30.0, 0.5, seed=1)
-    est = sca.estimate(dark.rgb, depth=30.0, distance=0.5)
+    est = sca.estimate(dark.rgb, depth=30.0, distance=0.5, uncertain={})
     assert est.chl_se > 0.5 * est.chl
     # noise-free: (almost) no error; fixed parameters: zero
     exact = sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb, depth=5.0,
-                         distance=2.0, fix={"cdom": 0.1})
+                         distance=2.0, fix={"cdom": 0.1}, uncertain={})
     assert exact.chl_se < 1e-9 and exact.cdom_se == 0.0

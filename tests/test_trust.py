@@ -26,7 +26,7 @@ def fit(s, **kw):
     args = dict(depth=s.depth, distance=s.distance, sigma=s.rgb_sigma, saturation=s.saturation)
     args.update(kw)
     rgb = args.pop("rgb", s.rgb)
-    return sca.estimate(rgb, **args)
+    return sca.estimate(rgb, **args, uncertain={})
 
 
 def covers(est, chl, cdom):
@@ -88,7 +88,7 @@ def test_dark_chart_is_never_confidently_wrong():
     s = forward.simulate_chart(100.0, 1.0, 20.0, 5.0, seed=1)
     single = fit(s)
     batch = sca.estimate_batch(s.rgb[None], depth=20.0, distance=5.0, sigma=s.rgb_sigma[None],
-                               saturation=s.saturation)
+                               saturation=s.saturation, uncertain={})
     for chl, ci, rel, flags in ((single.chl, single.chl_ci, single.reliable, single.flags),
                                 (batch.chl[0], batch.chl_ci[0], batch.reliable[0], batch.flags[0])):
         assert not rel and ("dark" in flags or "unbounded-chl" in flags), flags
@@ -101,20 +101,20 @@ def test_saturated_and_absurd_values():
     clipped = np.minimum(s.rgb * 3.0, s.saturation)
     est = fit(s, rgb=clipped)
     assert not est.reliable and "saturated" in est.flags
-    b = sca.estimate_batch(clipped[None], depth=1.0, distance=0.5, sigma=s.rgb_sigma[None])
+    b = sca.estimate_batch(clipped[None], depth=1.0, distance=0.5, sigma=s.rgb_sigma[None], uncertain={})
     assert not b.reliable[0] and "saturated" in b.flags[0]  # no level given: ties at the top
     with pytest.raises(ValueError, match="^rgb_stack:"):
-        sca.estimate_batch(np.full((1, 3, 24), 1e300), depth=1, distance=1)
+        sca.estimate_batch(np.full((1, 3, 24), 1e300), depth=1, distance=1, uncertain={})
     with pytest.raises(ValueError, match="^rgb:"):
-        sca.estimate(np.full((3, 24), 1e300), depth=1, distance=1)
+        sca.estimate(np.full((3, 24), 1e300), depth=1, distance=1, uncertain={})
 
 
 def test_unknown_noise_is_never_reliable():
     s = sim()
-    est = sca.estimate(s.rgb, depth=10.0, distance=5.0)
+    est = sca.estimate(s.rgb, depth=10.0, distance=5.0, uncertain={})
     assert not est.noise_known and not est.reliable and "noise-unknown" in est.flags
     assert np.isnan(est.chi2_dof) and np.all(np.isfinite(est.chl_ci))
-    b = sca.estimate_batch(s.rgb[None], depth=10.0, distance=5.0)
+    b = sca.estimate_batch(s.rgb[None], depth=10.0, distance=5.0, uncertain={})
     assert "noise-unknown" in b.flags[0] and not b.reliable[0]
 
 
@@ -128,11 +128,11 @@ def test_interval_reaches_zero_where_the_data_allow_zero():
 def test_bad_sigma_is_refused():
     s = sim()
     with pytest.raises(ValueError, match="^sigma:"):
-        sca.estimate(s.rgb, depth=10, distance=5, sigma=-1.0)
+        sca.estimate(s.rgb, depth=10, distance=5, sigma=-1.0, uncertain={})
     with pytest.raises(ValueError, match="^sigma:"):
-        sca.estimate(s.rgb, depth=10, distance=5, sigma=np.ones((24, 3)))
+        sca.estimate(s.rgb, depth=10, distance=5, sigma=np.ones((24, 3)), uncertain={})
     with pytest.raises(ValueError, match="^sigma:"):
-        sca.estimate_batch(s.rgb[None], depth=10, distance=5, sigma=np.ones((2, 3, 24)))
+        sca.estimate_batch(s.rgb[None], depth=10, distance=5, sigma=np.ones((2, 3, 24)), uncertain={})
 
 
 @pytest.fixture(scope="module")
@@ -156,7 +156,7 @@ def test_interval_coverage_on_a_small_grid(grid_charts):
     S = np.array([s.rgb_sigma for _, _, s in grid_charts])
     D = np.array([s.depth for _, _, s in grid_charts])
     R = np.array([s.distance for _, _, s in grid_charts])
-    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S)
+    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S, uncertain={})
     chl = np.array([c for c, _, _ in grid_charts])
     cdom = np.array([a for _, a, _ in grid_charts])
     cov_c = (b.chl_ci[:, 0] <= chl) & (chl <= b.chl_ci[:, 1])
@@ -178,7 +178,7 @@ def test_batch_and_single_agree(grid_charts):
     S = np.array([s.rgb_sigma for _, _, s in charts])
     D = np.array([s.depth for _, _, s in charts])
     R = np.array([s.distance for _, _, s in charts])
-    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S)
+    b = sca.estimate_batch(M, depth=D, distance=R, sigma=S, uncertain={})
     for j, (_, _, s) in enumerate(charts):
         e = fit(s, saturation=None)
         assert e.reliable == b.reliable[j], (e.flags, b.flags[j])
@@ -198,7 +198,7 @@ def test_z2_basis_intervals_are_marked_approximate():
     T1 = forward.phytoplankton_basis()[0][:, 0]
     T = np.column_stack([T1, np.linspace(1.0, 0.2, T1.size)])
     s = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], seed=1)
-    est = sca.estimate(s.rgb, depth=5.0, distance=1.0, basis=T, sigma=s.rgb_sigma)
+    est = sca.estimate(s.rgb, depth=5.0, distance=1.0, basis=T, sigma=s.rgb_sigma, uncertain={})
     assert "interval-approximate" in est.flags and not est.reliable
 
 

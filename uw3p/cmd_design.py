@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 
-from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_setup_options, water_from_args,
-                     wavelengths_from_args)
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
+                     budget_text, uncertain_from_args, water_from_args, wavelengths_from_args)
 
 __all__ = ["NAME", "BUFFERED", "DESIGN_GOOD", "DESIGN_COARSE", "add_parser", "run"]
 
@@ -51,6 +51,7 @@ def add_parser(sub):
                    help="exposure known, unknown (default: a photograph), or unknown per channel "
                         "(uncalibrated camera)")
     add_setup_options(p)
+    add_budget_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -89,7 +90,8 @@ def run(args, out, err) -> int:
 
     sensor = forward.SensorSettings(illuminance_lux=args.lux, exposure_mode=args.exposure)
     kw = dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
-              wavelengths=wavelengths_from_args(args), water=water_from_args(args), sensor=sensor)
+              wavelengths=wavelengths_from_args(args), water=water_from_args(args), sensor=sensor,
+              uncertain=uncertain_from_args(args))
     cond = dict(chl=args.chl, cdom=args.cdom, depth=args.depth, distance=args.distance)
     p = precision(**cond, gain=args.gain, **kw)
     fixed = precision(**cond, gain=args.gain, fix={"cdom": None}, **kw)
@@ -111,6 +113,12 @@ def run(args, out, err) -> int:
     lines.append(f"with a_CDOM measured separately, C to {_pm(rel_fix)}")
     if args.gain != "known":
         lines.append(f"with the exposure known, C to {_pm(float(known.chl_rel95))}")
+    if p.budget:
+        lines.append(f"budget of C      {budget_text(p.budget, 'chl')} of the variance; "
+                     f"{p.limiting} limits the instrument here")
+        camera_only = precision(**cond, gain=args.gain, **{**kw, "uncertain": {}})
+        lines.append(f"the camera alone (photon and read noise only, --exact): C to "
+                     f"{_pm(float(camera_only.chl_rel95))}")
     if p.flags:
         lines.append("caveats: " + ", ".join(p.flags) + " (the bound may not be attained)")
     at = f"at {args.depth:g} m with this camera"

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import math
 
-from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_setup_options, json_text,
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
+                     budget_text, json_text, uncertain_from_args,
                      setup_kwargs)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
@@ -57,6 +58,7 @@ def add_parser(sub):
                    help="known: values in model units (as simulate writes them); free: any units "
                         "(e.g. raw camera values), one unknown exposure gain fitted with the water")
     add_setup_options(p)
+    add_budget_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -90,7 +92,8 @@ def _run_batch(args, out, err):
             arr[np.isnan(arr)] = opt
     fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
     res = estimate_batch(M, depth=depth, distance=distance, sigma=sigma, saturation=args.saturation,
-                         fix=fix, max_iter=args.max_iter, gain=args.gain, **setup_kwargs(args))
+                         fix=fix, max_iter=args.max_iter, gain=args.gain,
+                         uncertain=uncertain_from_args(args), **setup_kwargs(args))
     if args.json:
         records = [dict(chart=c, chl=float(res.chl[j]), cdom=float(res.cdom[j]),
                         chl_ci=_ci(res.chl_ci[j]), cdom_ci=_ci(res.cdom_ci[j]),
@@ -169,7 +172,7 @@ def run(args, out, err) -> int:
         res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
                        saturation=args.saturation, mode=args.mode or "safeguarded",
                        fix=fix or None, max_iter=args.max_iter, gain=args.gain,
-                       **setup_kwargs(args))
+                       uncertain=uncertain_from_args(args), **setup_kwargs(args))
     except ValueError as exc:
         msg = str(exc)
         if msg.startswith(("rgb:", "sigma:")):  # name the file, in its orientation (rows = patches)
@@ -188,6 +191,13 @@ def run(args, out, err) -> int:
         chi2 = (f"chi2/dof {res.chi2_dof:.3g} (p = {res.chi2_p:.3g}, dof {res.dof})"
                 if res.noise_known else "chi2 not tested: the noise is unknown")
         out.write(f"fit              fit_rms {res.fit_rms:.3g}, {chi2}\n")
+        if res.budget:
+            out.write(f"budget of C      sd {res.budget['chl']['sd']:.3g} mg m^-3: "
+                      f"{budget_text(res.budget, 'chl')}\n" if "chl" in res.budget else "")
+            out.write(f"budget of CDOM   sd {res.budget['cdom']['sd']:.3g} m^-1: "
+                      f"{budget_text(res.budget, 'cdom')}\n" if "cdom" in res.budget else "")
+        elif res.noise_known:
+            out.write("budget           none: the paper's exact model (--exact)\n")
         out.write(f"reliable         {res.reliable}" + (f" (flags: {', '.join(res.flags)})"
                                                        if res.flags else "") + "\n")
         out.write(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "

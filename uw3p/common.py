@@ -12,7 +12,8 @@ from pathlib import Path
 
 __all__ = [
     "EXIT_OK", "EXIT_NOT_RELIABLE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
-    "add_setup_options", "add_water_options", "add_photo_options",
+    "add_setup_options", "add_water_options", "add_photo_options", "add_budget_options",
+    "uncertain_from_args", "budget_text",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
     "write_file", "json_text",
 ]
@@ -79,6 +80,98 @@ def add_water_options(p) -> None:
     g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
     g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
     g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
+
+
+def add_budget_options(p) -> None:
+    """Add the uncertainty-budget options (:mod:`sca.budget`): ``--depth-sd``,
+    ``--distance-sd``, ``--uncertain NAME=SD`` (repeatable) and ``--exact``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
+    from sca.budget import DEFAULT_UNCERTAIN
+
+    defaults = ", ".join(f"{k}={v}" for k, v in DEFAULT_UNCERTAIN.items())
+    p.add_argument("--depth-sd", default=None, metavar="SD",
+                   help=f"standard deviation of --depth, m or a percentage like 2%% (default "
+                        f"{DEFAULT_UNCERTAIN['depth']} m)")
+    p.add_argument("--distance-sd", default=None, metavar="SD",
+                   help=f"standard deviation of --distance, m or a percentage (default "
+                        f"{DEFAULT_UNCERTAIN['distance']})")
+    p.add_argument("--uncertain", action="append", default=[], metavar="NAME=SD",
+                   help="one more entry of the uncertainty budget, e.g. cdom_slope=0.002, "
+                        "balance=0.005 (relative, per channel) or patch=0.005 (relative, per "
+                        f"patch); repeatable. The default budget: {defaults}")
+    p.add_argument("--exact", action="store_true",
+                   help="the paper's exact model: nothing uncertain but the sensor noise "
+                        "(entries given with the options above are still applied)")
+
+
+def uncertain_from_args(args) -> dict:
+    """The ``uncertain=`` dict asked for by the options of :func:`add_budget_options`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options (``exact``, ``depth_sd``, ``distance_sd``, ``uncertain``).
+
+    Returns
+    -------
+    dict
+        name -> sd (floats, or percentage strings for the lengths).
+
+    Raises
+    ------
+    ValueError
+        For a malformed ``--uncertain`` entry (the message names the option).
+    """
+    from sca.budget import DEFAULT_UNCERTAIN, NUISANCE, SYSTEMATIC
+
+    out = {} if args.exact else dict(DEFAULT_UNCERTAIN)
+    for opt, name in (("depth_sd", "depth"), ("distance_sd", "distance")):
+        value = getattr(args, opt)
+        if value is not None:
+            out[name] = value if str(value).strip().endswith("%") else _float(f"--{opt.replace('_', '-')}", value)
+    for item in args.uncertain:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ValueError(f"--uncertain: expected NAME=SD, got {item!r}")
+        if name not in NUISANCE + SYSTEMATIC:
+            raise ValueError(f"--uncertain: unknown name {name!r}; choose from "
+                             f"{', '.join(NUISANCE + SYSTEMATIC)}")
+        value = value.strip()
+        out[name] = value if value.endswith("%") else _float(f"--uncertain {name}", value)
+    return out
+
+
+def _float(option, value) -> float:
+    try:
+        return float(value)
+    except ValueError:
+        raise ValueError(f"{option}: expected a number, got {value!r}") from None
+
+
+def budget_text(budget: dict, name: str = "chl") -> str:
+    """One line: each source's share of the variance of ``name``, largest first.
+
+    Parameters
+    ----------
+    budget : dict
+        ``Estimate.budget`` or ``Precision.budget`` (floats).
+    name : str
+        'chl' or 'cdom'.
+
+    Returns
+    -------
+    str
+        E.g. ``"patch 46 %, cdom_slope 43 %, depth 7 %"``; '' without a budget.
+    """
+    shares = budget.get(name, {}).get("shares", {})
+    parts = sorted(shares.items(), key=lambda kv: -kv[1])
+    return ", ".join(f"{k} {100 * v:.0f} %" for k, v in parts if v >= 0.005)
 
 
 def add_photo_options(p) -> None:

@@ -1,0 +1,283 @@
+"""The uncertainty budget: every input that is not known exactly carries its uncertainty.
+
+After the GUM (JCGM 100:2008), each input of the measurement has a standard uncertainty, and
+the result says how much of its variance each input contributes. ``uncertain=`` (every
+estimator, :func:`sca.precision` and ``measure``) is a dict name -> standard deviation:
+
+* **nuisance parameters** with a Gaussian prior centred on the value given (or the water's
+  constant): ``depth`` and ``distance`` (m, or a string ``"5%"`` relative to the value), any
+  :data:`forward.water.COEFFICIENT_PARAMS` field (its own units, e.g. ``cdom_slope`` in nm^-1)
+  and ``balance`` (relative error of each camera channel's sensitivity, the same sd for every
+  channel). They enter the one model function as parameters; the fit adds
+  sum ((theta - mu) / sd)^2 to chi^2, and the profile-likelihood intervals profile them;
+* **per-patch systematic terms** (``patch``, relative): chart reflectance tolerance and
+  ageing, camera-curve error and the illuminant, independent from patch to patch. They enter the
+  noise: sigma_total^2 = sigma^2 + (patch x M)^2.
+
+``uncertain={}`` is the paper's exact model (the replication figures use it); the default
+(:data:`DEFAULT_UNCERTAIN`) applies wherever real data enter. A budget needs the noise
+(``sigma``): without it the chi^2 scale is unknown and the budget is not applied (the result
+says so: ``budget`` None and flag ``noise-unknown``).
+
+References
+----------
+JCGM 100:2008, "Evaluation of measurement data - Guide to the expression of uncertainty in
+measurement" (GUM), secs. 4-5 and 8.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from forward.water import COEFFICIENT_PARAMS, Water
+
+__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Budget",
+           "resolve_budget", "parse_sd", "variance_shares", "limiting_source"]
+
+#: The default budget (DECISIONS.md, "The uncertainty budget", gives the sources):
+#: depth 0.2 m (a dive computer's depth reading: the issue's 0.1-0.3 m); distance 5 % (a
+#: measured camera-to-chart distance); eq 6's slope 0.0025 nm^-1 and eq 7's 0.0025 nm^-1 (the
+#: paper's ranges 0.014-0.019 and 0.006-0.014 lie within 2 sd of its values 0.014 and 0.011);
+#: the camera's channel balance 1 % (a profile from another day); per-patch 1 % (a
+#: ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and the
+#: daylight's spectral variation, in quadrature).
+DEFAULT_UNCERTAIN = {
+    "depth": 0.2,
+    "distance": "5%",
+    "cdom_slope": 0.0025,
+    "nap_slope": 0.0025,
+    "balance": 0.01,
+    "patch": 0.01,
+}
+#: Where each default comes from (recorded with every result's budget).
+BUDGET_SOURCES = {
+    "depth": "dive computer depth reading, 0.1-0.3 m",
+    "distance": "camera-to-chart distance measured to about 5 %",
+    "cdom_slope": "Blasinski & Farrell eq 6: 0.014-0.019 nm^-1",
+    "nap_slope": "Blasinski & Farrell eq 7: 0.006-0.014 nm^-1",
+    "balance": "camera channel balance from a profile of another day, ~1 %",
+    "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
+}
+#: Names that are nuisance parameters with a Gaussian prior.
+NUISANCE = ("depth", "distance", "balance") + COEFFICIENT_PARAMS
+#: Names that enter the noise of every patch (relative sd).
+SYSTEMATIC = ("patch",)
+
+
+@dataclass(frozen=True)
+class Budget:
+    """A resolved budget for N charts.
+
+    Attributes
+    ----------
+    sd : dict
+        The budget as given: name -> sd (floats, or ``"x%"`` strings for lengths).
+    priors : dict
+        Nuisance name -> (mean (N,), sd (N,)) in the parameter's units (relative for
+        'balance': mean 0).
+    patch : float
+        Relative per-patch systematic sd (0: none).
+    """
+
+    sd: dict
+    priors: dict
+    patch: float
+
+    @property
+    def exact(self) -> bool:
+        """True for the paper's exact model (nothing uncertain)."""
+        return not self.priors and self.patch == 0.0
+
+    def noise_sd(self, M, sigma):
+        """sqrt(sigma^2 + (patch M)^2): the noise with the per-patch systematic term (data
+        units, shape of ``M``)."""
+        return np.sqrt(np.asarray(sigma, float) ** 2 + (self.patch * np.asarray(M, float)) ** 2)
+
+    def rows(self, sl) -> "Budget":
+        """The budget of the charts ``sl`` (a slice or index array)."""
+        return Budget(self.sd, {k: (mu[sl], sd[sl]) for k, (mu, sd) in self.priors.items()},
+                      self.patch)
+
+    def to_dict(self) -> dict:
+        """The budget as plain numbers: the sd given for every name and its source."""
+        return {k: {"sd": v, "source": BUDGET_SOURCES.get(k, "given")} for k, v in
+                self.sd.items()}
+
+
+def parse_sd(name: str, value, reference=None):
+    """A standard deviation from ``uncertain[name]``: a number >= 0 or ``"x%"`` of ``reference``.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name (used in error messages as ``uncertain['name']``).
+    value : float or str
+        The sd in the parameter's units, or a percentage string such as ``"5%"``.
+    reference : float or array_like, optional
+        The value a percentage refers to (needed for a percentage).
+
+    Returns
+    -------
+    float or ndarray
+        The sd (>= 0).
+
+    Raises
+    ------
+    ValueError
+        For a negative, non-finite or malformed value, or a percentage without a reference.
+    """
+    label = f"uncertain[{name!r}]"
+    if isinstance(value, str):
+        text = value.strip()
+        if not text.endswith("%"):
+            raise ValueError(f"{label}: expected a number or a percentage like '5%', got {value!r}")
+        try:
+            frac = float(text[:-1]) / 100.0
+        except ValueError:
+            raise ValueError(f"{label}: expected a percentage like '5%', got {value!r}") from None
+        if reference is None:
+            raise ValueError(f"{label}: a percentage needs a value to refer to; give an sd in "
+                             "the parameter's units")
+        sd = frac * np.abs(np.asarray(reference, float))
+    else:
+        if isinstance(value, bool):
+            raise ValueError(f"{label}: expected a number, got {value!r}")
+        try:
+            sd = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{label}: expected a number, got {value!r}") from None
+    if not np.all(np.isfinite(sd)) or np.any(np.asarray(sd) < 0):
+        raise ValueError(f"{label}: a standard deviation must be finite and >= 0, got {value!r}")
+    return sd
+
+
+def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:
+    """The :class:`Budget` of ``uncertain`` for charts at ``depth`` and ``distance``.
+
+    Parameters
+    ----------
+    uncertain : dict or None
+        name -> sd (:data:`NUISANCE` and :data:`SYSTEMATIC` names); None: the default budget
+        (:data:`DEFAULT_UNCERTAIN`); ``{}``: the paper's exact model.
+    depth, distance : float or (N,) array
+        The given lengths, m (the priors' centres).
+    water : forward.Water
+        The water model (the priors' centres of its constants).
+    free : sequence of str
+        Names estimated freely (``free=``): they get no prior (an sd of 0 also means none).
+    fixed : sequence of str
+        Names held (``fix=``): they get no prior.
+
+    Returns
+    -------
+    Budget
+
+    Raises
+    ------
+    ValueError
+        For ``uncertain`` not a dict, an unknown name or an invalid sd.
+    """
+    if uncertain is None:
+        uncertain = DEFAULT_UNCERTAIN
+    if not isinstance(uncertain, dict):
+        raise ValueError("uncertain: expected a dict name -> standard deviation, e.g. "
+                         f"{{'depth': 0.2}}, or {{}} for the paper's exact model; got "
+                         f"{type(uncertain).__name__}")
+    unknown = set(uncertain) - set(NUISANCE) - set(SYSTEMATIC)
+    if unknown:
+        raise ValueError(f"uncertain: unknown name(s) {sorted(unknown)}; choose from "
+                         f"{tuple(NUISANCE + SYSTEMATIC)}")
+    lengths = {"depth": np.atleast_1d(np.asarray(depth, float)),
+               "distance": np.atleast_1d(np.asarray(distance, float))}
+    N = max(lengths["depth"].size, lengths["distance"].size)
+    priors = {}
+    for name, value in uncertain.items():
+        if name in SYSTEMATIC:
+            continue
+        if name in lengths:
+            mean = np.broadcast_to(lengths[name], (N,)).astype(float)
+            sd = np.broadcast_to(parse_sd(name, value, mean), (N,)).astype(float)
+        else:
+            mean = np.full(N, 0.0 if name == "balance" else float(getattr(water, name)))
+            sd = np.full(N, float(parse_sd(name, value)))
+        if name in free or name in fixed or not np.any(sd > 0):
+            continue
+        priors[name] = (mean, sd)
+    patch = float(parse_sd("patch", uncertain.get("patch", 0.0)))
+    return Budget(dict(uncertain), priors, patch)
+
+
+def variance_shares(J, names, w2_total, w2_photon, active, prior_weight, of=("chl", "cdom")):
+    """Each source's share of the variance of the parameters ``of``, linearised at the fit, for
+    N charts at once.
+
+    With the whitened Jacobian Jw = sqrt(w2_total) J (every parameter, nuisances, the gain and
+    the active backscatter included) and the priors' information P = diag(prior_weight), the
+    covariance is S = (Jw^T Jw + P)^-1 = S Jw^T Jw S + sum_k S P_k S, and the data's part splits
+    into the photon noise (fraction w2_total / w2_photon of each patch's variance) and the
+    per-patch systematic term. The shares of each parameter add up to 1.
+
+    Parameters
+    ----------
+    J : ndarray, (N, m n, p)
+        d M / d theta at the fits (data units per parameter unit).
+    names : sequence of str, (p,)
+        The name of each column ('balance' and 'backscatter' repeat, one per channel).
+    w2_total, w2_photon : ndarray, (N, m n)
+        1 / sigma_total^2 and 1 / sigma^2.
+    active : ndarray of bool, (N, p)
+        Columns taken into account (False: held, e.g. a backscatter at its bound).
+    prior_weight : ndarray, (N, p)
+        1 / sd^2 of each column's prior (0: none), in the parameter's units.
+    of : sequence of str
+        The parameters whose shares are wanted (their first column).
+
+    Returns
+    -------
+    dict
+        Name -> {'sd': (N,) linearised standard deviation, 'shares': {source: (N,) fraction}}
+        with the sources 'noise' (photon and read noise), 'patch' and every prior's name (the
+        channels of 'balance' summed); NaN where the information is singular.
+    """
+    J = np.asarray(J, float) * np.asarray(active, bool)[:, None, :]
+    Jw = np.sqrt(w2_total)[..., None] * J
+    pw = np.asarray(prior_weight, float)
+    F = np.swapaxes(Jw, 1, 2) @ Jw + pw[:, :, None] * np.eye(J.shape[2])
+    idle = ~np.asarray(active, bool)
+    F[idle[:, :, None] & np.eye(J.shape[2], dtype=bool)] = 1.0  # held columns: decoupled
+    with np.errstate(all="ignore"):
+        d = np.sqrt(np.diagonal(F, axis1=1, axis2=2))
+        ok = np.all(np.isfinite(F), axis=(1, 2)) & np.all(d > 0, axis=1)
+        D = np.where(ok[:, None], d, 1.0)
+        Fs = F / (D[:, :, None] * D[:, None, :])
+        ok[ok] = np.linalg.cond(Fs[ok]) < 1e14
+    S = np.full(F.shape, np.nan)
+    if ok.any():
+        S[ok] = np.linalg.inv(Fs[ok]) / (D[ok][:, :, None] * D[ok][:, None, :])
+    phi = np.clip(w2_total / w2_photon, 0.0, 1.0)  # photon fraction of each patch's variance
+    SJ = S @ np.swapaxes(Jw, 1, 2)  # (N, p, m n)
+    names = list(names)
+    out = {}
+    for name in of:
+        if name not in names:
+            continue
+        i = names.index(name)
+        parts = {"noise": np.sum(SJ[:, i] ** 2 * phi, axis=1),
+                 "patch": np.sum(SJ[:, i] ** 2 * (1.0 - phi), axis=1)}
+        for j, nj in enumerate(names):
+            if np.any(pw[:, j] > 0):
+                parts[nj] = parts.get(nj, 0.0) + S[:, i, j] ** 2 * pw[:, j]
+        total = sum(parts.values())
+        with np.errstate(all="ignore"):
+            out[name] = {"sd": np.sqrt(S[:, i, i]),
+                         "shares": {k: v / total for k, v in parts.items()}}
+    return out
+
+
+def limiting_source(shares: dict) -> str | None:
+    """The source with the largest share (None for an empty budget)."""
+    if not shares:
+        return None
+    return max(shares, key=shares.get)
