@@ -20,17 +20,19 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
+from scipy import optimize
 
 import forward
 from forward.imaging import ChartSetup
 
-__all__ = ["Profile", "camera_setup", "calibrate", "load_profile", "CALIBRATION_MISFIT_P",
-           "MIN_CALIBRATION_PATCHES"]
+__all__ = ["Profile", "camera_setup", "calibrate", "load_profile", "MIN_CALIBRATION_PATCHES",
+           "PATCH_SD_MAX", "patch_systematic"]
 
-#: A calibration whose chi^2 p-value is below this is reported as a misfit (the curves or the
-#: illuminant do not describe the photo); as sca.assess.MISFIT_P.
-CALIBRATION_MISFIT_P = 1e-3
+#: A calibration whose per-patch systematic error (beyond photon noise, relative) exceeds this
+#: is not reliable: a ColorChecker's reflectance tolerance (0.1-0.7 % per patch) and a camera
+#: curve's measurement error (~1 %) stay well below it; a wrong illuminant or wrong curves do
+#: not (flag ``systematic``).
+PATCH_SD_MAX = 0.03
 #: Fewest unclipped patches a channel needs for its gain (half the chart): fewer, and the
 #: channel is flagged ``few-patches-<R|G|B>``.
 MIN_CALIBRATION_PATCHES = 12
@@ -61,11 +63,15 @@ class Profile:
     reliable : bool
         No flag was raised.
     flags : list of str
-        ``misfit-<R|G|B>``, ``few-patches-<R|G|B>``.
+        ``systematic`` (the per-patch systematic error exceeds :data:`PATCH_SD_MAX`),
+        ``few-patches-<R|G|B>``.
     image : str
         Path of the calibration photo.
     version : str
         uw3p's version that wrote it.
+    patch_sd : float or None
+        The per-patch systematic error beyond photon noise, relative (the uncertainty budget's
+        ``patch``, :func:`patch_systematic`); None in profiles written before it was estimated.
     """
 
     camera: str
@@ -80,6 +86,7 @@ class Profile:
     flags: list = field(default_factory=list)
     image: str = ""
     version: str = ""
+    patch_sd: float | None = None
 
     def to_json(self) -> str:
         """The profile as indented JSON text (what ``uw3p calibrate`` writes)."""
@@ -159,6 +166,41 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
     return forward.chart_setup(camera, illuminant, None, wl, channel_gains=gains)
 
 
+def patch_systematic(residuals, sigma, values, dof: int) -> float:
+    """The relative per-patch systematic error that the residuals show beyond photon noise.
+
+    The sd f >= 0 with sum r^2 / (sigma^2 + (f M)^2) = dof (the method of moments: the reduced
+    chi^2 with the systematic term in the noise is 1); 0 where the photon noise alone explains
+    the residuals.
+
+    Parameters
+    ----------
+    residuals, sigma, values : array_like
+        Residuals r, photon-noise standard errors sigma and patch values M (same units).
+    dof : int
+        Degrees of freedom of the fit.
+
+    Returns
+    -------
+    float
+        f, relative (e.g. 0.005 for 0.5 % of each patch's value).
+
+    References
+    ----------
+    JCGM 100:2008 (GUM), sec. 4.2 (Type A evaluation); the method of moments for a variance
+    component (e.g. R. J. Paule and J. Mandel, J. Res. NBS 87 (1982) 377-385).
+    """
+    r2, s2, m2 = (np.asarray(a, float) ** 2 for a in (residuals, sigma, values))
+
+    def excess(f):
+        return float(np.sum(r2 / (s2 + f * f * m2))) - dof
+    if dof <= 0 or excess(0.0) <= 0:
+        return 0.0
+    if excess(1.0) > 0:
+        return 1.0
+    return float(optimize.brentq(excess, 0.0, 1.0, xtol=1e-6))
+
+
 def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, illuminant=None,
               image: str = "") -> Profile:
     """Fit the per-channel gains of ``camera`` from a chart photographed in air.
@@ -186,9 +228,13 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
     -------
     Profile
         Gains relative to the largest (and in raw units per model unit), their standard errors
-        and goodness of fit. ``reliable`` is False (with ``flags``) when a channel misfits
-        (chi^2 p-value below :data:`CALIBRATION_MISFIT_P`) or fewer than
-        :data:`MIN_CALIBRATION_PATCHES` patches remain in a channel.
+        (with the per-patch systematic term in the noise) and goodness of fit, and the
+        per-patch systematic error ``patch_sd`` that the residuals show beyond photon noise
+        (:func:`patch_systematic`). ``reliable`` is False (with ``flags``) when ``patch_sd``
+        exceeds :data:`PATCH_SD_MAX` (the curves or the illuminant do not describe the photo)
+        or fewer than :data:`MIN_CALIBRATION_PATCHES` patches remain in a channel. The
+        reduced chi^2 of each channel (photon noise only) is recorded; with thousands of
+        pixels per patch it is above 1 for any real chart, and it no longer decides.
     """
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant)
     G = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (3, 24)
@@ -208,15 +254,31 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
         gains[c], se[c] = g, 1.0 / np.sqrt(np.sum(w * G[c, u] ** 2))
         chi2[c] = float(np.sum(w * r * r)) / dof
         rms[c] = float(np.linalg.norm(r) / np.linalg.norm(M[c, u]))
-        if stats.chi2.sf(chi2[c] * dof, dof) < CALIBRATION_MISFIT_P:
-            flags.append(f"misfit-{'RGB'[c]}")
+    resid, sig_all, val_all, dof_all = [], [], [], 0
+    for c in range(3):
+        u = use[c]
+        if np.isfinite(gains[c]):
+            resid.append(M[c, u] - gains[c] * G[c, u])
+            sig_all.append(sig[c, u])
+            val_all.append(M[c, u])
+            dof_all += int(u.sum()) - 1
+    patch_sd = patch_systematic(np.concatenate(resid), np.concatenate(sig_all),
+                                np.concatenate(val_all), dof_all) if resid else float("nan")
+    if not patch_sd <= PATCH_SD_MAX:
+        flags.append("systematic")
+    for c in range(3):  # the gains' standard errors with the systematic term in the noise
+        u = use[c]
+        if np.isfinite(gains[c]):
+            w = 1.0 / (sig[c, u] ** 2 + (patch_sd * M[c, u]) ** 2)
+            se[c] = 1.0 / np.sqrt(np.sum(w * G[c, u] ** 2))
     top = np.nanmax(gains)
     name = camera if isinstance(camera, str) else "custom"
     illum = illuminant if isinstance(illuminant, str) else ("D65" if illuminant is None else "custom")
     return Profile(camera=name, quantal=bool(quantal), illuminant=illum,
                    gains=(gains / top).tolist(), gains_se=(se / top).tolist(),
                    gains_raw=gains.tolist(), chi2_dof=chi2.tolist(), fit_rms=rms.tolist(),
-                   reliable=not flags, flags=flags, image=str(image), version=_version())
+                   reliable=not flags, flags=flags, image=str(image), version=_version(),
+                   patch_sd=float(patch_sd))
 
 
 def _version() -> str:

@@ -69,18 +69,18 @@ def _setup_with_field(setup, field):
     return dataclasses.replace(setup, reflectances=setup.reflectances * field[None, :])
 
 
-def _chi2(theta, basis, M, sigma, setup, depth, distance, water):
+def _chi2(theta, basis, M, sigma, setup, depth, distance, water, uncertain=None):
     field = 1.0 + basis[:, :theta.size] @ theta
     if np.any(field < FIELD_FLOOR):
         return INFEASIBLE_CHI2
     b = sca.estimate_batch(M[None], depth=depth, distance=distance, sigma=sigma,
                            setup=_setup_with_field(setup, field), water=water, gain="free",
-                           intervals=False)
+                           intervals=False, uncertain=uncertain)
     return float(b.objective[0])
 
 
 def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FIELD_ALPHA,
-                    models=tuple(FIELDS)):
+                    models=tuple(FIELDS), uncertain=None):
     """Fit the nested light-field models and choose the smallest the data support.
 
     For each model of ``models`` in turn, the field coefficients minimise the chi^2 of the
@@ -104,6 +104,8 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
         Significance level of the likelihood-ratio tests (default :data:`LIGHT_FIELD_ALPHA`).
     models : tuple of str, optional
         Names of :data:`FIELDS` in nesting order (default all: none, plane, plane+radial).
+    uncertain : dict, optional
+        The uncertainty budget of the fits (:mod:`sca.budget`; default its default).
 
     Returns
     -------
@@ -126,13 +128,13 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
         k = FIELDS[name]
         if k == 0:
             theta, chi2 = np.zeros(0), _chi2(np.zeros(0), basis, M, sigma, setup, depth,
-                                             distance, water)
+                                             distance, water, uncertain)
         else:
             start = np.zeros(k)
             if prev is not None:
                 start[:fits[prev]["theta"].size] = fits[prev]["theta"]
             res = optimize.minimize(_chi2, start, args=(basis, M, sigma, setup, depth, distance,
-                                                        water),
+                                                        water, uncertain),
                                     method="Nelder-Mead",
                                     options=dict(xatol=NM_XATOL, fatol=NM_FATOL,
                                                  maxiter=NM_ITERATIONS_PER_PARAMETER * k))

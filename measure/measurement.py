@@ -11,6 +11,7 @@ through the water.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,13 +28,14 @@ from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, sample_patch
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
 
-__all__ = ["Measurement", "measure", "correction", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
+__all__ = ["Measurement", "measure", "correction", "budget_for", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
            "SATURATED_FRACTION", "WHITE_TARGET", "ORIENTATION_CHI2"]
 
 #: Flags of the measurement itself that make it unreliable (besides sca.assess.BLOCKING):
-#: the camera's channel balance is unknown, the chart's orientation could not be verified, too
-#: many patch values are clipped.
-MEASURE_BLOCKING = ("uncalibrated-camera", "orientation-unverified", "saturated")
+#: the camera's channel balance is unknown (or its profile is not reliable), the chart's
+#: orientation could not be verified, too many patch values are clipped.
+MEASURE_BLOCKING = ("uncalibrated-camera", "orientation-unverified", "saturated",
+                    "unreliable-profile")
 #: A clipped patch value is left out of the fit by giving it this sigma (x the largest value):
 #: its weight is then ~1e-12 of the others'.
 CLIPPED_SIGMA = 1e6
@@ -102,6 +104,9 @@ class Measurement:
     notes: list = field(default_factory=list)
     #: the light-field model chosen by the nested-model test (measure.lightfield) and its tests
     light_field: dict = field(default_factory=dict)
+    #: every input used (the audit trail of measurement.json): depth and distance (m) with
+    #: their sds, the uncertainty budget, the water model and path model, the options
+    inputs: dict = field(default_factory=dict)
 
     def to_dict(self, version: str = "") -> dict:
         """measurement.json's content (numbers as Python lists; units in ``estimate.units``),
@@ -117,6 +122,8 @@ class Measurement:
                 "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
                 "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
                 "converged": e.converged, "status": e.status,
+                "budget": e.budget, "nuisance": {k: np.asarray(v, float).tolist()
+                                                 for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
                           "model unit", "backscatter": "raw units", "wavelengths": "nm",
                           "attenuation": "dimensionless k = exp(-(depth + distance) c)"},
@@ -135,6 +142,7 @@ class Measurement:
                       "black_level": self.photo.black.tolist(),
                       "white_level": self.photo.white.tolist()},
             "notes": self.notes,
+            "inputs": self.inputs,
             "version": version,
         }
 
@@ -159,14 +167,44 @@ def _data(sample: PatchSample):
     return M, np.where(ok, sample.sigma, out)
 
 
-def _fit(sample: PatchSample, setup, depth, distance, water):
+def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None):
     """sca.estimate with a free gain on the sample."""
     M, sig = _data(sample)
     return sca.estimate(M, depth=depth, distance=distance, sigma=sig, gain="free", setup=setup,
-                        water=water)
+                        water=water, uncertain=uncertain)
 
 
-def _choose_orientation(photo, lay, cands, setup, depth, distance, water):
+def budget_for(uncertain, profile) -> dict:
+    """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
+    (:data:`sca.budget.DEFAULT_UNCERTAIN`) with the profile's own numbers where it has them:
+    its per-patch systematic error (``patch``) and the largest standard error of its channel
+    gains (``balance``).
+
+    Parameters
+    ----------
+    uncertain : dict or None
+        The budget asked for (None: the default).
+    profile : measure.Profile or None
+        The camera's calibration.
+
+    Returns
+    -------
+    dict
+        name -> sd.
+    """
+    if uncertain is not None:
+        return dict(uncertain)
+    out = dict(sca.budget.DEFAULT_UNCERTAIN)
+    if profile is not None:
+        if profile.patch_sd is not None and np.isfinite(profile.patch_sd):
+            out["patch"] = float(profile.patch_sd)
+        se = np.asarray(profile.gains_se, float)
+        if se.size and np.all(np.isfinite(se)):
+            out["balance"] = float(np.max(se))
+    return out
+
+
+def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncertain=None):
     """(name, corners, sample, estimate, flags, notes) of the orientation to use."""
     passing = [name for name, (_, _, ok) in cands.items() if ok]
     full = {name: sample_patches(photo, cands[name][0], lay) for name in (passing or ["as given"])}
@@ -178,9 +216,9 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water):
             f"the corners were given in the wrong order; the chart was found {name} with respect "
             "to them and sampled in its true orientation"]
         flags = [] if name == "as given" else ["orientation-corrected"]
-        return name, c, s, _fit(s, setup, depth, distance, water), flags, notes
+        return name, c, s, _fit(s, setup, depth, distance, water, uncertain), flags, notes
     pool = passing or list(cands)
-    fits = {name: _fit(cands[name][1], setup, depth, distance, water) for name in pool}
+    fits = {name: _fit(cands[name][1], setup, depth, distance, water, uncertain) for name in pool}
     order = sorted(fits, key=lambda k: fits[k].objective)
     best = order[0]
     c, s, _ = cands[best]
@@ -194,7 +232,7 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water):
     why = ("no orientation of the corners shows the grey row (patches 19-24) falling from white "
            "to black in every channel" if not passing else
            "several orientations fit about equally well")
-    return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water), \
+    return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water, uncertain), \
         ["orientation-unverified"], [f"orientation not verified: {why}; check --corners"]
 
 
@@ -254,7 +292,7 @@ def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
 def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
-            white_level=None, light_field: str = "auto") -> Measurement:
+            white_level=None, light_field: str = "auto", uncertain=None) -> Measurement:
     """Measure the water from a photograph of a ColorChecker Classic underwater.
 
     Samples the chart in every corner order and keeps the one whose grey row falls from white
@@ -289,6 +327,10 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     light_field : str, optional
         'auto' (default: the smallest of none < plane < plane+radial that the likelihood-ratio
         test supports, :mod:`measure.lightfield`), or one of them to force it.
+    uncertain : dict, optional
+        The uncertainty budget (:mod:`sca.budget`). Default: :data:`sca.budget.DEFAULT_UNCERTAIN`
+        with the profile's per-patch systematic error and gain standard errors
+        (:func:`budget_for`); ``{}``: the paper's exact model.
 
     Returns
     -------
@@ -321,14 +363,16 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
                          gains=None if profile is None else profile.gains)
     if light_field != "auto" and light_field not in FIELDS:
         raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
+    budget = budget_for(uncertain, profile)
     cands = orientations(photo, corners, lay)
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
-                                                             distance, water)
+                                                             distance, water, budget)
     fit_setup, field_report = setup, {"model": "none"}
     if light_field != "none":
         M, sig = _data(sample)
         models = tuple(FIELDS) if light_field == "auto" else ("none", light_field)
-        lf = fit_light_field(M, sig, setup, depth, distance, water, models=models)
+        lf = fit_light_field(M, sig, setup, depth, distance, water, models=models,
+                             uncertain=budget)
         chosen = lf["model"] if light_field == "auto" else light_field
         field_report = {"model": chosen, "coefficients": lf["coefficients"] if chosen == lf["model"]
                         else [], "field": lf["field"].tolist(), "tests": lf["tests"],
@@ -336,7 +380,7 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
                         "mean)], chart coordinates in [-1, 1]"}
         if chosen != "none":
             fit_setup = lf["setup"]
-            est = _fit(sample, fit_setup, depth, distance, water)
+            est = _fit(sample, fit_setup, depth, distance, water, budget)
             flags.append("light-field")
             notes.append(f"uneven light over the chart modelled ({chosen}: the field ranges "
                          f"{lf['field'].min():.3f}-{lf['field'].max():.3f}; likelihood-ratio "
@@ -355,6 +399,10 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
                      "calibrate on a photo of the chart in air)")
     elif profile.camera not in ("custom", camera if isinstance(camera, str) else "custom"):
         raise ValueError(f"profile: made for camera {profile.camera!r}, not {camera!r}")
+    elif not profile.reliable:
+        flags.append("unreliable-profile")
+        notes.append(f"the camera profile is not reliable (flags: {', '.join(profile.flags)}): "
+                     "recalibrate before trusting the water's colour")
     all_flags = tuple(dict.fromkeys(list(est.flags) + flags))
     reliable = not any(f in BLOCKING or f in MEASURE_BLOCKING for f in all_flags)
     G = forward.camera_response(fit_setup.sensitivities, fit_setup.illuminant, est.attenuation,
@@ -368,5 +416,12 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
                                                     "illuminant": profile.illuminant,
                                                     "image": profile.image},
            "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
+    inputs = {"depth_m": depth, "distance_m": distance,
+              "depth_sd": est.uncertain.get("depth"), "distance_sd": est.uncertain.get("distance"),
+              "uncertain": dict(est.uncertain),
+              "water": {f.name: getattr(water, f.name) for f in dataclasses.fields(water)
+                        if not f.name.endswith("_table")},
+              "path_model": water.path_model, "light_field": light_field,
+              "layout": dataclasses.asdict(lay)}
     return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
-                       all_flags, reliable, notes, field_report)
+                       all_flags, reliable, notes, field_report, inputs)

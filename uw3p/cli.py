@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import shlex
 import os
 import sys
 
@@ -92,6 +93,8 @@ def main(argv=None, out=None, err=None) -> int:
     out = sys.stdout if out is None else out
     err = sys.stderr if err is None else err
     args = build_parser().parse_args(argv)  # usage errors: argparse prints them and exits 2
+    #: recorded in the outputs' audit trail
+    args.command_line = shlex.join(["uw3p", *(sys.argv[1:] if argv is None else argv)])
     buffered = {command.NAME for command in COMMANDS if command.BUFFERED}
     buf = io.StringIO() if args.command in buffered else out
     try:

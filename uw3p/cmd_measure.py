@@ -14,8 +14,9 @@ import os
 from pathlib import Path
 
 from . import __version__
-from .common import (EXIT_BAD_INPUT, EXIT_NOT_RELIABLE, EXIT_OK, add_photo_options,
-                     add_water_options, read_photo, water_from_args)
+from .common import (EXIT_BAD_INPUT, EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options,
+                     add_photo_options, add_water_options, budget_text, read_photo,
+                     uncertain_from_args, water_from_args)
 
 __all__ = ["NAME", "BUFFERED", "SUMMARY_COLUMNS", "add_parser", "run"]
 
@@ -25,7 +26,8 @@ NAME = "measure"
 BUFFERED = True
 #: Columns of a folder's ``summary.csv``, one row per file.
 SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
-                   "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "out", "error")
+                   "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "depth_m",
+                   "depth_sd", "distance_m", "distance_sd", "chl_budget", "out", "error")
 
 
 def add_parser(sub):
@@ -50,6 +52,7 @@ def add_parser(sub):
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     add_photo_options(p)
     add_water_options(p)
+    add_budget_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -61,14 +64,37 @@ def _measure_one(args, image, outdir):
     meas = measure.measure(read_photo(args, image), corners=args.corners, depth=args.depth,
                            distance=args.distance, camera=args.camera, quantal=args.quantal,
                            profile=args.profile, illuminant=args.illuminant,
-                           layout=args.layout, water=water_from_args(args))
+                           layout=args.layout, water=water_from_args(args),
+                           uncertain=_budget(args))
+    meas.inputs["command"] = getattr(args, "command_line", "")
     measure.write_outputs(meas, outdir, version=__version__)
     e = meas.estimate
     row = dict(image=str(image), chl=e.chl, chl_lo=e.chl_ci[0], chl_hi=e.chl_ci[1], cdom=e.cdom,
                cdom_lo=e.cdom_ci[0], cdom_hi=e.cdom_ci[1], gain=e.gain, fit_rms=e.fit_rms,
                chi2_dof=e.chi2_dof, orientation=meas.orientation, reliable=meas.reliable,
-               flags=" ".join(meas.flags), out=str(outdir), error="")
+               flags=" ".join(meas.flags), depth_m=args.depth,
+               depth_sd=meas.inputs.get("depth_sd"), distance_m=args.distance,
+               distance_sd=meas.inputs.get("distance_sd"),
+               chl_budget=budget_text(e.budget, "chl"), out=str(outdir), error="")
     return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
+
+
+def _budget(args):
+    """The ``uncertain=`` of :func:`measure.measure`: None (the default budget with the
+    profile's own numbers) unless a budget option was given; then those entries over it (over
+    nothing with ``--exact``)."""
+    if not (args.exact or args.depth_sd or args.distance_sd or args.uncertain):
+        return None
+    import measure
+
+    given = uncertain_from_args(args)
+    if args.exact:
+        return given
+    profile = measure.load_profile(args.profile) if args.profile else None
+    base = measure.budget_for(None, profile)
+    defaults = uncertain_from_args(type(args)(exact=False, depth_sd=None, distance_sd=None,
+                                              uncertain=[]))
+    return base | {k: v for k, v in given.items() if defaults.get(k) != v}
 
 
 def _measure_worker(job):
