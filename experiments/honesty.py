@@ -30,7 +30,10 @@ uniform 0.2-0.9, photon and read noise on. The worlds (:func:`worlds`):
 4. geometry told wrong within its stated sd: depth +0.3 m (budget depth sd 0.3 m), distance
    x 1.10 (budget distance sd 10 %);
 5. garbage that must never be reliable: a sampling grid shifted half a patch, another camera,
-   another illuminant, four occluded patches.
+   another illuminant, four occluded patches;
+
+and one diagnostic world without a criterion (``clean_without_shift``: the clean world without
+its camera-curve shifts), which locates the clean world's misses.
 
 Acceptance (:func:`acceptance`) tests the number of misses among the reliable charts against
 the nominal rate with a one-sided binomial test at level :data:`CONSISTENCY_P`.
@@ -114,7 +117,8 @@ class World:
     name : str
         Short name (the row of the table).
     group : str
-        'clean', 'priors', 'ends', 'geometry' or 'garbage' (the acceptance criterion).
+        'clean', 'priors', 'ends', 'geometry' or 'garbage' (the acceptance criterion), or
+        'diagnostic' (no criterion: an ablation that locates a failure).
     description : str
         One line for the report.
     options : dict
@@ -172,6 +176,8 @@ def worlds() -> list[World]:
               uncertain={**DEFAULT_UNCERTAIN, "depth": 0.3}, depth_bias=0.3),
         World("distance_told_x1.10", "geometry", "distance told x 1.10; budget distance sd 10 %",
               uncertain={**DEFAULT_UNCERTAIN, "distance": "10%"}, distance_factor=1.10),
+        World("clean_without_shift", "diagnostic", "the clean world without the camera-curve "
+              "shifts (camera_shift_nm_sd 0)", {"camera_shift_nm_sd": 0.0}),
         World("corner_shift_0.5", "garbage", "sampling grid shifted half a patch",
               {"corner_shift": 0.5}),
         World("wrong_camera", "garbage", f"rendered with {WRONG_CAMERA}, fitted as Nikon 5100",
@@ -540,11 +546,7 @@ def _criteria_text(results, verdicts) -> list[str]:
         lines += ["", f"**{v['criterion']}** — {'holds' if v['holds'] else 'FAILS'}.", ""]
         for name, ok in v["worlds"].items():
             s = results[name]["fits"][DEFAULT_LABEL]
-            extra = ""
-            if v["group"] == "garbage" and s["reliable"]:
-                extra = f" Flags raised most: {_top_flags(s)}."
-            elif v["group"] == "garbage":
-                extra = f" Flags raised most: {_top_flags(s)}."
+            extra = f" Flags raised most: {_top_flags(s)}." if v["group"] == "garbage" else ""
             lines.append(f"- {'holds' if ok else 'FAILS'} — {_world_sentence(name, s)}{extra}")
     return lines
 
@@ -560,6 +562,17 @@ def _contrast_text(results) -> list[str]:
         s = e["fits"].get(EXACT_LABEL)
         if s is not None:
             lines.append(f"- {_world_sentence(name, s)}")
+    return lines
+
+
+def _diagnostic_text(results) -> list[str]:
+    rows = [(n, e) for n, e in results.items() if e["group"] == "diagnostic"]
+    if not rows:
+        return []
+    lines = ["", "**Diagnostic** (no criterion; the same charts as `clean` with one tolerance "
+             "removed, to locate a failure):", ""]
+    for name, e in rows:
+        lines.append(f"- {e['description']}: {_world_sentence(name, e['fits'][DEFAULT_LABEL])}")
     return lines
 
 
@@ -607,7 +620,7 @@ def report(out: dict) -> str:
                               if w.name in results) + ".", ""]
     return "\n".join(head + _table(results) + ["", "## Acceptance"] +
                      _criteria_text(results, verdicts) + _contrast_text(results) +
-                     _health_text(results)) + "\n"
+                     _diagnostic_text(results) + _health_text(results)) + "\n"
 
 
 def _write_atomic(path: Path, text: str):

@@ -107,6 +107,8 @@ def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no c
 #: Below this many charts the kernels run in the calling thread (a parallel launch costs more
 #: than the work).
 SERIAL_BELOW = 64
+#: Charts per block of the parallel projection (its work arrays are allocated once per block).
+PROJECT_BLOCK = 256
 
 
 def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = True):
@@ -147,15 +149,23 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
 
 
 @njit(cache=True)
-def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s):  # pragma: no cover
-    """Chart i of :func:`project` into the output arrays."""
+def _scratch(m, n, p):  # pragma: no cover
+    """Work arrays of :func:`_project_one` (allocated once per block of charts, not per chart)."""
+    return (np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.empty(m),
+            np.empty(m * n), np.empty((p, m * n)), np.empty(m * n))
+
+
+@njit(cache=True)
+def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s,
+                 work):  # pragma: no cover
+    """Chart i of :func:`project` into the output arrays (``work``: :func:`_scratch`)."""
     p = JR.shape[1]
-    sw = np.zeros(m)
-    sM = np.zeros(m)
-    sG = np.zeros(m)
-    sGG = np.zeros(m)
-    sGM = np.zeros(m)
-    act = np.empty(m)
+    sw, sM, sG, sGG, sGM, act, r, X, Gc = work
+    sw[:] = 0.0
+    sM[:] = 0.0
+    sG[:] = 0.0
+    sGG[:] = 0.0
+    sGM[:] = 0.0
     for ch in range(m):
         for j in range(ch * n, ch * n + n):
             w = W2[i, j]
@@ -169,7 +179,6 @@ def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr,
     gain[i] = gi
     fi = 0.0
     si = 0.0
-    r = np.empty(m * n)
     for ch in range(m):
         for j in range(ch * n, ch * n + n):
             rj = M[i, j] - gi * G[i, j] - s[i, ch]
@@ -180,7 +189,6 @@ def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr,
     ssr[i] = si
     if not grad:
         return
-    X = np.empty((p, m * n))
     for a in range(p):
         for ch in range(m):
             mean = 0.0
@@ -192,7 +200,6 @@ def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr,
                 for j in range(ch * n, ch * n + n):
                     X[a, j] -= mean
     if free_gain:  # project the columns off the centred G (the gain's column)
-        Gc = np.empty(m * n)
         gg = 0.0
         for ch in range(m):
             mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
@@ -227,9 +234,12 @@ def _project(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no
     N, p = JR.shape[0], JR.shape[1]
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
-    for i in prange(N):
-        _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain,
-                     s)
+    blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
+    for b in prange(blocks):
+        work = _scratch(m, n, p)
+        for i in range(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK)):
+            _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H,
+                         gain, s, work)
     return f, g, H, gain, s, ssr
 
 
@@ -238,9 +248,10 @@ def _project_serial(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pra
     N, p = JR.shape[0], JR.shape[1]
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
+    work = _scratch(m, n, p)
     for i in range(N):
         _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain,
-                     s)
+                     s, work)
     return f, g, H, gain, s, ssr
 
 
