@@ -42,6 +42,7 @@ from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
 from .projection import grid_best
 from .model import (
+    CAMERA,
     CHL_DERIVATIVE_FLOOR,
     TINY,
     ChartModel,
@@ -173,7 +174,8 @@ class BatchEstimate:
 
 
 def _sigma_stack(sigma, N, m, n):
-    """``sigma`` (scalar, (m, n) or (N, m, n), data units) as (N, m, n), or None."""
+    """``sigma`` (scalar, (m, n) or (N, m, n), data units) as (N, m, n), or None; every value
+    real, finite and at least 1e-100 (the charts at fault named)."""
     if sigma is None:
         return None
     arr = validate.array("sigma", sigma)
@@ -185,17 +187,41 @@ def _sigma_stack(sigma, N, m, n):
         raise ValueError(f"sigma: expected a scalar, (m, n) = ({m}, {n}) or (N, m, n) = "
                          f"({N}, {m}, {n}) array, got shape {np.shape(sigma)}")
     if np.any(arr <= 0):
-        raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+        raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g}; "
+                         f"{_charts(np.any(arr <= 0, axis=(1, 2)))})")
+    if np.any(arr < 1e-100):
+        raise ValueError(f"sigma: standard deviations down to {arr.min():g} are too small for "
+                         f"the solver (below 1e-100 their squares underflow; "
+                         f"{_charts(np.any(arr < 1e-100, axis=(1, 2)))}); rescale the values "
+                         "and their sds together")
     return arr
 
 
+def _charts(bad) -> str:
+    """'chart 3' / 'charts 3, 7, ...' (0-based indices) of a boolean (N,) mask."""
+    idx = np.flatnonzero(bad)
+    more = ", ..." if idx.size > 5 else ""
+    return (f"chart{'s' if idx.size > 1 else ''} "
+            + ", ".join(str(i) for i in idx[:5]) + more + " (0-based)")
+
+
 def _per_chart(name, value, N):
-    """A scalar or (N,) length in m as (N,), or ``ValueError`` naming it."""
-    arr = length(name, value)
-    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, N)):
-        raise ValueError(f"{name}: expected a scalar or {N} values (one per chart), got shape "
-                         f"{arr.shape}")
-    return np.broadcast_to(arr.reshape(-1) if arr.ndim else arr, (N,)).astype(float)
+    """A scalar or (N,) value (a length in m, or a level in data units) as (N,), or
+    ``ValueError`` naming it (and the charts at fault)."""
+    validate.real(name, value)
+    try:
+        raw = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a number or {N} numbers, got {value!r}") from None
+    if raw.ndim > 1 or (raw.ndim == 1 and raw.size not in (1, N)):
+        raise ValueError(f"{name}: expected a scalar or {N} values (one per chart), got "
+                         f"{raw.size if raw.ndim == 1 else 'shape ' + str(raw.shape)}")
+    arr = np.broadcast_to(raw.reshape(-1) if raw.ndim else raw, (N,)).astype(float)
+    bad = ~np.isfinite(arr) | (arr < 0)
+    if bad.any():
+        raise ValueError(f"{name}: must be finite and >= 0 (got {arr[bad][0]!r} at "
+                         f"{_charts(bad)})")
+    return arr
 
 
 def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
@@ -263,26 +289,37 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
-    M = validate.array("rgb_stack", rgb_stack, ndim=3)
+    validate.real("rgb_stack", rgb_stack)
+    try:
+        M = np.asarray(rgb_stack, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError("rgb_stack: expected a numeric (N, m, n) array") from None
     m_, n_ = setup.sensitivities.shape[1], setup.reflectances.shape[1]
-    if M.shape[1:] != (m_, n_):
+    if M.ndim != 3 or M.shape[1:] != (m_, n_):
         raise ValueError(f"rgb_stack: expected shape (N, {m_}, {n_}), got {M.shape}")
-    if np.any(M < 0):
-        raise ValueError("rgb_stack: contains negative values")
-    if M.size and M.max() > MAX_RGB:
-        raise ValueError(f"rgb_stack: values up to {M.max():g} exceed {MAX_RGB:g}; measurements "
-                         "in model units are O(1) (a white reflector in air = 1)")
     N = M.shape[0]
-    scale = M.reshape(N, -1).max(axis=1) if N else np.zeros(0)
+    flat = M.reshape(N, -1)
+    for bad, what in ((~np.all(np.isfinite(flat), axis=1), "NaN or infinite values"),
+                      (np.any(flat < 0, axis=1), "negative values")):
+        if bad.any():
+            raise ValueError(f"rgb_stack: {what} in {_charts(bad)}")
+    scale = flat.max(axis=1) if N else np.zeros(0)
+    if np.any(scale > MAX_RGB):
+        raise ValueError(f"rgb_stack: values up to {M.max():g} exceed {MAX_RGB:g} "
+                         f"({_charts(scale > MAX_RGB)}); measurements in model units are O(1) "
+                         "(a white reflector in air = 1)")
     if np.any(scale <= 0):
-        raise ValueError(f"rgb_stack: chart(s) {np.flatnonzero(scale <= 0)[:5].tolist()} are all zero")
+        raise ValueError(f"rgb_stack: every value is zero in {_charts(scale <= 0)}")
+    if np.any(scale < 1e-100):
+        raise ValueError(f"rgb_stack: values too small for the solver in "
+                         f"{_charts(scale < 1e-100)} (below 1e-100 their squares underflow); "
+                         "rescale them (with gain='free' any unit will do)")
     spec = fit_spec(free, fix, gain, water, m_)
     mdl = ChartModel(setup, basis=basis, water=spec.water)
     if mdl.z != 1:
         raise ValueError(f"basis: the batched solver supports one basis function (z = 1), got z = {mdl.z}")
     sig = _sigma_stack(sigma, N, m_, n_)
-    sat = None if saturation is None else np.broadcast_to(
-        validate.array("saturation", saturation), (N,))
+    sat = None if saturation is None else _per_chart("saturation", saturation, N)
     geometry = {"depth": _per_chart("depth", depth, N),
                 "distance": _per_chart("distance", distance, N)}
     if int(max_iter) != max_iter or max_iter < 1:
@@ -372,7 +409,7 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> Problem:
     names = tuple(spec.names)
     mean = weight = None
     if budget is not None and budget.priors:
-        extra = [n for n in budget.priors for _ in range(mdl.m if n == "balance" else 1)]
+        extra = [n for n in budget.priors for _ in range(mdl.m if n in CAMERA else 1)]
         names = names + tuple(extra)
         mean = np.zeros((N, len(names)))
         weight = np.zeros((N, len(names)))
@@ -404,7 +441,7 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
             theta[:, j] = A0
         elif name in geometry:
             theta[:, j] = geometry[name]
-        elif name == "balance":
+        elif name in CAMERA:
             theta[:, j] = 0.0
         else:
             theta[:, j] = prob.model.default(name)

@@ -6,9 +6,9 @@ estimator, :func:`sca.precision` and ``measure``) is a dict name -> standard dev
 
 * **nuisance parameters** with a Gaussian prior centred on the value given (or the water's
   constant): ``depth`` and ``distance`` (m, or a string ``"5%"`` relative to the value), any
-  :data:`forward.water.COEFFICIENT_PARAMS` field (its own units, e.g. ``cdom_slope`` in nm^-1)
-  and ``balance`` (relative error of each camera channel's sensitivity, the same sd for every
-  channel). They enter the one model function as parameters; the fit adds
+  :data:`forward.water.COEFFICIENT_PARAMS` field (its own units, e.g. ``cdom_slope`` in nm^-1),
+  ``balance`` (relative error of each camera channel's sensitivity) and ``camera_shift`` (a
+  wavelength shift of each channel's measured curve, nm; the same sd for every channel). They enter the one model function as parameters; the fit adds
   sum ((theta - mu) / sd)^2 to chi^2, and the profile-likelihood intervals profile them;
 * **per-patch systematic terms** (``patch``, relative): chart reflectance tolerance and
   ageing, camera-curve error and the illuminant, independent from patch to patch. They enter the
@@ -40,7 +40,8 @@ __all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Bud
 #: depth 0.2 m (a dive computer's depth reading: the issue's 0.1-0.3 m); distance 5 % (a
 #: measured camera-to-chart distance); eq 6's slope 0.0025 nm^-1 and eq 7's 0.0025 nm^-1 (the
 #: paper's ranges 0.014-0.019 and 0.006-0.014 lie within 2 sd of its values 0.014 and 0.011);
-#: the camera's channel balance 1 % (a profile from another day); per-patch 1 % (a
+#: the camera's channel balance 1 % (a profile from another day); each channel's curve shifted
+#: by 1 nm (the wavelength scale of a measured sensitivity); per-patch 1 % (a
 #: ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and the
 #: daylight's spectral variation, in quadrature).
 DEFAULT_UNCERTAIN = {
@@ -49,6 +50,7 @@ DEFAULT_UNCERTAIN = {
     "cdom_slope": 0.0025,
     "nap_slope": 0.0025,
     "balance": 0.01,
+    "camera_shift": 1.0,
     "patch": 0.01,
 }
 #: Where each default comes from (recorded with every result's budget).
@@ -58,10 +60,11 @@ BUDGET_SOURCES = {
     "cdom_slope": "Blasinski & Farrell eq 6: 0.014-0.019 nm^-1",
     "nap_slope": "Blasinski & Farrell eq 7: 0.006-0.014 nm^-1",
     "balance": "camera channel balance from a profile of another day, ~1 %",
+    "camera_shift": "wavelength scale of measured camera curves, ~1 nm per channel",
     "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
 }
 #: Names that are nuisance parameters with a Gaussian prior.
-NUISANCE = ("depth", "distance", "balance") + COEFFICIENT_PARAMS
+NUISANCE = ("depth", "distance", "balance", "camera_shift") + COEFFICIENT_PARAMS
 #: Names that enter the noise of every patch (relative sd).
 SYSTEMATIC = ("patch",)
 
@@ -200,7 +203,8 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
             mean = np.broadcast_to(lengths[name], (N,)).astype(float)
             sd = np.broadcast_to(parse_sd(name, value, mean), (N,)).astype(float)
         else:
-            mean = np.full(N, 0.0 if name == "balance" else float(getattr(water, name)))
+            mean = np.full(N, 0.0 if name in ("balance", "camera_shift") else
+                           float(getattr(water, name)))
             sd = np.full(N, float(parse_sd(name, value)))
         if name in free or name in fixed or not np.any(sd > 0):
             continue

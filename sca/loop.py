@@ -190,6 +190,9 @@ class Estimator:
 
     # ----------------------------------------------------------------------------- helpers
     def _check_rgb(self, rgb):
+        """``rgb`` as a finite, real, nonnegative (m, n) array whose largest value the solver
+        can represent (1e-100 to ``MAX_RGB``: squares of smaller values lose their precision
+        to underflow), or ``ValueError`` naming ``rgb``."""
         shape = (self.model.m, self.model.n)
         M = validate.array("rgb", rgb, shape=shape)
         if np.any(M < 0):
@@ -198,6 +201,10 @@ class Estimator:
         if M.max() > MAX_RGB:
             raise ValueError(f"rgb: values up to {M.max():g} exceed {MAX_RGB:g}; measurements in "
                              "model units are O(1) (a white reflector in air = 1)")
+        if 0 < M.max() < 1e-100:
+            raise ValueError(f"rgb: values up to {M.max():g} are too small for the solver "
+                             "(below 1e-100 their squares underflow); rescale them (with "
+                             "gain='free' any unit will do)")
         return M
 
     def params(self, x) -> dict:
@@ -233,7 +240,8 @@ class Estimator:
         return gain.reshape(G.shape[:-1]), s.reshape(G.shape[:-1] + (mdl.m,))
 
     def check_sigma(self, sigma):
-        """``sigma`` (None, a scalar or (m, n), data units) as a (m, n) array or None."""
+        """``sigma`` (None, a scalar or (m, n), data units) as a (m, n) array or None; every
+        value real, finite and at least 1e-100 (smaller ones underflow when squared)."""
         if sigma is None:
             return None
         shape = (self.model.m, self.model.n)
@@ -244,6 +252,10 @@ class Estimator:
             raise ValueError(f"sigma: expected a scalar or shape {shape}, got {arr.shape}")
         if np.any(arr <= 0):
             raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+        if np.any(arr < 1e-100):
+            raise ValueError(f"sigma: standard deviations down to {arr.min():g} are too small "
+                             "for the solver (below 1e-100 their squares underflow); rescale "
+                             "the values and their sds together")
         return arr
 
     def prepare(self, rgb, sigma=None) -> "_FitState":

@@ -30,7 +30,7 @@ from forward.water import COEFFICIENT_PARAMS, Water, resolve_water
 
 from .projection import linear_part_stats
 
-__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
+__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
            "check_names", "linear_part", "linear_part_stats", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
            "du_chain"]
@@ -39,9 +39,13 @@ __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "CHL_DERIVATIVE
 GEOMETRY = ("depth", "distance")
 #: Parameters that enter M linearly (profiled out in closed form by the batch).
 LINEAR = ("gain", "backscatter")
-#: The camera's channel balance: relative errors beta of each channel's sensitivity (m values;
-#: M = gain diag(1 + beta) G(x) + s 1^T), a nuisance parameter of the uncertainty budget.
-CAMERA = ("balance",)
+#: The camera's curves as measured: 'balance', relative errors beta of each channel's
+#: sensitivity, and 'camera_shift', a wavelength shift delta (nm) of each channel's curve
+#: (m values each; M = gain diag(1 + beta) (B + sum_c delta_c dB/dlambda_c) k + s 1^T, the
+#: shift to first order): nuisance parameters of the uncertainty budget.
+CAMERA = ("balance", "camera_shift")
+#: Names with one value per camera channel.
+PER_CHANNEL = ("backscatter", "balance", "camera_shift")
 #: Parameters of c(x): C, a_CDOM(440), the phytoplankton weights w of eq 9 and any
 #: coefficient field of :class:`forward.Water`.
 SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
@@ -126,7 +130,7 @@ def lower_bound(name: str, water: Water) -> float:
     float
         0.0 or -inf, in the parameter's own units.
     """
-    if name in Water._ANY_SIGN:
+    if name in Water._ANY_SIGN or name == "camera_shift":
         return -np.inf
     if name == "balance":
         return BALANCE_MIN
@@ -333,6 +337,10 @@ class ChartModel:
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
         self.Bt = np.ascontiguousarray(self.B.T)
+        # d vec(G) / d lambda-shift of each channel's curve: P(lambda - delta) ~ P - delta dP/dlambda
+        dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
+        self.Dt = np.ascontiguousarray(
+            (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
         #: d M / d s: one row per channel, 1 on that channel's patches (read-only)
         self._indicators = np.repeat(np.eye(self.m), self.n, axis=1)
         self._indicators.setflags(write=False)
@@ -344,6 +352,7 @@ class ChartModel:
         new = copy.copy(self)
         new.B = self.B / factor
         new.Bt = np.ascontiguousarray(new.B.T)
+        new.Dt = self.Dt / factor
         return new
 
     def default(self, name: str):
@@ -353,7 +362,7 @@ class ChartModel:
             return float(getattr(self.water, name))
         if name == "gain":
             return 1.0
-        if name in ("backscatter", "balance"):
+        if name in PER_CHANNEL:
             return np.zeros(self.m)
         if name == "cdom":
             return 0.0
@@ -370,7 +379,7 @@ class ChartModel:
             name -> value, each of leading shape S (or broadcastable): 'chl' (mg m^-3), 'depth'
             and 'distance' (m) are required; 'cdom' (m^-1, default 0), 'gain' (default 1),
             'backscatter' (S + (m,), default 0), 'balance' (S + (m,), relative channel
-            sensitivity errors, default 0), 'w' (S + (z,), free phytoplankton weights of
+            sensitivity errors, default 0), 'camera_shift' (S + (m,), nm, default 0), 'w' (S + (z,), free phytoplankton weights of
             eq 9; default w on eq 17) and any :data:`forward.water.COEFFICIENT_PARAMS` field
             (default: the water's constant) are optional.
         free : sequence of str
@@ -405,9 +414,11 @@ class ChartModel:
         gain = np.asarray(params.get("gain", 1.0), float)
         s = np.asarray(params.get("backscatter", np.zeros(self.m)), float)
         w = params.get("w")
-        balance = params.get("balance")
+        balance, shift = params.get("balance"), params.get("camera_shift")
         if balance is not None:
             balance = np.asarray(balance, float)
+        if shift is not None:
+            shift = np.asarray(shift, float)
         if "w" in free and w is None:
             raise ValueError("free: 'w' needs the weights in params['w']")
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
@@ -419,12 +430,14 @@ class ChartModel:
         q, mn = self.wavelengths.size, self.m * self.n
         if not jacobian:
             G = k @ self.Bt
+            if shift is not None:
+                G = G + np.repeat(shift, self.n, axis=-1) * (k @ self.Dt)
             if balance is not None:
                 G = G * np.repeat(1.0 + balance, self.n, axis=-1)
             values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
             return Prediction(values, G, k, c, None, ())
-        count = {name: self.z if name == "w" else self.m if name in ("backscatter", "balance")
-                 else 1 for name in free}
+        count = {name: self.z if name == "w" else self.m if name in PER_CHANNEL else 1
+                 for name in free}
         # k and every column of dk/dtheta stacked (S, 1 + p_q, q) and projected onto the
         # patches by one matrix product: dk = -L k dc/dtheta (spectral), -c k (path length)
         in_q = [name for name in free if name in SPECTRAL or name in GEOMETRY]
@@ -441,6 +454,12 @@ class ChartModel:
                 stack[..., row, :] = minus_Lk * dc[name]
             row += count[name]
         proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
+        GD = None
+        if shift is not None or "camera_shift" in free:  # the curves' shift, to first order
+            projD = (stack.reshape(-1, q) @ self.Dt).reshape(proj.shape)
+            GD = projD[..., 0, :]
+            if shift is not None:
+                proj = proj + np.repeat(shift, self.n, axis=-1)[..., None, :] * projD
         G_raw = proj[..., 0, :]
         if balance is not None:  # every row of channel c times 1 + beta_c
             G_raw = G_raw.copy()
@@ -464,6 +483,10 @@ class ChartModel:
             elif name == "balance":  # d M / d beta_c = gain G on channel c's patches
                 rows[..., at:at + width, :] = (self._indicators * G_raw[..., None, :]
                                                * gain[..., None, None])
+            elif name == "camera_shift":  # d M / d delta_c = gain (1 + beta_c) (D k)_c
+                fac = gain[..., None] if balance is None else \
+                    gain[..., None] * np.repeat(1.0 + balance, self.n, axis=-1)
+                rows[..., at:at + width, :] = self._indicators * (fac * GD)[..., None, :]
             else:  # backscatter: one indicator per channel
                 rows[..., at:at + width, :] = self._indicators
             names += [name] * width
@@ -478,7 +501,7 @@ class ChartModel:
                 v = np.asarray(v)
             if not isinstance(v, np.ndarray):
                 continue
-            nd = v.ndim - (1 if name in ("backscatter", "w", "balance") else 0)
+            nd = v.ndim - (1 if name in PER_CHANNEL + ("w",) else 0)
             if nd > 1:
                 return 0
             if nd == 1:
@@ -492,7 +515,7 @@ class ChartModel:
     def _rows_of(params, n, sl) -> dict:
         out = {}
         for name, v in params.items():
-            nd = np.ndim(v) - (1 if name in ("backscatter", "w", "balance") else 0)
+            nd = np.ndim(v) - (1 if name in PER_CHANNEL + ("w",) else 0)
             out[name] = np.asarray(v)[sl] if nd == 1 else v
         return out
 

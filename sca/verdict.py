@@ -18,7 +18,7 @@ from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags
 from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
-from .model import CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
+from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .results import Estimate
 
 __all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
@@ -81,7 +81,7 @@ def _problem(est, st) -> Problem:
     with the budget's nuisances after the free names and their Gaussian priors."""
     priors = _priors(est, st)
     names = tuple(est.spec.names) + tuple(
-        n for n in priors for _ in range(st.mdl.m if n == "balance" else 1))
+        n for n in priors for _ in range(st.mdl.m if n in CAMERA else 1))
     mean = weight = None
     if priors:
         mean, weight = np.zeros((1, len(names))), np.zeros((1, len(names)))
@@ -133,7 +133,7 @@ def _refine(est, st):
     x["gain"] = float(gain[0]) if est.free_gain else x["gain"]
     x["s"] = np.array(s[0], float) if est.free_s else x["s"]
     st.x, st.f = x, float(f[0])
-    st.nuisance = {n: (np.array(values[n][0], float) if n == "balance" else float(values[n][0]))
+    st.nuisance = {n: (np.array(values[n][0], float) if n in CAMERA else float(values[n][0]))
                    for n in prob.free if n not in est.spec.names}
     if code[0] > 2:
         st.converged = False

@@ -1,6 +1,8 @@
 """The uncertainty budget (sca.budget): nuisance parameters with Gaussian priors in the one
 engine, the per-patch term in the noise, each source's share of the variance."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -15,18 +17,42 @@ def central(f, x, h):
     return (f(x + h) - f(x - h)) / (2 * h)
 
 
-def test_balance_jacobian_equals_finite_differences():
+@pytest.mark.parametrize("name", ["balance", "camera_shift"])
+def test_camera_nuisance_jacobians_equal_finite_differences(name):
+    mdl = sca.ChartModel(SETUP)
+    beta, delta = np.array([0.02, -0.01, 0.03]), np.array([0.5, -1.0, 0.3])
+    p = dict(chl=1.3, cdom=0.2, depth=6.0, distance=2.0, gain=1.7, backscatter=np.full(3, 0.01),
+             balance=beta, camera_shift=delta)
+    J = mdl.predict(p, ("chl", "balance", "camera_shift")).column(name)
+    for c in range(3):
+        def f(x, c=c):
+            v = p[name].copy()
+            v[c] = x
+            return mdl.predict({**p, name: v}, jacobian=False).values
+        assert J[:, c] == pytest.approx(central(f, p[name][c], 1e-6), rel=1e-5, abs=1e-12)
+
+
+def test_camera_shift_is_the_first_order_of_a_shifted_curve():
+    """The model's shift of the curves agrees with curves shifted by interpolation to first
+    order (the error is second order in the shift)."""
+    setup = forward.chart_setup()  # 1 nm: the curves' derivative resolved
+    wl = setup.wavelengths
+    mdl = sca.ChartModel(setup)
+    p = dict(chl=1.0, cdom=0.1, depth=5.0, distance=1.0)
+    for d in (0.5, 1.0):
+        P = np.column_stack([np.interp(wl - d, wl, setup.sensitivities[:, c]) for c in range(3)])
+        shifted = sca.ChartModel(dataclasses.replace(setup, sensitivities=P))
+        truth = shifted.predict(p, jacobian=False).values
+        model = mdl.predict({**p, "camera_shift": np.full(3, d)}, jacobian=False).values
+        base = mdl.predict(p, jacobian=False).values
+        assert np.max(np.abs(model - truth)) < 0.1 * np.max(np.abs(truth - base))
+
+
+def test_balance_multiplies_the_signal_not_the_backscatter():
     mdl = sca.ChartModel(SETUP)
     beta = np.array([0.02, -0.01, 0.03])
     p = dict(chl=1.3, cdom=0.2, depth=6.0, distance=2.0, gain=1.7, backscatter=np.full(3, 0.01),
              balance=beta)
-    J = mdl.predict(p, ("chl", "balance")).column("balance")
-    for c in range(3):
-        def f(x, c=c):
-            b = beta.copy()
-            b[c] = x
-            return mdl.predict({**p, "balance": b}, jacobian=False).values
-        assert J[:, c] == pytest.approx(central(f, beta[c], 1e-6), rel=1e-7, abs=1e-12)
     # balance multiplies each channel's signal, not the backscatter
     base = mdl.predict({**p, "balance": np.zeros(3)}, jacobian=False)
     got = mdl.predict(p, jacobian=False)
@@ -92,7 +118,8 @@ def test_shares_add_up_and_agree_with_the_bound():
     for name in ("chl", "cdom"):
         assert sum(e.budget[name]["shares"].values()) == pytest.approx(1.0, rel=1e-9)
         assert set(e.budget[name]["shares"]) == {"noise", "patch", "depth", "distance",
-                                                 "cdom_slope", "nap_slope", "balance"}
+                                                 "cdom_slope", "nap_slope", "balance",
+                                                 "camera_shift"}
     p = sca.precision(1.5, 0.15, depth=6.0, distance=1.5, setup=SETUP)
     assert sum(p.budget["chl"]["shares"].values()) == pytest.approx(1.0, rel=1e-9)
     assert p.limiting in p.budget["chl"]["shares"]
