@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures bench clean
+.PHONY: install test test-fast reproduce-figures honesty bench clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -23,6 +23,12 @@ test-fast: $(STAMP)
 
 reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
+
+# HONESTY.md alone: the estimator on worlds an independent renderer made (exit 1 when an
+# acceptance criterion fails; the report says which)
+honesty: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty --strict
 
 # one BLAS thread: every fit is tiny, and idle BLAS threads spinning after numpy's small
 # matrix calls steal the second core from the batched solver's numba threads

@@ -190,6 +190,18 @@ def _report(meas, path, raw_preview):
              "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
              f"reliable: {meas.reliable}",
              "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
+    inp = meas.inputs
+    if inp:
+        lines.append(f"depth {inp.get('depth_m')} m (sd {inp.get('depth_sd', '-')}), distance "
+                     f"{inp.get('distance_m')} m (sd {inp.get('distance_sd', '-')})")
+    for name, label in (("chl", "C"), ("cdom", "a_CDOM")):
+        shares = e.budget.get(name, {}).get("shares", {})
+        if shares:
+            top = sorted(shares.items(), key=lambda kv: -kv[1])[:4]
+            lines.append(f"budget of {label}: " + ", ".join(f"{k} {100 * v:.0f} %"
+                                                           for k, v in top))
+    if not e.budget:
+        lines.append("budget: none (the paper's exact model)")
     lines += [f"note: {n}" for n in meas.notes]
     import textwrap
 

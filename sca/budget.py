@@ -245,6 +245,11 @@ def variance_shares(J, names, w2_total, w2_photon, active, prior_weight, of=("ch
         with the sources 'noise' (photon and read noise), 'patch' and every prior's name (the
         channels of 'balance' summed); NaN where the information is singular.
     """
+    with np.errstate(all="ignore"):  # a runaway fit (huge gain): its shares are NaN
+        return _shares(J, names, w2_total, w2_photon, active, prior_weight, of)
+
+
+def _shares(J, names, w2_total, w2_photon, active, prior_weight, of):
     J = np.asarray(J, float) * np.asarray(active, bool)[:, None, :]
     Jw = np.sqrt(w2_total)[..., None] * J
     pw = np.asarray(prior_weight, float)

@@ -169,3 +169,27 @@ def test_geometry_told_wrong_within_its_sd_is_covered():
     # the exact model either misses the truth or (in forward's own world) calls the fit a
     # misfit: it cannot give a usable answer; the budget does
     assert b.reliable.mean() > x.reliable.mean()
+
+
+@pytest.mark.parametrize("options,reliable", [
+    ({}, True),
+    ({"reflectance_sd": 0.005, "camera_shift_nm_sd": 0.5, "camera_gain_sd": 0.01}, True),
+    ({"yellowing": 0.03}, True),
+    ({"illuminant": "A"}, False),  # calibrated as D65
+    ({"camera": "Sigma SDMerill (NPL)"}, False),  # calibrated as the Nikon 5100
+])
+def test_independent_calibrations_measure_their_systematic_term(options, reliable):
+    """In-air calibrations rendered by the independent renderer: realistic charts and cameras
+    give a small per-patch term and a reliable profile; the wrong illuminant or the wrong camera
+    curves do not (the photon-only chi^2 is far above 1 in every case)."""
+    import types
+
+    import measure
+    from experiments import independent_world as iw
+
+    out = iw.render_calibration(rng=1, **options)
+    sample = types.SimpleNamespace(rgb=out["rgb"] * 1000, sigma=out["sigma"] * 1000,
+                                   clipped=np.zeros((3, 24)))
+    prof = measure.calibrate(sample)
+    assert prof.reliable == reliable and ("systematic" in prof.flags) != reliable
+    assert (prof.patch_sd < 0.01) == reliable
