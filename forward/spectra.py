@@ -32,6 +32,7 @@ __all__ = [
     "DEFAULT_STEP_NM",
     "LAMBDA_0_NM",
     "MODEL_RANGE_NM",
+    "TAIL_FRACTION",
     "WHITE_PATCH",
     "camera_sensitivities",
     "chart_reflectances",
@@ -53,6 +54,12 @@ MODEL_RANGE_NM = (400.0, 700.0)
 #: simulator is a continuous world and the estimator's quadrature fits it (DECISIONS.md,
 #: "Spectral grid"). ``wavelengths=np.arange(400, 701, 10)`` gives the paper's coarse bands.
 DEFAULT_STEP_NM = 1.0
+#: A camera's measured curves that stop inside the grid (the NPL 'Sigma SDMerill' ends at
+#: 680 nm) are taken as 0 beyond their last (or before their first) wavelength when every
+#: channel there has fallen to at most this fraction of its peak: the camera's IR-cut (or UV)
+#: filter has closed, and the integral of eq 1 over the rest of the grid adds nothing. Curves
+#: that stop higher are refused (the grid must then stay inside their data).
+TAIL_FRACTION = 0.02
 #: Reference wavelength of eqs 6, 7, 8, 10, 17 (nm).
 LAMBDA_0_NM = 440.0
 
@@ -251,7 +258,7 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
     return wl, arr[:, 1:]
 
 
-def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
+def resample(src_wavelengths, values, wavelengths, *, name: str, tail: float | None = None) -> np.ndarray:
     """Resample tabulated spectra (rows = wavelengths) onto ``wavelengths`` with colour-science.
 
     Each column is evaluated as a :class:`colour.SpectralDistribution` with a linear
@@ -264,9 +271,14 @@ def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
     values : array_like, shape (n,) or (n, k)
         The table's values (any unit; kept).
     wavelengths : array_like, shape (q,)
-        The target grid in nm; must lie inside the table's range.
+        The target grid in nm; must lie inside the table's range, unless ``tail`` allows an
+        end to be extended by zeros.
     name : str
         The argument's name, used at the start of the error message.
+    tail : float, optional
+        Grid points beyond an end of the table are 0 when every column has fallen there to at
+        most ``tail`` times its peak (e.g. :data:`TAIL_FRACTION` for a camera's curves).
+        Default (None): the table must cover the grid.
 
     Returns
     -------
@@ -276,19 +288,36 @@ def resample(src_wavelengths, values, wavelengths, *, name: str) -> np.ndarray:
     Raises
     ------
     ValueError
-        Naming ``name``, when the table does not cover the grid.
+        Naming ``name``, when the table does not cover the grid (and, with ``tail``, has not
+        fallen to zero at the end it misses). The message gives the data's range.
     """
     import colour
 
     src = np.asarray(src_wavelengths, dtype=float)
     vals = np.asarray(values, dtype=float)
     wl = np.asarray(wavelengths, dtype=float)
-    if wl[0] < src[0] - 1e-9 or wl[-1] > src[-1] + 1e-9:
-        raise ValueError(
-            f"{name}: data cover {src[0]:g}-{src[-1]:g} nm but the wavelength grid is "
-            f"{wl[0]:g}-{wl[-1]:g} nm; choose a grid inside the data (e.g. wavelengths="
-            f"np.arange({max(src[0], 400):g}, {min(src[-1], 700) + 1:g}, 10))"
-        )
+    inside = (wl >= src[0] - 1e-9) & (wl <= src[-1] + 1e-9)
+    if not inside.all():
+        v2 = np.abs(vals.reshape(vals.shape[0], -1))
+        peak = np.where(v2.max(axis=0) > 0, v2.max(axis=0), 1.0)
+        ends = []  # the table's ends the grid goes beyond, with the largest relative value there
+        if wl[0] < src[0] - 1e-9:
+            ends.append((src[0], float(np.max(v2[0] / peak))))
+        if wl[-1] > src[-1] + 1e-9:
+            ends.append((src[-1], float(np.max(v2[-1] / peak))))
+        high = [(w, f) for w, f in ends if tail is None or f > tail]
+        if high or not inside.any():
+            lo, hi = max(src[0], MODEL_RANGE_NM[0]), min(src[-1], MODEL_RANGE_NM[1])
+            why = "" if tail is None or not high else (
+                f", and its values at {high[0][0]:g} nm are still {100 * high[0][1]:.0f} % of "
+                f"their peak (taken as 0 beyond the data only below {100 * tail:g} %)")
+            raise ValueError(
+                f"{name}: data cover {src[0]:g}-{src[-1]:g} nm but the wavelength grid is "
+                f"{wl[0]:g}-{wl[-1]:g} nm{why}; use a grid inside the data ({lo:g}-{hi:g} nm)"
+            )
+        out = np.zeros((wl.size,) + vals.shape[1:])
+        out[inside] = resample(src, vals, wl[inside], name=name)
+        return out
     one_d = vals.ndim == 1
     vals2 = vals[:, None] if one_d else vals
     out = np.empty((wl.size, vals2.shape[1]))
@@ -352,10 +381,11 @@ def is_path(x) -> bool:
     )
 
 
-def _from_colour(obj, wl, name):
-    """Resample a colour-science (Multi)SpectralDistribution onto the grid."""
+def _from_colour(obj, wl, name, tail=None):
+    """Resample a colour-science (Multi)SpectralDistribution onto the grid (``tail``: as
+    :func:`resample`)."""
     vals = np.asarray(obj.values, dtype=float)
-    return resample(obj.wavelengths, vals, wl, name=name)
+    return resample(obj.wavelengths, vals, wl, name=name, tail=tail)
 
 
 def on_grid(value, wl, name, ncols):
@@ -408,7 +438,8 @@ def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
     if not hasattr(entry, "wavelengths"):  # a ColorChecker (a mapping): its patches in order
         out = np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
     else:
-        out = _from_colour(entry, wl, arg)
+        tail = TAIL_FRACTION if database == "MSDS_CAMERA_SENSITIVITIES" else None
+        out = _from_colour(entry, wl, arg, tail)
     out.setflags(write=False)  # cached: read-only
     return out
 
@@ -417,7 +448,10 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     """Camera spectral sensitivities on the grid, (q, m), each channel scaled to peak 1.
 
     These are the columns of P in eq 15 (before quadrature): the p(lambda) of eq 1. Negative
-    values are clipped to 0; a channel that is zero on the grid stays zero.
+    values are clipped to 0; a channel that is zero on the grid stays zero. Measured curves
+    that stop inside the grid, having fallen there to at most :data:`TAIL_FRACTION` of their
+    peak (the NPL 'Sigma SDMerill' at 680 nm), are 0 beyond their data, so every built-in camera
+    works on the default grid.
 
     Parameters
     ----------
@@ -436,8 +470,9 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     Raises
     ------
     ValueError
-        For an unknown name, a table that does not cover the grid, an array of the wrong shape
-        or with negative values, or when every channel is zero on the grid.
+        For an unknown name, a table that does not cover the grid (and has not fallen to zero
+        where it stops), an array of the wrong shape or with negative values, or when every
+        channel is zero on the grid.
 
     References
     ----------
@@ -449,9 +484,10 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     if isinstance(camera, str) and not is_path(camera):
         sens = _named("MSDS_CAMERA_SENSITIVITIES", "camera", camera, tuple(wl)).copy()
     elif is_path(camera):
-        sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera")
+        sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera",
+                        tail=TAIL_FRACTION)
     elif isinstance(camera, colour.MultiSpectralDistributions):
-        sens = _from_colour(camera, wl, "camera")
+        sens = _from_colour(camera, wl, "camera", TAIL_FRACTION)
     else:
         sens = on_grid(camera, wl, "camera", None)
     sens = np.clip(sens, 0.0, None)

@@ -8,7 +8,43 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["array", "nonnegative", "scalar"]
+__all__ = ["array", "nonnegative", "scalar", "real"]
+
+
+def _is_complex(value) -> bool:
+    """Whether ``value`` holds complex numbers (a complex dtype, or Python complex objects)."""
+    if isinstance(value, complex) or np.iscomplexobj(value):
+        return True
+    if isinstance(value, (list, tuple)):
+        try:
+            return np.asarray(value).dtype.kind == "c"
+        except (TypeError, ValueError):  # ragged: the float conversion reports it
+            return False
+    return False
+
+
+def real(name: str, value) -> None:
+    """Refuse complex numbers: a float conversion would silently drop the imaginary part.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name; the error message starts with it.
+    value : object
+        Anything ``numpy.asarray`` accepts.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    ValueError
+        If ``value`` holds complex numbers (even with a zero imaginary part).
+    """
+    if _is_complex(value):
+        raise ValueError(f"{name}: complex values are not accepted (the imaginary part would be "
+                         "dropped); give real numbers")
 
 
 def scalar(name: str, value, *, nonnegative: bool = True, positive: bool = False) -> float:
@@ -33,8 +69,10 @@ def scalar(name: str, value, *, nonnegative: bool = True, positive: bool = False
     Raises
     ------
     ValueError
-        If ``value`` is not a number, not a scalar, not finite, or has the wrong sign.
+        If ``value`` is not a number (complex included), not a scalar, not finite, or has the
+        wrong sign.
     """
+    real(name, value)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -75,9 +113,10 @@ def array(name: str, value, *, shape=None, ndim=None, nonnegative: bool = False)
     Raises
     ------
     ValueError
-        If ``value`` is not numeric, has the wrong shape or dimension, contains NaN or infinite
-        values, or (with ``nonnegative``) negative values.
+        If ``value`` is not numeric (complex included), has the wrong shape or dimension,
+        contains NaN or infinite values, or (with ``nonnegative``) negative values.
     """
+    real(name, value)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
@@ -118,8 +157,9 @@ def nonnegative(name: str, value, unit: str = "") -> np.ndarray:
     Raises
     ------
     ValueError
-        If any element is NaN, infinite or negative.
+        If any element is complex, NaN, infinite or negative.
     """
+    real(name, value)
     x = np.asarray(value, dtype=float)
     if x.size and not np.all(np.isfinite(x)):
         raise ValueError(f"{name}: must be finite, got {value!r}")

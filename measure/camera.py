@@ -112,6 +112,10 @@ def load_profile(path) -> Profile:
         Naming the file, when it is missing, not JSON, not a profile, or its gains are invalid.
     """
     p = Path(path)
+    if not p.exists():
+        raise ValueError(f"profile: {p}: no such file")
+    if p.is_dir():
+        raise ValueError(f"profile: {p}: is a folder, not a profile JSON")
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
         prof = Profile(**{k: data[k] for k in Profile.__dataclass_fields__ if k in data})

@@ -7,6 +7,14 @@ part of each patch is sampled. Per patch and channel: a robust mean (the mean af
 clipping at ``CLIP_SIGMA`` robust standard deviations, MAD-based), its standard error from the
 pixel spread (the estimator's ``sigma``), the pixel count and the clipped fraction.
 
+Clipped pixels (at the sensor's white level) are left out pixel by pixel, not patch by patch: a
+glint or a speck of marine snow clips a few pixels far above the patch's own spread, and the
+robust mean of the others is the patch's value. The value itself counts as clipped (and the
+patch's ``clipped`` fraction is reported) only when the white level lies within
+``CLIP_SIGMA`` robust standard deviations of that mean -- the clip then cuts into the patch's
+own pixel distribution and the mean of what is left is biased low -- or when fewer than
+``MIN_PIXELS`` pixels are left.
+
 Orientation: the corners of a rectangle can be given in 8 orders; the 4 that keep the long side
 first are the chart and its 180° rotation and two mirror images. The grey row (patches 19-24:
 white to black) falls monotonically in every channel under any water (its reflectances do, and
@@ -199,9 +207,13 @@ class PatchSample:
     n_pixels : numpy.ndarray, (3, 24)
         Pixels kept after clipping.
     clipped : numpy.ndarray, (3, 24)
-        Fraction of the sampled pixels at the white level (0-1).
+        Where the patch value is clipped (see the module docstring): the fraction of the sampled
+        pixels at the white level (0-1); 0 where the value is not clipped.
     boxes : numpy.ndarray, (24, 4, 2)
         The sampled squares' corners in pixels.
+    excluded : numpy.ndarray, (3, 24), optional
+        Where the value is not clipped: the fraction of the sampled pixels at the white level
+        that were left out of it (glints, marine snow); 0 elsewhere.
 
     Patches not sampled (``sample_patches(..., patches=...)``) are NaN.
     """
@@ -211,6 +223,7 @@ class PatchSample:
     n_pixels: np.ndarray
     clipped: np.ndarray
     boxes: np.ndarray
+    excluded: np.ndarray | None = None
 
 
 def _robust_mean(v):
@@ -230,6 +243,22 @@ def _robust_mean(v):
     return float(np.mean(keep)), sd / np.sqrt(n), n
 
 
+def _patch_value(vals, clipped, white):
+    """(mean, standard error, pixels kept, clipped fraction, excluded fraction) of one patch
+    and channel: the robust mean of the unclipped pixels; the value is clipped when the white
+    level lies within CLIP_SIGMA robust SDs of it, or too few pixels are left (then the robust
+    mean of them all)."""
+    frac = float(np.mean(clipped))
+    good = vals[~clipped]
+    if good.size >= MIN_PIXELS:
+        mean, se, cnt = _robust_mean(good)
+        sd = se * np.sqrt(cnt) if np.isfinite(se) else 0.0
+        if frac == 0 or mean + CLIP_SIGMA * sd < white:
+            return mean, se, cnt, 0.0, frac
+    mean, se, cnt = _robust_mean(vals)
+    return mean, se, cnt, frac, 0.0
+
+
 def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
                    patches=None) -> PatchSample:
     """Sample the patches of a chart in a photograph.
@@ -237,9 +266,12 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
     The homography from the layout to ``corners`` places each patch; the centred square of side
     ``layout.sample`` is read (on an odd-stride lattice when it holds more than
     :data:`MAX_BOX_PIXELS` pixels), each channel from its own CFA pixels for a RAW photo. Per
-    patch and channel: the mean after iterative clipping at :data:`CLIP_SIGMA` robust standard
-    deviations (median absolute deviation x :data:`MAD_TO_SD`), its standard error, the pixel
-    count and the clipped fraction.
+    patch and channel: the mean of the unclipped pixels after iterative clipping at
+    :data:`CLIP_SIGMA` robust standard deviations (median absolute deviation x
+    :data:`MAD_TO_SD`), its standard error, the pixel count, and the fraction of clipped pixels
+    -- as ``clipped`` where they clip the value itself (the white level within
+    :data:`CLIP_SIGMA` robust SDs of the mean), as ``excluded`` where they were outliers
+    (glints, marine snow) left out pixel by pixel.
 
     Parameters
     ----------
@@ -255,7 +287,8 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
     Returns
     -------
     PatchSample
-        Patch values and standard errors in raw units, pixel counts, clipped fractions, boxes.
+        Patch values and standard errors in raw units, pixel counts, clipped and excluded
+        fractions, boxes.
 
     Raises
     ------
@@ -278,9 +311,10 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
     sigma = np.zeros((3, n))
     npx = np.zeros((3, n), dtype=int)
     clip = np.zeros((3, n))
+    excluded = np.zeros((3, n))
     boxes = np.zeros((n, 4, 2))
     h = layout.sample / 2
-    rgb[:] = sigma[:] = clip[:] = np.nan
+    rgb[:] = sigma[:] = clip[:] = excluded[:] = np.nan
     for j in (range(n) if patches is None else patches):
         r, c = divmod(j, layout.columns)
         cx, cy = layout.margin_x + c + 0.5, layout.margin_y + r + 0.5
@@ -309,10 +343,10 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
                 raise ValueError(f"corners: patch {j + 1} covers {vals.size} pixels of channel "
                                  f"{'RGB'[ch]} (at least {MIN_PIXELS} needed): the chart is too "
                                  "small in the image or the corners are wrong")
-            mean, se, cnt = _robust_mean(vals.astype(float))
-            rgb[ch, j], sigma[ch, j], npx[ch, j] = mean, se, cnt
-            clip[ch, j] = float(np.mean(clipped))
-    return PatchSample(rgb, sigma, npx, clip, boxes)
+            value = _patch_value(vals.astype(float), np.asarray(clipped, bool),
+                                 float(photo.white[ch]))
+            rgb[ch, j], sigma[ch, j], npx[ch, j], clip[ch, j], excluded[ch, j] = value
+    return PatchSample(rgb, sigma, npx, clip, boxes, excluded)
 
 
 def grey_row_ok(sample: PatchSample, layout: ChartLayout = LAYOUTS["patches"]) -> bool:

@@ -131,6 +131,8 @@ class Measurement:
             "patches": {"rgb": self.sample.rgb.tolist(), "sigma": self.sample.sigma.tolist(),
                         "n_pixels": self.sample.n_pixels.tolist(),
                         "clipped": self.sample.clipped.tolist(),
+                        "excluded": (None if self.sample.excluded is None else
+                                     np.asarray(self.sample.excluded, float).tolist()),
                         "fitted": self.fitted.tolist(), "boxes": self.sample.boxes.tolist()},
             "orientation": self.orientation,
             "corners": self.corners.tolist(),

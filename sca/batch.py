@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from forward import validate
-from forward.imaging import ChartSetup, length, resolve_setup
+from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
@@ -504,8 +504,18 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     prob = make_problem(mdl, spec, M, sig, geometry, scale, budget)
     theta0 = start_values(prob, geometry)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M)
+    if prob.prior_mean is not None:
+        # first the paper's model (nuisances held at their priors' centres), as the loop does,
+        # then every nuisance released: started at the grid point, the joint fit can settle in
+        # a local minimum where the nuisances (the curves' shifts) mimic the water
+        hold = np.zeros(theta0.shape, bool)
+        hold[:, len(spec.names):] = True
+        theta0, _, it0, _ = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
+                                                f_exact=f_exact, hold=hold)
     theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
                                              f_exact=f_exact)
+    if prob.prior_mean is not None:
+        it = it + it0
     idx = np.arange(N)
     f, g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
     res = dict(s=s, k=k, f=f, it=it, code=code, gain=gain)
@@ -516,8 +526,14 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     noise_known = sig is not None
     res["chi2_dof"], res["chi2_p"] = goodness(f, dof, noise_known)
     res["gain_ci"] = np.column_stack([gain, gain])
+    res["budget"] = {} if budget is None else _budget_shares(
+        prob, theta, gain, s, spec.free_s, sig, sig_photon)
     if spec.free_gain:
-        res["gain_ci"] = gain_wald(gain, gain_variance(prob, theta, gain, s), f, dof, noise_known)
+        var = gain_variance(prob, theta, gain, s)
+        if "gain" in res["budget"]:  # with the budget: every nuisance in the gain's variance
+            var = np.where(np.isfinite(res["budget"]["gain"]["sd"]),
+                           res["budget"]["gain"]["sd"] ** 2, np.inf)
+        res["gain_ci"] = gain_wald(gain, var, f, dof, noise_known)
     values = prob.params(idx, theta)
     p = len(prob.names)
     ends = np.full((N, p, 2), np.nan)
@@ -537,8 +553,6 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     res["values"] = {n: np.asarray(values[n], float) for n in prob.free}
     res["intervals"] = {n: ends[:, j] for j, n in enumerate(spec.names)}
     res["ci_codes"] = _chl_cdom_codes(spec.names, codes)
-    res["budget"] = {} if budget is None else _budget_shares(
-        prob, theta, gain, s, spec.free_s, sig, sig_photon)
     return res
 
 
@@ -570,7 +584,8 @@ def _budget_shares(prob, theta, gain, s, free_s, sig_total, sig_photon):
             # C's prior-free column is in mg m^-3 here; nuisances are in their own units
         w2t = 1.0 / sig_total[idx].reshape(k, -1) ** 2
         w2p = 1.0 / sig_photon[idx].reshape(k, -1) ** 2
-        blocks.append(variance_shares(pred.jacobian, names, w2t, w2p, active, weight))
+        blocks.append(variance_shares(pred.jacobian, names, w2t, w2p, active, weight,
+                                      of=("chl", "cdom", "gain")))
     return _concatenate_budgets(blocks)
 
 

@@ -157,7 +157,8 @@ def _shares(est, st, x) -> dict:
     if prob.prior_weight is not None:
         weight[:len(prob.names)] = prob.prior_weight[0]
     out = variance_shares(pred.jacobian[None], names, (st.wt ** 2)[None],
-                          (st.wt_photon ** 2)[None], active[None], weight[None])
+                          (st.wt_photon ** 2)[None], active[None], weight[None],
+                          of=("chl", "cdom", "gain"))
     return {n: {"sd": float(v["sd"][0]), "shares": {k: float(a[0]) for k, a in v["shares"].items()}}
             for n, v in out.items()}
 
@@ -246,8 +247,11 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
             intervals_n = (float(x[n]), float(x[n]))
             intervals.setdefault(n, intervals_n)
     gain_ci = (float(x["gain"]), float(x["gain"]))
+    shares = _shares(est, st, x)
     if est.free_gain:
         var = cov[-1, -1] / (1.0 if st.noise_known else (st.f / max(dof, 1) or 1.0))
+        if "gain" in shares:  # with the budget: the gain's variance with every nuisance in it
+            var = shares["gain"]["sd"] ** 2
         lo, hi = gain_wald([x["gain"]], [var if np.isfinite(var) else np.inf], [st.f], [dof],
                            st.noise_known)[0]
         gain_ci = (float(lo), float(hi))
@@ -284,5 +288,5 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         trials=[f * unit for f in st.trials], path_model=est.water.path_model,
         gain=float(x["gain"]), gain_ci=gain_ci, values=values, intervals=ints,
         uncertain=dict(est.budget.sd) if st.noise_known and not est.budget.exact else {},
-        budget=_shares(est, st, x), nuisance=dict(st.nuisance),
+        budget=shares, nuisance=dict(st.nuisance),
     )

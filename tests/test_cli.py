@@ -58,9 +58,9 @@ def test_simulate_csv_and_json(tmp_path):
 
 
 @pytest.mark.parametrize("argv,word", [
-    (["--chl", "-1", "--cdom", "0.1", "--depth", "10", "--distance", "5"], "chl"),
-    (["--chl", "1", "--cdom", "0.1", "--depth", "10", "--distance", "5", "--camera", "Sigma SDMerill (NPL)"], "camera"),
-    (["--chl", "1", "--cdom", "0.1", "--depth", "nan", "--distance", "5"], "depth"),
+    (["--chl", "-1", "--cdom", "0.1", "--depth", "10", "--distance", "5"], "--chl"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "10", "--distance", "5", "--camera", "Nokia"], "--camera"),
+    (["--chl", "1", "--cdom", "0.1", "--depth", "nan", "--distance", "5"], "--depth"),
     (["--chl", "1", "--cdom", "0.1", "--depth", "1", "--distance", "5", "--b-k", "-1"], "--b-k"),
     (["--chl", "1", "--cdom", "0.1", "--depth", "1", "--distance", "5", "--out", "/no/such/dir/x.csv"], "--out"),
 ])
@@ -84,8 +84,16 @@ def test_estimate_round_trip_and_json(tmp_path):
     # estimate converges with no flags and is reliable. (Paper mode exits 1 only where its full
     # step overshoots, e.g. C = 1, a_CDOM = 0.1: DECISIONS.md, "Paper mode vs safeguarded mode".)
     assert code == 0, out + err
-    assert "chl (C)" in out and "wavelength_nm,attenuation_k" in out
+    assert "chl (C)" in out and "budget of C" in out
     assert "reliable         True\n" in out and "mode paper" in out
+    # concise: the result and its budget; the spectrum goes to --json or --attenuation FILE
+    assert len(out.splitlines()) < 15 and "wavelength_nm" not in out
+    k = tmp_path / "k.csv"
+    code, out2, err = run(["estimate", str(f), "--depth", "10", "--distance", "5",
+                           "--attenuation", str(k)])
+    rows = list(csv.reader(k.open()))
+    assert code == 0 and rows[0] == ["wavelength_nm", "attenuation_k"] and len(rows) == 302
+    np.testing.assert_allclose([float(r[1]) for r in rows[1:]], res["attenuation"], rtol=1e-15)
 
 
 def test_estimate_reads_columns_by_name(tmp_path):
@@ -138,6 +146,8 @@ def test_estimate_bad_arguments_exit_2(tmp_path):
     assert code == 2 and "depth" in err
     code, _, err = run(["estimate", str(tmp_path / "missing.csv"), "--depth", "1", "--distance", "5"])
     assert code == 2 and "file not found" in err
+    code, _, err = run(["estimate", str(tmp_path), "--depth", "1", "--distance", "5"])
+    assert code == 2 and "is a folder, not a CSV file" in err and "not found" not in err
 
 
 def _batch_file(path, truth, distance=2.0, ids=None):

@@ -87,7 +87,8 @@ def test_cli_has_quick_and_main(capsys):
 
 def test_worlds_cover_every_criterion():
     groups = {w.group for w in h.worlds()}
-    assert groups == {"clean", "priors", "ends", "geometry", "garbage", "diagnostic"}
+    assert groups == {"clean", "priors", "ends", "geometry", "garbage", "limitation",
+                      "diagnostic"}
     names = [w.name for w in h.worlds()]
     assert len(names) == len(set(names))
     assert all(n in names for n in (*NEVER_RELIABLE, "wrong_illuminant"))

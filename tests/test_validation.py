@@ -25,9 +25,15 @@ def test_bad_grid(wl):
         forward.simulate_chart(1, 0.1, 5, 1, wavelengths=wl)
 
 
-def test_camera_not_covering_grid():
-    with pytest.raises(ValueError, match="^camera:.*680"):
-        forward.simulate_chart(1, 0.1, 5, 1, camera="Sigma SDMerill (NPL)")
+def test_camera_not_covering_grid(tmp_path):
+    # curves that stop while still high (here 450-700 nm at half their peak) are refused; the
+    # Sigma's, which have fallen to ~0 at their 680 nm end, are taken as 0 beyond it
+    wl = np.arange(450.0, 701.0, 5.0)
+    f = tmp_path / "cam.csv"
+    f.write_text("wavelength,red,green,blue\n" + "".join(f"{w:g},0.5,0.5,0.5\n" for w in wl))
+    with pytest.raises(ValueError, match="^camera:.*cover"):
+        forward.simulate_chart(1, 0.1, 5, 1, camera=f)
+    assert forward.simulate_chart(1, 0.1, 5, 1, camera="Sigma SDMerill (NPL)").rgb.shape == (3, 24)
     with pytest.raises(ValueError, match="^camera: unknown"):
         forward.simulate_chart(1, 0.1, 5, 1, camera="Nokia")
 

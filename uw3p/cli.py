@@ -1,8 +1,8 @@
 """The ``uw3p`` command: simulate a chart, estimate the water, regenerate figures, benchmark.
 
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S] [--gain free]
-    uw3p estimate --batch charts.csv --distance 5 [--json]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--gain free]
+    uw3p estimate --batch charts.csv --distance 5 [--json] [--attenuation k.csv]
     uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
     uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
@@ -16,7 +16,10 @@ C not measurable to ±30 %), 2 bad input (the message names the argument
 or file), 130 interrupted. ``estimate`` needs the noise (``red_sd,green_sd,blue_sd`` columns, as
 ``simulate`` writes them) to call an estimate reliable.
 Output cut short by its reader (``uw3p estimate ... | head``) ends quietly with the status the
-command would have had.
+command would have had. Patch CSV files are read by column name (patch, red/R, green/G,
+blue/B, red_sd/R_sd, ...; a batch adds chart, depth_m, distance_m), in UTF-8 with or without a
+byte-order mark, with comma, semicolon or tab separators and a decimal comma where the
+separator is not a comma (the README's command-line section).
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ import sys
 
 from . import (__version__, cmd_bench, cmd_calibrate, cmd_design, cmd_estimate, cmd_figures,
                cmd_measure, cmd_simulate)
-from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK
+from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, option_message, plain
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
@@ -48,14 +51,36 @@ def build_parser() -> argparse.ArgumentParser:
     argparse.ArgumentParser
         Parsing sets ``command`` (the subcommand's name) and ``func`` (its ``run``).
     """
-    parser = argparse.ArgumentParser(prog="uw3p", description=__doc__.splitlines()[0],
+    doc = plain(__doc__)
+    parser = argparse.ArgumentParser(prog="uw3p", description=doc.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     epilog="\n".join(__doc__.splitlines()[2:]))
+                                     epilog="\n".join(doc.splitlines()[2:]))
     parser.add_argument("--version", action="version", version=f"uw3p {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     for command in COMMANDS:
-        command.add_parser(sub)
+        p = command.add_parser(sub)
+        # what error messages call each option (argparse keeps a parser's actions in
+        # ``_actions``; it has no public listing)
+        p.set_defaults(option_names={a.dest: max(a.option_strings, key=len)
+                                     for a in p._actions if a.option_strings})
     return parser
+
+
+#: Library argument names that are not option destinations, and what the command line calls
+#: them.
+RENAMES = {"illuminance_lux": "--lux", "exposure_mode": "--exposure",
+           "wavelengths": "--wl-min/--wl-max/--step"}
+
+
+def _message(args, exc) -> str:
+    """The error message of ``exc`` in the command's terms (option names, the grid hint)."""
+    options = getattr(args, "option_names", {})
+    msg = option_message(str(exc), options, RENAMES)
+    if "use a grid inside the data" in msg:
+        msg += (" with --wl-min/--wl-max" if "wl_min" in options else
+                f" (uw3p {args.command} uses 400-700 nm: give curves that cover it, or that fall "
+                "to 0 where they stop)")
+    return msg
 
 
 def _emit(text, out, code):
@@ -100,7 +125,7 @@ def main(argv=None, out=None, err=None) -> int:
     try:
         code = int(args.func(args, buf, err) or 0)
     except ValueError as exc:
-        err.write(f"uw3p {args.command}: error: {exc}\n")
+        err.write(f"uw3p {args.command}: error: {_message(args, exc)}\n")
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         err.write(f"uw3p {args.command}: interrupted\n")

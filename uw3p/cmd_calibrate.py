@@ -8,7 +8,10 @@ fits (reliable), 1 when it does not.
 
 from __future__ import annotations
 
-from .common import EXIT_NOT_RELIABLE, EXIT_OK, add_photo_options, read_photo, write_file
+import os
+
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_photo_options, camera_note,
+                     check_spectra_args, read_photo, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -53,7 +56,7 @@ def run(args, out, err) -> int:
         The channel gains (largest 1), chi^2/dof and fit_rms per channel, and whether the
         profile is reliable.
     err : text stream
-        ``wrote <profile>``.
+        ``wrote <profile>``; a note when the camera's curves stop inside 400-700 nm.
 
     Returns
     -------
@@ -68,7 +71,12 @@ def run(args, out, err) -> int:
     """
     import measure
 
+    check_spectra_args(args)
+    if args.out.endswith(("/", "\\")) or os.path.isdir(args.out):
+        raise ValueError(f"--out: {args.out} is a folder; give the profile's file name "
+                         "(profile.json)")
     photo = read_photo(args, args.image)
+    err.write(camera_note(args.camera))
     cands = measure.orientations(photo, args.corners, measure.LAYOUTS[args.layout])
     c, _, ok = cands["as given"]
     if not ok:

@@ -1,27 +1,46 @@
 """``uw3p estimate``: the water (C, CDOM, attenuation) from a chart's 24 patch values.
 
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--mode paper] [--saturation S]
-                  [--gain free] [--fix-backscatter S] [--fix-cdom A]
-    uw3p estimate --batch charts.csv [--depth D] [--distance R] [--json]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--mode paper]
+                  [--saturation S] [--gain free] [--fix-backscatter S] [--fix-cdom A]
+    uw3p estimate --batch charts.csv [--depth D] [--distance R] [--json] [--attenuation k.csv]
 
-One chart is fitted by ``sca.estimate``, a batch (``--batch``) by ``sca.estimate_batch``.
-Exit status 0 when every estimate is reliable, 1 when one is not (its flags say why).
+One chart is fitted by ``sca.estimate``, a batch (``--batch``) by ``sca.estimate_batch`` (in
+blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
+:mod:`uw3p.patchfile`. The default output is the result and its uncertainty budget; the
+attenuation spectrum k(lambda) is in ``--json`` and in the ``--attenuation`` file. Exit status
+0 when every estimate is reliable, 1 when one is not (its flags say why).
 """
 
 from __future__ import annotations
 
+import csv
+import json
 import math
+import re
 
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
-                     budget_text, json_text, uncertain_from_args,
-                     setup_kwargs)
+                     atomic_open, budget_text, camera_note, check_spectra_args, json_text,
+                     setup_kwargs, uncertain_from_args)
 
-__all__ = ["NAME", "BUFFERED", "add_parser", "run"]
+__all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
+           "PROGRESS_BYTES", "add_parser", "run"]
 
 #: The subcommand's name.
 NAME = "estimate"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
+#: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel.
+BATCH_COLUMNS = ("chart", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "reliable",
+                 "flags", "fit_rms", "chi2_dof", "backscatter_*", "gain", "gain_lo", "gain_hi",
+                 "objective", "converged", "iterations", "status", "depth_m", "distance_m",
+                 "chl_budget")
+#: A big batch is fitted this many charts per call of ``sca.estimate_batch`` (the progress
+#: bar's step; every chart's fit is independent of the others').
+FIT_BLOCK = 4096
+#: A batch of at least this many charts shows a progress bar of its fit on stderr...
+PROGRESS_CHARTS = 2 * FIT_BLOCK
+#: ... and a file of at least this many bytes one of its reading.
+PROGRESS_BYTES = 20_000_000
 
 
 def add_parser(sub):
@@ -39,13 +58,18 @@ def add_parser(sub):
     """
     p = sub.add_parser(NAME, help="estimate C, CDOM and attenuation from patch values")
     p.add_argument("measurements", nargs="?", default=None,
-                   help="CSV with a header patch,red,green,blue[,red_sd,green_sd,blue_sd] "
-                        "(one row per patch)")
+                   help="CSV with columns patch, red, green, blue [, red_sd, green_sd, blue_sd] "
+                        "(one row per patch; R, G, B also; any order; comma, semicolon or tab; "
+                        "decimal comma with semicolons)")
     p.add_argument("--batch", default=None, metavar="FILE",
                    help="many charts at once (sca.estimate_batch): CSV with columns chart, patch, "
-                        "red, green, blue [, depth_m, distance_m]; one output row per chart")
-    p.add_argument("--depth", type=float, default=None, help="chart depth, m")
-    p.add_argument("--distance", type=float, default=None, help="camera-to-chart distance, m")
+                        "red, green, blue [, *_sd] [, depth_m, distance_m]; one output row per "
+                        "chart")
+    p.add_argument("--depth", type=float, default=None,
+                   help="chart depth, m (a batch: unless the file has a depth_m column)")
+    p.add_argument("--distance", type=float, default=None,
+                   help="camera-to-chart distance, m (a batch: unless the file has a distance_m "
+                        "column)")
     p.add_argument("--mode", default=None, choices=["safeguarded", "paper"],
                    help="single chart only (default safeguarded)")
     p.add_argument("--max-iter", type=int, default=100)
@@ -53,7 +77,12 @@ def add_parser(sub):
     p.add_argument("--fix-cdom", type=float, default=None, help="hold a_CDOM(440) fixed, m^-1")
     p.add_argument("--saturation", type=float, default=None,
                    help="the sensor's clip level in the data's units (values there are flagged)")
-    p.add_argument("--json", action="store_true", help="print the whole result as JSON")
+    p.add_argument("--json", action="store_true",
+                   help="print the whole result as JSON (the attenuation spectrum included)")
+    p.add_argument("--attenuation", default=None, metavar="FILE",
+                   help="write the attenuation spectrum k(lambda) to this CSV: wavelength_nm, "
+                        "attenuation_k (a batch: one row per chart, one column k_<nm> per "
+                        "wavelength)")
     p.add_argument("--gain", default="known", choices=["known", "free"],
                    help="known: values in model units (as simulate writes them); free: any units "
                         "(e.g. raw camera values), one unknown exposure gain fitted with the water")
@@ -72,10 +101,86 @@ def _interval_text(ci, unit):
     return f"95 % interval [{ci[0]:.4g}, {hi}] {unit}"
 
 
-def _run_batch(args, out, err):
+# --------------------------------------------------------------------------- batch
+_CHARTS = re.compile(r"charts? ((?:\d+, )*\d+)(, \.\.\.)? \(0-based\)")
+
+
+def _chart_ids(msg: str, charts, offset: int) -> str:
+    """``sca.estimate_batch``'s 'chart 3 (0-based)' said with the file's chart ids."""
+    def ids(m):
+        idx = [int(i) + offset for i in m.group(1).split(", ")]
+        names = ", ".join(repr(charts[i]) for i in idx if i < len(charts))
+        return f"chart{'s' if len(idx) > 1 else ''} {names}{m.group(2) or ''}"
+    return _CHARTS.sub(ids, msg)
+
+
+def _batch_error(exc, args, charts, offset):
+    """A ``sca.estimate_batch`` error in the command's terms: the file and its chart ids."""
+    msg = _chart_ids(str(exc), charts, offset)
+    head, _, rest = msg.partition(":")
+    where = {"rgb_stack": f"--batch: {args.batch}:",
+             "sigma": f"--batch: {args.batch}: the _sd columns:"}
+    return ValueError(f"{where[head]}{rest}" if head in where else msg)
+
+
+def _geometry(args, depth, distance):
+    """Per-chart depth and distance: the file's column or the option, never both."""
     import numpy as np
 
+    for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
+        if not np.isnan(arr).all():  # the file has a <name>_m column
+            if opt is not None:
+                raise ValueError(f"--{name}: {args.batch} has a {name}_m column (one {name} per "
+                                 f"chart); give the {name} in the file or with --{name}, not both")
+        elif opt is None:
+            raise ValueError(f"--{name}: required unless the batch file has a {name}_m column")
+        else:
+            arr[:] = opt
+    return depth, distance
+
+
+def _batch_rows(res, charts, depth, distance, lo):
+    """The output rows (lists) of a block of charts starting at ``lo``."""
+    budget = res.budget.get("chl", {}).get("shares", {})
+    for j in range(len(res)):
+        shares = {k: float(v[j]) for k, v in budget.items()}
+        yield ([charts[lo + j], repr(float(res.chl[j])), repr(float(res.chl_ci[j, 0])),
+                repr(float(res.chl_ci[j, 1])), repr(float(res.cdom[j])),
+                repr(float(res.cdom_ci[j, 0])), repr(float(res.cdom_ci[j, 1])),
+                bool(res.reliable[j]), " ".join(res.flags[j]), repr(float(res.fit_rms[j])),
+                repr(float(res.chi2_dof[j]))]
+               + [repr(float(v)) for v in res.backscatter[j]]
+               + [repr(float(res.gain[j])), repr(float(res.gain_ci[j, 0])),
+                  repr(float(res.gain_ci[j, 1])), repr(float(res.objective[j])),
+                  bool(res.converged[j]), int(res.iterations[j]), str(res.status[j]),
+                  repr(float(depth[lo + j])), repr(float(distance[lo + j])),
+                  budget_text({"chl": {"shares": shares}}, "chl")])
+
+
+def _batch_records(res, charts, depth, distance, lo):
+    """The ``--json`` records of a block of charts starting at ``lo``."""
+    for j in range(len(res)):
+        yield dict(chart=charts[lo + j], chl=float(res.chl[j]), cdom=float(res.cdom[j]),
+                   chl_ci=_ci(res.chl_ci[j]), cdom_ci=_ci(res.cdom_ci[j]),
+                   reliable=bool(res.reliable[j]), flags=list(res.flags[j]),
+                   fit_rms=float(res.fit_rms[j]), chi2_dof=float(res.chi2_dof[j]),
+                   chi2_p=float(res.chi2_p[j]), dof=int(res.dof[j]),
+                   backscatter=res.backscatter[j].tolist(), gain=float(res.gain[j]),
+                   gain_ci=_ci(res.gain_ci[j]), attenuation=res.attenuation[j].tolist(),
+                   objective=float(res.objective[j]), converged=bool(res.converged[j]),
+                   iterations=int(res.iterations[j]), status=str(res.status[j]),
+                   depth=float(depth[lo + j]), distance=float(distance[lo + j]),
+                   budget={k: {"sd": float(v["sd"][j]),
+                               "shares": {s: float(x[j]) for s, x in v["shares"].items()}}
+                           for k, v in res.budget.items()})
+
+
+def _run_batch(args, out, err):
+    import contextlib
+    import os
+
     from sca import estimate_batch
+    from tqdm import tqdm
 
     from .patchfile import read_batch_csv
 
@@ -84,47 +189,93 @@ def _run_batch(args, out, err):
                          "projection + Levenberg-Marquardt); omit --mode")
     if args.fix_cdom is not None:
         raise ValueError("--fix-cdom: not available with --batch")
-    charts, M, sigma, depth, distance = read_batch_csv(args.batch)
-    for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
-        if np.isnan(arr).any():
-            if opt is None:
-                raise ValueError(f"--{name}: required unless the batch file has a {name}_m column")
-            arr[np.isnan(arr)] = opt
+    big_file = os.path.isfile(args.batch) and os.path.getsize(args.batch) >= PROGRESS_BYTES
+    charts, M, sigma, depth, distance = read_batch_csv(args.batch,
+                                                       progress=err if big_file else None)
+    depth, distance = _geometry(args, depth, distance)
     fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
-    res = estimate_batch(M, depth=depth, distance=distance, sigma=sigma, saturation=args.saturation,
-                         fix=fix, max_iter=args.max_iter, gain=args.gain,
-                         uncertain=uncertain_from_args(args), **setup_kwargs(args))
+    kw = dict(saturation=args.saturation, fix=fix, max_iter=args.max_iter, gain=args.gain,
+              uncertain=uncertain_from_args(args), **setup_kwargs(args))
+    err.write(camera_note(args.camera, kw["wavelengths"]))
+    N = len(charts)
+    step = FIT_BLOCK if N >= PROGRESS_CHARTS else max(N, 1)
+    totals = {"converged": 0, "reliable": 0, "elapsed": 0.0}
+    writer = csv.writer(out, lineterminator="\n")
+    first = True
+    with contextlib.ExitStack() as stack:
+        kfile = (csv.writer(stack.enter_context(atomic_open(args.attenuation, "--attenuation")),
+                 lineterminator="\n") if args.attenuation else None)
+        bar = stack.enter_context(tqdm(total=N, file=err, desc="fitting", unit="chart",
+                                       disable=N < PROGRESS_CHARTS, leave=False))
+        for lo in range(0, N, step):
+            hi = min(N, lo + step)
+            try:
+                res = estimate_batch(M[lo:hi], depth=depth[lo:hi], distance=distance[lo:hi],
+                                     sigma=None if sigma is None else sigma[lo:hi], **kw)
+            except ValueError as exc:
+                raise _batch_error(exc, args, charts, lo) from None
+            if first:
+                m = M.shape[1]
+                if args.json:
+                    out.write('{\n "wavelengths": ' + json.dumps(res.wavelengths.tolist())
+                              + ',\n "noise_known": ' + json.dumps(res.noise_known)
+                              + ',\n "charts": [')
+                else:
+                    writer.writerow([c if c != "backscatter_*" else f"backscatter_{j}"
+                                     for c in BATCH_COLUMNS
+                                     for j in (range(m) if c == "backscatter_*" else [0])])
+                if kfile is not None:
+                    kfile.writerow(["chart"] + [f"k_{w:g}" for w in res.wavelengths])
+            if args.json:
+                for j, rec in enumerate(_batch_records(res, charts, depth, distance, lo)):
+                    out.write(("\n" if first and j == 0 else ",\n")
+                              + json_text(rec).rstrip("\n"))
+            else:
+                writer.writerows(_batch_rows(res, charts, depth, distance, lo))
+            if kfile is not None:
+                kfile.writerows([charts[lo + j]] + [repr(float(v)) for v in res.attenuation[j]]
+                                for j in range(len(res)))
+            first = False
+            totals["converged"] += int(res.converged.sum())
+            totals["reliable"] += int(res.reliable.sum())
+            totals["elapsed"] += res.elapsed_s
+            bar.update(hi - lo)
     if args.json:
-        records = [dict(chart=c, chl=float(res.chl[j]), cdom=float(res.cdom[j]),
-                        chl_ci=_ci(res.chl_ci[j]), cdom_ci=_ci(res.cdom_ci[j]),
-                        reliable=bool(res.reliable[j]), flags=list(res.flags[j]),
-                        fit_rms=float(res.fit_rms[j]), chi2_dof=float(res.chi2_dof[j]),
-                        chi2_p=float(res.chi2_p[j]), dof=int(res.dof[j]),
-                        backscatter=res.backscatter[j].tolist(), gain=float(res.gain[j]),
-                        gain_ci=_ci(res.gain_ci[j]), attenuation=res.attenuation[j].tolist(),
-                        objective=float(res.objective[j]), converged=bool(res.converged[j]),
-                        iterations=int(res.iterations[j]), status=str(res.status[j]),
-                        depth=float(depth[j]), distance=float(distance[j]))
-                   for j, c in enumerate(charts)]
-        out.write(json_text(dict(wavelengths=res.wavelengths.tolist(), noise_known=res.noise_known,
-                                 charts=records)))
-    else:
-        m = M.shape[1]
-        out.write("chart,chl,chl_lo,chl_hi,cdom,cdom_lo,cdom_hi,reliable,flags,fit_rms,chi2_dof,"
-                  + ",".join(f"backscatter_{j}" for j in range(m))
-                  + ",gain,gain_lo,gain_hi,objective,converged,iterations,status\n")
-        for j, c in enumerate(charts):
-            out.write(f"{c},{res.chl[j]!r},{res.chl_ci[j, 0]!r},{res.chl_ci[j, 1]!r},"
-                      f"{res.cdom[j]!r},{res.cdom_ci[j, 0]!r},{res.cdom_ci[j, 1]!r},"
-                      f"{bool(res.reliable[j])},{' '.join(res.flags[j])},{res.fit_rms[j]!r},"
-                      f"{res.chi2_dof[j]!r},"
-                      + ",".join(repr(float(v)) for v in res.backscatter[j])
-                      + f",{res.gain[j]!r},{res.gain_ci[j, 0]!r},{res.gain_ci[j, 1]!r}"
-                      + f",{res.objective[j]!r},{bool(res.converged[j])},{res.iterations[j]},"
-                        f"{res.status[j]}\n")
-    err.write(f"{len(charts)} charts, {int(res.converged.sum())} converged, "
-              f"{int(res.reliable.sum())} reliable, {res.elapsed_s:.3f} s\n")
-    return EXIT_OK if res.reliable.all() else EXIT_NOT_RELIABLE
+        out.write("\n ]\n}\n")
+    if args.attenuation:
+        err.write(f"wrote {args.attenuation}\n")
+    err.write(f"{N} charts, {totals['converged']} converged, {totals['reliable']} reliable, "
+              f"{totals['elapsed']:.3f} s\n")
+    return EXIT_OK if totals["reliable"] == N else EXIT_NOT_RELIABLE
+
+
+# --------------------------------------------------------------------------- one chart
+def _summary(res, gain) -> str:
+    """The default output of one chart: the result and its uncertainty budget."""
+    lines = [f"chl (C)          {res.chl:.6g} mg m^-3, {_interval_text(res.chl_ci, 'mg m^-3')}",
+             f"cdom a_CDOM(440) {res.cdom:.6g} m^-1, {_interval_text(res.cdom_ci, 'm^-1')}",
+             "backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter)]
+    if gain == "free":
+        lines.append(f"gain             {res.gain:.6g}, {_interval_text(res.gain_ci, '')}"
+                     "(data units per model unit)")
+    chi2 = (f"chi2/dof {res.chi2_dof:.3g} (p = {res.chi2_p:.3g}, dof {res.dof})"
+            if res.noise_known else "chi2 not tested: the noise is unknown")
+    lines.append(f"fit              fit_rms {res.fit_rms:.3g}, {chi2}")
+    if res.budget:
+        for key, label, unit in (("chl", "C   ", "mg m^-3"), ("cdom", "CDOM", "m^-1")):
+            if key in res.budget:
+                lines.append(f"budget of {label}   sd {res.budget[key]['sd']:.3g} {unit}: "
+                             f"{budget_text(res.budget, key)}")
+    elif res.noise_known:
+        lines.append("budget           none: the paper's exact model (--exact)")
+    lines.append(f"reliable         {res.reliable}"
+                 + (f" (flags: {', '.join(res.flags)})" if res.flags else ""))
+    lines.append(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
+                 f"mode {res.mode}, path model {res.path_model})")
+    lines.append(f"attenuation      k on {res.wavelengths.size} wavelengths "
+                 f"({res.wavelengths[0]:g}-{res.wavelengths[-1]:g} nm): --json or "
+                 "--attenuation FILE")
+    return "\n".join(lines) + "\n"
 
 
 def run(args, out, err) -> int:
@@ -135,12 +286,15 @@ def run(args, out, err) -> int:
     args : argparse.Namespace
         Parsed options: ``measurements`` or ``batch`` (CSV files), ``depth`` (m), ``distance``
         (m), ``mode``, ``max_iter``, ``fix_backscatter``, ``fix_cdom`` (m^-1), ``saturation``
-        (data units), ``json``, ``gain`` and the setup options.
+        (data units), ``json``, ``attenuation`` (a CSV file), ``gain``, the setup and the
+        budget options.
     out : text stream
-        The estimate: a text summary and k(lambda) as CSV, one CSV row per chart for a batch,
-        or JSON with ``--json``.
+        The estimate: C, a_CDOM(440), the backscatter, the fit, the uncertainty budget and the
+        verdict; a batch: one CSV row per chart (``BATCH_COLUMNS``, ids quoted as needed);
+        ``--json``: every field, the attenuation spectrum included.
     err : text stream
-        For a batch, a one-line count of converged and reliable charts.
+        Notes, ``wrote <file>``, a big batch's progress and its one-line count of converged
+        and reliable charts.
 
     Returns
     -------
@@ -150,7 +304,7 @@ def run(args, out, err) -> int:
     Raises
     ------
     ValueError
-        Bad input; the message names the argument or file.
+        Bad input; the message names the argument or file (and, in a batch, the chart).
     """
     from sca import estimate
 
@@ -158,6 +312,7 @@ def run(args, out, err) -> int:
 
     if (args.batch is None) == (args.measurements is None):
         raise ValueError("measurements: give either a measurements CSV or --batch FILE")
+    check_spectra_args(args)
     if args.batch is not None:
         return _run_batch(args, out, err)
     if args.depth is None or args.distance is None:
@@ -168,41 +323,30 @@ def run(args, out, err) -> int:
         fix["backscatter"] = args.fix_backscatter
     if args.fix_cdom is not None:
         fix["cdom"] = args.fix_cdom
+    setup = setup_kwargs(args)
+    err.write(camera_note(args.camera, setup["wavelengths"]))
     try:
         res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
                        saturation=args.saturation, mode=args.mode or "safeguarded",
                        fix=fix or None, max_iter=args.max_iter, gain=args.gain,
-                       uncertain=uncertain_from_args(args), **setup_kwargs(args))
+                       uncertain=uncertain_from_args(args), **setup)
     except ValueError as exc:
         msg = str(exc)
-        if msg.startswith(("rgb:", "sigma:")):  # name the file, in its orientation (rows = patches)
-            raise ValueError(f"measurements: {args.measurements}: one row per patch and one column "
-                             f"per channel expected; {msg} (channels x patches)") from None
+        if msg.startswith(("rgb:", "sigma:")):
+            what, _, why = msg.partition(": ")
+            if "expected" in why and "shape" in why:  # in the file's orientation
+                raise ValueError(f"measurements: {args.measurements}: one row per patch and one "
+                                 f"column per channel expected; {msg} (channels x patches)"
+                                 ) from None
+            raise ValueError(f"measurements: {args.measurements}: "
+                             f"{'the _sd columns: ' if what == 'sigma' else ''}{why}") from None
         raise
-    if args.json:
-        out.write(json_text(res.to_dict()))
-    else:
-        out.write(f"chl (C)          {res.chl:.6g} mg m^-3, {_interval_text(res.chl_ci, 'mg m^-3')}\n")
-        out.write(f"cdom a_CDOM(440) {res.cdom:.6g} m^-1, {_interval_text(res.cdom_ci, 'm^-1')}\n")
-        out.write("backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter) + "\n")
-        if args.gain == "free":
-            out.write(f"gain             {res.gain:.6g}, {_interval_text(res.gain_ci, '')}"
-                      "(data units per model unit)\n")
-        chi2 = (f"chi2/dof {res.chi2_dof:.3g} (p = {res.chi2_p:.3g}, dof {res.dof})"
-                if res.noise_known else "chi2 not tested: the noise is unknown")
-        out.write(f"fit              fit_rms {res.fit_rms:.3g}, {chi2}\n")
-        if res.budget:
-            out.write(f"budget of C      sd {res.budget['chl']['sd']:.3g} mg m^-3: "
-                      f"{budget_text(res.budget, 'chl')}\n" if "chl" in res.budget else "")
-            out.write(f"budget of CDOM   sd {res.budget['cdom']['sd']:.3g} m^-1: "
-                      f"{budget_text(res.budget, 'cdom')}\n" if "cdom" in res.budget else "")
-        elif res.noise_known:
-            out.write("budget           none: the paper's exact model (--exact)\n")
-        out.write(f"reliable         {res.reliable}" + (f" (flags: {', '.join(res.flags)})"
-                                                       if res.flags else "") + "\n")
-        out.write(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
-                  f"mode {res.mode}, path model {res.path_model})\n")
-        out.write("wavelength_nm,attenuation_k\n")
-        for wl, k in zip(res.wavelengths, res.attenuation):
-            out.write(f"{wl:g},{k:.8g}\n")
+    if args.attenuation:
+        with atomic_open(args.attenuation, "--attenuation") as fh:
+            w = csv.writer(fh, lineterminator="\n")
+            w.writerow(["wavelength_nm", "attenuation_k"])
+            w.writerows([f"{wl:g}", repr(float(k))] for wl, k in zip(res.wavelengths,
+                                                                     res.attenuation))
+        err.write(f"wrote {args.attenuation}\n")
+    out.write(json_text(res.to_dict()) if args.json else _summary(res, args.gain))
     return EXIT_OK if res.reliable else EXIT_NOT_RELIABLE

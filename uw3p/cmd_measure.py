@@ -15,8 +15,8 @@ from pathlib import Path
 
 from . import __version__
 from .common import (EXIT_BAD_INPUT, EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options,
-                     add_photo_options, add_water_options, budget_text, read_photo,
-                     uncertain_from_args, water_from_args)
+                     add_photo_options, add_water_options, atomic_open, budget_text, camera_note,
+                     check_spectra_args, read_photo, uncertain_from_args, water_from_args)
 
 __all__ = ["NAME", "BUFFERED", "SUMMARY_COLUMNS", "add_parser", "run"]
 
@@ -118,7 +118,7 @@ def run(args, out, err) -> int:
         One image: the estimate (C in mg m^-3, a_CDOM(440) in m^-1, the gain, the fit) and the
         files written. A folder: a one-line count and the summary's path.
     err : text stream
-        A folder's progress bar.
+        A folder's progress bar; a note when the camera's curves stop inside 400-700 nm.
 
     Returns
     -------
@@ -135,10 +135,17 @@ def run(args, out, err) -> int:
     """
     if args.depth is None or args.distance is None:
         raise ValueError("--depth, --distance: both are required")
+    check_spectra_args(args)
     src = Path(args.image)
+    if not src.exists():
+        raise ValueError(f"image: file not found: {src}")
+    if Path(args.out).is_file():
+        raise ValueError(f"--out: {args.out} is a file; give a folder (created if missing)")
+    err.write(camera_note(args.camera))
     if src.is_dir():
         return _measure_folder(args, src, out, err)
-    code, row = _measure_one(args, src, Path(args.out))
+    outdir = Path(args.out)
+    code, row = _measure_one(args, src, outdir)
     e = row
     out.write(f"chl (C)          {e['chl']:.6g} mg m^-3, 95 % interval [{e['chl_lo']:.4g}, "
               f"{e['chl_hi']:.4g}]\n"
@@ -148,8 +155,8 @@ def run(args, out, err) -> int:
               f"fit              fit_rms {e['fit_rms']:.3g}, chi2/dof {e['chi2_dof']:.3g}\n"
               f"orientation      {e['orientation']}\n"
               f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
-              + f"\nwrote            {args.out}/measurement.json, corrected.tiff, corrected.png, "
-                "report.png\n")
+              + f"\nwrote            {outdir / 'measurement.json'}, corrected.tiff, "
+                "corrected.png, report.png\n")
     return code
 
 
@@ -179,7 +186,7 @@ def _measure_folder(args, src, out, err):
     with ProcessPoolExecutor(workers) as pool:
         results = list(tqdm(pool.map(_measure_worker, jobs), total=len(jobs), file=err,
                             desc="measuring", unit="image"))
-    with open(root / "summary.csv", "w", newline="", encoding="utf-8") as fh:
+    with atomic_open(root / "summary.csv", "--out") as fh:
         w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
         w.writeheader()
         for _, row in results:
@@ -187,5 +194,5 @@ def _measure_folder(args, src, out, err):
     codes = [c for c, _ in results]
     n_ok = codes.count(EXIT_OK)
     out.write(f"{len(files)} files: {n_ok} reliable, {codes.count(EXIT_NOT_RELIABLE)} not "
-              f"reliable, {codes.count(EXIT_BAD_INPUT)} not measurable; {root}/summary.csv\n")
+              f"reliable, {codes.count(EXIT_BAD_INPUT)} not measurable; {root / 'summary.csv'}\n")
     return max(codes)

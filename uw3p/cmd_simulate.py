@@ -9,8 +9,8 @@ format ``uw3p estimate`` reads).
 
 from __future__ import annotations
 
-from .common import (EXIT_OK, add_setup_options, water_from_args, wavelengths_from_args,
-                     write_file)
+from .common import (EXIT_OK, add_setup_options, camera_note, check_spectra_args,
+                     water_from_args, wavelengths_from_args, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -57,7 +57,7 @@ def run(args, out, err) -> int:
     out : text stream
         Patch CSV when ``--out`` is not given.
     err : text stream
-        ``wrote <file>`` when it is.
+        ``wrote <file>`` when it is; a note when the camera's curves stop inside the grid.
 
     Returns
     -------
@@ -76,6 +76,8 @@ def run(args, out, err) -> int:
 
     if args.out is not None and not args.out.lower().endswith((".json", ".csv")):
         raise ValueError(f"--out: must end in .json or .csv, got {args.out!r}")
+    check_spectra_args(args)
+    err.write(camera_note(args.camera, wavelengths_from_args(args)))
     sim = forward.simulate_chart(args.chl, args.cdom, args.depth, args.distance, camera=args.camera,
                                  illuminant=args.illuminant, reflectances=args.reflectances,
                                  noise=not args.no_noise, seed=args.seed,

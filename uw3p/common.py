@@ -7,15 +7,18 @@ functions that need them), so that ``uw3p --help`` stays cheap.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import tempfile
 from pathlib import Path
 
 __all__ = [
     "EXIT_OK", "EXIT_NOT_RELIABLE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
     "add_setup_options", "add_water_options", "add_photo_options", "add_budget_options",
-    "uncertain_from_args", "budget_text",
+    "uncertain_from_args", "budget_text", "check_spectra_args", "camera_note",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
-    "write_file", "json_text",
+    "write_file", "write_atomic", "atomic_open", "json_text", "option_message", "plain",
 ]
 
 #: Exit status: success (every estimate reliable / converged).
@@ -93,13 +96,16 @@ def add_budget_options(p) -> None:
     """
     from sca.budget import DEFAULT_UNCERTAIN
 
-    defaults = ", ".join(f"{k}={v}" for k, v in DEFAULT_UNCERTAIN.items())
+    def pct(v):  # argparse expands help with %: a percentage's sign is written %%
+        return str(v).replace("%", "%%")
+
+    defaults = ", ".join(f"{k}={pct(v)}" for k, v in DEFAULT_UNCERTAIN.items())
     p.add_argument("--depth-sd", default=None, metavar="SD",
                    help=f"standard deviation of --depth, m or a percentage like 2%% (default "
-                        f"{DEFAULT_UNCERTAIN['depth']} m)")
+                        f"{pct(DEFAULT_UNCERTAIN['depth'])} m)")
     p.add_argument("--distance-sd", default=None, metavar="SD",
                    help=f"standard deviation of --distance, m or a percentage (default "
-                        f"{DEFAULT_UNCERTAIN['distance']})")
+                        f"{pct(DEFAULT_UNCERTAIN['distance'])})")
     p.add_argument("--uncertain", action="append", default=[], metavar="NAME=SD",
                    help="one more entry of the uncertainty budget, e.g. cdom_slope=0.002, "
                         "balance=0.005 (relative, per channel) or patch=0.005 (relative, per "
@@ -204,6 +210,78 @@ def add_photo_options(p) -> None:
 
 
 # --------------------------------------------------------------------------- option values
+def check_spectra_args(args) -> None:
+    """Refuse a ``--camera``, ``--illuminant``, ``--reflectances`` or ``--profile`` that names a
+    folder or a missing file, before a library call reports it as an unknown name.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options; those absent or None are skipped.
+
+    Raises
+    ------
+    ValueError
+        Naming the option: the path is a folder, or a ``.csv``/``.txt``/``.json`` path that
+        does not exist.
+    """
+    for opt in ("camera", "illuminant", "reflectances", "profile"):
+        value = getattr(args, opt, None)
+        if value is None:
+            continue
+        p = Path(value)
+        if p.is_dir():
+            raise ValueError(f"--{opt}: {p} is a folder, not a file")
+        if (opt == "profile" or str(value).lower().endswith((".csv", ".txt", ".json"))) \
+                and not p.exists():
+            raise ValueError(f"--{opt}: file not found: {p}")
+
+
+def camera_note(camera, wavelengths=None) -> str:
+    """A note for the user when the camera's curves stop inside the wavelength grid (taken as
+    0 beyond their data: :data:`forward.spectra.TAIL_FRACTION`); '' otherwise.
+
+    Parameters
+    ----------
+    camera : str
+        ``--camera``: a colour-science name or a CSV file.
+    wavelengths : array_like, optional
+        The grid in nm (default 400-700 nm).
+
+    Returns
+    -------
+    str
+        E.g. "note: camera 'Sigma SDMerill (NPL)': its curves stop at 680 nm (at under 2 % of
+        their peak); taken as 0 from there to 700 nm\n".
+    """
+    import numpy as np
+
+    from forward.spectra import (TAIL_FRACTION, camera_sensitivities, is_path,
+                                 read_spectral_csv, wavelength_grid)
+
+    try:
+        camera_sensitivities(camera, wavelengths)  # refused: the error says it, not a note
+        if is_path(camera):
+            src, _ = read_spectral_csv(camera, name="camera")
+        else:
+            import colour
+
+            src = np.asarray(colour.MSDS_CAMERA_SENSITIVITIES[camera].wavelengths, float)
+        wl = wavelength_grid(wavelengths)
+    except (KeyError, ValueError):
+        return ""  # the library call that follows reports it
+    parts = []
+    if wl[0] < src[0]:
+        parts.append(f"from {wl[0]:g} nm to {src[0]:g} nm")
+    if wl[-1] > src[-1]:
+        parts.append(f"from {src[-1]:g} nm to {wl[-1]:g} nm")
+    if not parts:
+        return ""
+    return (f"note: camera {camera!r}: its curves cover {src[0]:g}-{src[-1]:g} nm; taken as 0 "
+            f"{' and '.join(parts)} (where they stop they are under "
+            f"{100 * TAIL_FRACTION:g} % of their peak)\n")
+
+
 def wavelengths_from_args(args):
     """The wavelength grid asked for by ``--step``, ``--wl-min`` and ``--wl-max``.
 
@@ -303,8 +381,79 @@ def read_photo(args, image):
 
 
 # --------------------------------------------------------------------------- output
-def write_file(path, text, err) -> None:
-    """Write ``text`` to the ``--out`` file and say so on ``err``.
+@contextlib.contextmanager
+def atomic_open(path, option: str = "--out"):
+    """Open a file to be written whole or not at all: the ``with`` block writes a temporary
+    file in the same folder, which replaces ``path`` when the block ends without an error (an
+    error leaves ``path`` as it was and removes the temporary file).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    option : str, optional
+        The option named in error messages (default ``--out``).
+
+    Yields
+    ------
+    text stream
+        UTF-8, newline '' (for the csv module).
+
+    Raises
+    ------
+    ValueError
+        The file cannot be written (a folder, a missing folder, no permission); the message
+        names ``option`` and the reason.
+    """
+    p = Path(path)
+    if p.is_dir():
+        raise ValueError(f"{option}: {p} is a folder; give a file name")
+    if not p.parent.is_dir():
+        raise ValueError(f"{option}: cannot write {p}: its folder does not exist")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise ValueError(f"{option}: cannot write {p}: {exc.strerror}") from None
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            yield fh
+        os.replace(tmp, p)
+    except OSError as exc:
+        raise ValueError(f"{option}: cannot write {p}: {exc.strerror}") from None
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def write_atomic(path, write, option: str = "--out") -> Path:
+    """Write a file whole or not at all (:func:`atomic_open`): ``write(fh)`` fills it.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    write : callable
+        ``write(fh)`` writes the content to the text stream ``fh`` (UTF-8, newline '').
+    option : str, optional
+        The option named in error messages (default ``--out``).
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+
+    Raises
+    ------
+    ValueError
+        The file cannot be written; the message names ``option`` and the reason.
+    """
+    with atomic_open(path, option) as fh:
+        write(fh)
+    return Path(path)
+
+
+def write_file(path, text, err, option: str = "--out") -> None:
+    """Write ``text`` to the ``--out`` file, whole or not at all, and say so on ``err``.
 
     Parameters
     ----------
@@ -314,6 +463,8 @@ def write_file(path, text, err) -> None:
         Its content.
     err : text stream
         Where ``wrote <path>`` is reported.
+    option : str, optional
+        The option named in error messages (default ``--out``).
 
     Returns
     -------
@@ -322,14 +473,9 @@ def write_file(path, text, err) -> None:
     Raises
     ------
     ValueError
-        The file cannot be written; the message names ``--out`` and the reason.
+        The file cannot be written; the message names the option and the reason.
     """
-    p = Path(path)
-    try:
-        p.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        why = "its folder does not exist" if not p.parent.is_dir() else exc.strerror
-        raise ValueError(f"--out: cannot write {p}: {why}") from None
+    p = write_atomic(path, lambda fh: fh.write(text), option)
     err.write(f"wrote {p}\n")
 
 
@@ -349,3 +495,37 @@ def json_text(obj) -> str:
     from measure.output import strict_json
 
     return json.dumps(strict_json(obj), indent=1, allow_nan=False) + "\n"
+
+
+# --------------------------------------------------------------------------- messages
+def plain(text: str) -> str:
+    """Help text without reStructuredText markup (double backticks)."""
+    return text.replace("``", "")
+
+
+def option_message(message: str, options: dict, renames: dict | None = None) -> str:
+    """A library's error message said in the command's terms: a leading ``name:`` that is the
+    destination of a command-line option becomes the option (``depth:`` -> ``--depth:``).
+
+    Parameters
+    ----------
+    message : str
+        The ``ValueError`` text, ``"<argument>: <why>"``.
+    options : dict
+        Option destination -> option string, e.g. {'depth': '--depth', 'max_iter':
+        '--max-iter'}.
+    renames : dict, optional
+        Library argument names that are not option destinations -> what to call them, e.g.
+        {'illuminance_lux': '--lux'}.
+
+    Returns
+    -------
+    str
+        The message, its leading argument renamed where one matches.
+    """
+    head, sep, rest = message.partition(":")
+    if not sep or " " in head.strip():
+        return message
+    key = head.strip()
+    new = (renames or {}).get(key) or options.get(key)
+    return f"{new}:{rest}" if new else message

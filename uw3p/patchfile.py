@@ -1,83 +1,425 @@
 """Patch-value CSV files: read by column name, written as ``uw3p simulate`` writes them.
 
-A single chart: one row per patch, a header ``patch,red,green,blue`` (columns in any order;
-other channel names are taken in file order), optionally ``red_sd,green_sd,blue_sd``: the
-standard deviation of each value (the estimator's ``sigma``). Without a header the first column
-numbers the patches and the others are the channels in order. A batch: a header
-``chart,patch,<channels>[,<channel>_sd...][,depth_m,distance_m]``; chart ids are any text.
+The conventions (the README's command-line section says the same):
 
-Every problem raises ``ValueError`` naming the file (the CLI prints it and exits 2).
+* **Encoding**: UTF-8 with or without a byte-order mark (a spreadsheet's "CSV UTF-8"), or
+  UTF-16 with a byte-order mark (a spreadsheet's "Unicode text").
+* **Separator**: comma, semicolon or tab, detected (the one that splits every line of the
+  file's start into the same number of fields, quotes respected); a spreadsheet's ``sep=;``
+  first line is honoured. Fields may be quoted (``"dive 3, north"``).
+* **Decimal comma**: in a semicolon- or tab-separated file, numbers may be written ``0,25``.
+* Lines starting with ``#`` before the header (comments), blank lines and rows of empty
+  fields are skipped; a column with an empty name (a spreadsheet's trailing separator) is
+  ignored.
+* **Columns by name**, in any order and any case (spaces and ``-`` read as ``_``): ``patch``
+  (1..n, rows in any order); the channels ``red``, ``green``, ``blue`` (or ``R``, ``G``,
+  ``B``; ``ch0``, ``ch1``, ... for a camera with other channels); optionally the standard
+  deviation of every value, ``<channel>_sd`` (``red_sd`` or ``R_sd``, ...), for every channel
+  or for none. A batch adds ``chart`` (any text) and optionally ``depth_m``, ``distance_m``
+  (one value per chart). Any other name is refused with the list of the known ones.
+* A single chart's file may have no header: then its columns are patch, red, green, blue.
+
+Every problem raises ``ValueError`` naming the file (the CLI prints it and exits 2). Reading
+is linear in the number of rows: a batch is parsed in blocks by the ``csv`` module and
+converted column by column.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
+import itertools
+import re
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["RGB", "BATCH_EXTRA", "read_patch_csv", "read_batch_csv", "patch_csv"]
+__all__ = ["RGB", "BATCH_EXTRA", "CHANNEL_ALIASES", "read_patch_csv", "read_batch_csv",
+           "patch_csv", "known_columns"]
 
 #: Channel names recognised by name, in the order the estimator expects them.
 RGB = ("red", "green", "blue")
-#: Columns of a batch file that are not channels.
+#: Other accepted spellings of the channel names (after lower-casing).
+CHANNEL_ALIASES = {"r": "red", "g": "green", "b": "blue"}
+#: Columns of a batch file that are not channels (one value per chart, m).
 BATCH_EXTRA = ("depth_m", "distance_m")
+#: Rows converted at a time when reading (bounds the memory of the text being converted).
+BLOCK_ROWS = 65536
+#: Separators detected.
+DELIMITERS = ",;\t"
+#: Bytes read to detect the encoding and the separator.
+SAMPLE_BYTES = 65536
+_CH = re.compile(r"^ch(\d+)$")
 
 
-def _rows(path, name):
+# --------------------------------------------------------------------------- the file
+def _check_path(path, name) -> Path:
     p = Path(path)
-    if not p.is_file():
+    if p.is_dir():
+        raise ValueError(f"{name}: {p} is a folder, not a CSV file")
+    if not p.exists():
         raise ValueError(f"{name}: file not found: {p}")
+    if not p.is_file():
+        raise ValueError(f"{name}: {p} is not a regular file")
+    return p
+
+
+def _encoding(head: bytes, p, name) -> str:
+    """The text encoding of a file starting with ``head``."""
+    if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        return "utf-16"
+    if b"\x00" in head:
+        raise ValueError(f"{name}: {p} is not a text CSV file (it holds binary data)")
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{name}: cannot read {p} as text: {exc}") from None
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    rows = [[c.strip() for c in r] for r in csv.reader(lines)]
-    if not rows:
-        raise ValueError(f"{name}: {p} has no rows")
-    return p, rows
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        if exc.start < len(head) - 4:  # not just a character cut by the sample's end
+            raise ValueError(f"{name}: {p} is not UTF-8 text (byte {exc.start}): save it as "
+                             "'CSV UTF-8'") from None
+    return "utf-8-sig"
 
 
-def _numbers(rows, p, name):
+def _skip(line: str, top: bool = True) -> bool:
+    """Whether a physical line carries no data: blank, only separators, or (at the top of the
+    file, before the first row) a ``#`` comment."""
+    s = line.strip()
+    return not s or (top and s.startswith("#")) or not s.strip(DELIMITERS + " ")
+
+
+def _data_lines(fh, count=None):
+    """The lines of ``fh`` that carry data (see :func:`_skip`); the cheap first-character test
+    lets nearly every data line through without a strip. ``count``: a one-element list set to
+    the physical line number of the line last read (for error messages)."""
+    top = True
+    for i, line in enumerate(fh, 1):
+        if count is not None:
+            count[0] = i
+        c = line[:1]
+        if c.isalnum() or (c and c in '"-+.') or not _skip(line, top):
+            top = False
+            yield line
+
+
+class _Table:
+    """A CSV file opened for reading: its encoding, separator, decimal mark and header."""
+
+    def __init__(self, path, name):
+        self.name = name
+        self.path = p = _check_path(path, name)
+        try:
+            with open(p, "rb") as fh:
+                head = fh.read(SAMPLE_BYTES)
+        except OSError as exc:
+            raise ValueError(f"{name}: cannot read {p}: {exc.strerror}") from None
+        self.size = p.stat().st_size
+        self.encoding = _encoding(head, p, name)
+        text = head.decode(self.encoding, errors="ignore")
+        if self.encoding == "utf-8-sig" and text.startswith("\ufeff"):
+            text = text[1:]
+        lines = [ln for ln in text.splitlines()[:-1 if len(head) == SAMPLE_BYTES else None]
+                 if not _skip(ln)]
+        if not lines:
+            raise ValueError(f"{name}: {p} has no rows")
+        self.sep_line = False
+        m = re.fullmatch(r"\s*sep=(.)\s*", lines[0])
+        if m:  # a spreadsheet's separator hint
+            self.sep_line, self.delimiter = True, m.group(1)
+            lines = lines[1:]
+            if not lines:
+                raise ValueError(f"{name}: {p} has no rows")
+        else:
+            self.delimiter = self._sniff(lines)
+        first = next(csv.reader([lines[0]], delimiter=self.delimiter))
+        # a decimal comma: only where the comma cannot be the separator
+        self.decimal_comma = self.delimiter != ","
+        self.header = None if _numeric_row(first, self.decimal_comma) else first
+        #: the first row (the header, or the first data row of a file without one)
+        self.first = first
+
+    @staticmethod
+    def _sniff(lines):
+        """The separator: the first of tab, semicolon, comma that splits every sample line
+        (quotes respected, csv module) into the same number (>= 2) of fields. Tab and
+        semicolon go first: their files may hold decimal commas, while a comma-separated file
+        has no unquoted semicolon on every line."""
+        sample = lines[:50]
+        for d in ("\t", ";", ","):
+            widths = {len(r) for r in csv.reader(sample, delimiter=d)}
+            if len(widths) == 1 and widths.pop() >= 2:
+                return d
+        # ragged whichever the separator: the one splitting the first line most (the reader
+        # then names the ragged line)
+        return max(DELIMITERS, key=lambda d: len(next(csv.reader([lines[0]], delimiter=d))))
+
+    def rows(self, progress=None):
+        """Iterate the data rows (lists of str), the header included; ``progress``: a tqdm
+        bar advanced by the bytes read."""
+        raw = open(self.path, "rb")
+        if progress is not None:
+            raw = io.BufferedReader(_Counted(raw, progress))
+        fh = io.TextIOWrapper(raw, encoding=self.encoding, newline="")
+        lines = _data_lines(fh)
+        if self.sep_line:
+            next(lines, None)
+        try:
+            yield from csv.reader(lines, delimiter=self.delimiter)
+        except csv.Error as exc:
+            raise ValueError(f"{self.name}: {self.path} is not valid CSV: {exc}") from None
+        except UnicodeDecodeError as exc:
+            what = "UTF-16" if self.encoding == "utf-16" else "UTF-8"
+            raise ValueError(f"{self.name}: {self.path} is not {what} text ({exc.reason}): "
+                             "save it as 'CSV UTF-8'") from None
+        finally:
+            fh.close()
+
+    def line_of(self, k: int) -> int:
+        """The physical line number (1-based) of data row ``k`` (0 = the first row after the
+        header, or the first row of a file without one); used for error messages only."""
+        count = [0]
+        with open(self.path, encoding=self.encoding, newline="") as fh:
+            reader = csv.reader(_data_lines(fh, count), delimiter=self.delimiter)
+            skip = int(self.sep_line) + (self.header is not None)
+            for j, _ in enumerate(reader):
+                if j == k + skip:
+                    break
+        return count[0]
+
+    def where(self, k: int) -> str:
+        return f"{self.path} line {self.line_of(k)}"
+
+
+class _Counted(io.RawIOBase):
+    """A binary file that advances a progress bar by the bytes read."""
+
+    def __init__(self, raw, bar):
+        self.raw, self.bar = raw, bar
+
+    def readable(self):
+        return True
+
+    def readinto(self, b):
+        n = self.raw.readinto(b)
+        self.bar.update(n or 0)
+        return n
+
+    def close(self):
+        self.raw.close()
+        super().close()
+
+
+def _float(text: str, decimal_comma: bool) -> float:
+    return float(text.replace(",", ".") if decimal_comma else text)
+
+
+def _numeric_row(row, decimal_comma) -> bool:
     try:
-        arr = np.array([[float(x) for x in r] for r in rows], dtype=float)
-    except ValueError as exc:
-        raise ValueError(f"{name}: non-numeric value in {p}: {exc}") from None
-    if arr.ndim != 2:
-        raise ValueError(f"{name}: every row of {p} needs the same number of values")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: {p} contains NaN or infinite values")
-    return arr
+        [_float(x, decimal_comma) for x in row if x.strip()]
+    except ValueError:
+        return False
+    return any(x.strip() for x in row)
 
 
-def _channels(header, skip):
-    """Indices and names of the channel columns -- red, green, blue by name when all three are
-    there, else every column not in ``skip`` and not ending in ``_sd``, in file order -- and the
-    indices of their ``<name>_sd`` columns (None when the file has none)."""
-    low = [h.lower() for h in header]
-    if all(c in low for c in RGB):
-        names = list(RGB)
+# --------------------------------------------------------------------------- column names
+def _norm(name: str) -> str:
+    return "_".join(name.strip().lower().replace("-", " ").split())
+
+
+def _canonical(name: str) -> str:
+    """A column name in its canonical spelling ('R_sd' -> 'red_sd', 'G' -> 'green')."""
+    n = _norm(name)
+    base, sd = (n[:-3], "_sd") if n.endswith("_sd") else (n, "")
+    return CHANNEL_ALIASES.get(base, base) + sd
+
+
+def known_columns(batch: bool) -> str:
+    """The known column names, for error messages and the documentation."""
+    extra = ", chart, depth_m, distance_m" if batch else ""
+    return ("patch, red, green, blue (or R, G, B), red_sd, green_sd, blue_sd (or R_sd, G_sd, "
+            f"B_sd); ch0, ch1, ... and ch0_sd, ... for a camera with other channels{extra}")
+
+
+def _columns(table: _Table, batch: bool):
+    """Map the header to column indices: {'patch': i, 'chart': i, 'depth_m': i, ...},
+    the channel indices and names in the estimator's order, and the sd indices (or None)."""
+    name, p = table.name, table.path
+    known = {"patch", *RGB, *(f"{c}_sd" for c in RGB)} | (
+        {"chart", *BATCH_EXTRA} if batch else set())
+    where, unknown = {}, []
+    for i, h in enumerate(table.header):
+        if not h.strip():
+            continue  # an unnamed column (a trailing separator): ignored
+        c = _canonical(h)
+        base = c[:-3] if c.endswith("_sd") else c
+        if c not in known and not _CH.match(base):
+            unknown.append(h)
+            continue
+        if c in where:
+            raise ValueError(f"{name}: {p}: column {c!r} is given twice (columns "
+                             f"{table.header[where[c]]!r} and {h!r})")
+        where[c] = i
+    if unknown:
+        hint = (" (a batch file: use --batch)" if not batch and any(
+            _norm(u) == "chart" for u in unknown) else "")
+        raise ValueError(f"{name}: {p}: unknown column{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(repr(u) for u in unknown)}{hint}; known columns: "
+                         f"{known_columns(batch)}")
+    for need in ("patch",) + (("chart",) if batch else ()):
+        if need not in where:
+            raise ValueError(f"{name}: {p}: no {need!r} column (header: "
+                             f"{', '.join(table.header)}); known columns: {known_columns(batch)}")
+    named = [c for c in RGB if c in where]
+    numbered = sorted((int(_CH.match(c).group(1)), c) for c in where if _CH.match(c))
+    if named and numbered:
+        raise ValueError(f"{name}: {p}: give the channels as red, green, blue or as ch0, ch1, "
+                         "..., not both")
+    if numbered:
+        channels = [c for _, c in numbered]
+        if [k for k, _ in numbered] != list(range(len(numbered))):
+            raise ValueError(f"{name}: {p}: channel columns must be ch0, ch1, ... without gaps, "
+                             f"got {', '.join(channels)}")
     else:
-        names = [h for h in low if h not in skip and not h.endswith("_sd")]
-    idx = [low.index(c) for c in names]
-    sd = [f"{c}_sd" for c in names]
-    if not any(c in low for c in sd):
-        return idx, names, None
-    missing = [c for c in sd if c not in low]
-    if missing:
-        raise ValueError(f"columns {missing} are missing: give a standard deviation for every "
-                         "channel or for none")
-    return idx, names, [low.index(c) for c in sd]
+        channels = list(RGB)
+        missing = [c for c in RGB if c not in where]
+        if missing:
+            raise ValueError(f"{name}: {p}: no {' or '.join(missing)} column (header: "
+                             f"{', '.join(table.header)}); known columns: {known_columns(batch)}")
+    sds = [f"{c}_sd" for c in channels]
+    stray = [c for c in where if c.endswith("_sd") and c not in sds]
+    if stray:
+        raise ValueError(f"{name}: {p}: {', '.join(stray)} without its channel")
+    have = [c for c in sds if c in where]
+    if have and len(have) != len(sds):
+        missing = [c for c in sds if c not in where]
+        raise ValueError(f"{name}: {p}: columns {missing} are missing: give a standard deviation "
+                         "for every channel or for none")
+    return where, [where[c] for c in channels], channels, (
+        [where[c] for c in sds] if have else None)
 
 
-def _patch_order(patch, p, name, where=""):
-    n = patch.size
-    if not np.array_equal(np.sort(patch), np.arange(1, n + 1)):
-        raise ValueError(f"{name}: {p}{where}: the patch column must number the patches 1..{n} "
-                         "once each")
-    return np.argsort(patch)
+# --------------------------------------------------------------------------- reading
+def _read(table: _Table, columns: dict, id_col, progress=None):
+    """Read every data row: (ids, codes, values) -- the chart ids in order of first appearance
+    (or None), the chart index of every row (or None), and the requested numeric columns
+    ({key: (R,) float array}); each block of rows converted column by column."""
+    rows = table.rows(progress)
+    try:
+        return _read_rows(table, rows, columns, id_col)
+    finally:
+        rows.close()
+
+
+def _read_rows(table, rows, columns, id_col):
+    name = table.name
+    if table.header is not None:
+        next(rows)
+    width = len(table.header) if table.header is not None else None
+    ids, codes = {}, []
+    chunks = {k: [] for k in columns}
+    done = 0
+    while True:
+        block = list(itertools.islice(rows, BLOCK_ROWS))
+        if not block:
+            break
+        if width is None:
+            width = len(block[0])
+        lens = set(map(len, block))
+        if lens != {width}:
+            k = next(i for i, r in enumerate(block) if len(r) != width)
+            raise ValueError(f"{name}: {table.where(done + k)} has {len(block[k])} fields, "
+                             f"{'the header' if table.header else 'the first row'} {width}")
+        cols = list(zip(*block))
+        if id_col is not None:
+            get = ids.setdefault
+            codes.append(np.fromiter((get(c, len(ids)) for c in map(str.strip, cols[id_col])),
+                                     np.int64, len(block)))
+        for key, j in columns.items():
+            try:
+                if table.decimal_comma:
+                    arr = np.fromiter((float(x.replace(",", ".")) for x in cols[j]), float,
+                                      len(block))
+                else:
+                    arr = np.fromiter(map(float, cols[j]), float, len(block))
+            except ValueError:
+                k = next(i for i, x in enumerate(cols[j]) if not _is_float(x, table.decimal_comma))
+                col = table.header[j] if table.header else f"column {j + 1}"
+                value = cols[j][k]
+                raise ValueError(f"{name}: {table.where(done + k)}: {value!r} in {col} is not a "
+                                 f"number" + ("" if value.strip() else " (an empty cell)")
+                                 ) from None
+            chunks[key].append(arr)
+        done += len(block)
+    if done == 0:
+        raise ValueError(f"{name}: {table.path} has a header but no values")
+    values = {k: np.concatenate(v) for k, v in chunks.items()}
+    return (list(ids) if id_col is not None else None,
+            np.concatenate(codes) if id_col is not None else None, values)
+
+
+def _is_float(x, decimal_comma) -> bool:
+    try:
+        _float(x, decimal_comma)
+    except ValueError:
+        return False
+    return True
+
+
+def _assemble(table, charts, codes, values, channels, sds, extras, batch):
+    """Put the rows in place: M (N, m, n), sigma or None, and the per-chart extras; every
+    check names the chart (its id, in a batch) and the line."""
+    name, p = table.name, table.path
+    N = len(charts)
+
+    def label(j):
+        return f"chart {charts[j]!r}" if batch else "the chart"
+
+    def at(k):
+        return table.where(k) + (f" (chart {charts[codes[k]]!r})" if batch else "")
+
+    vals = np.column_stack([values[c] for c in channels] + ([values[c] for c in sds] if sds else [])
+                           + [values[k] for k in extras])
+    bad = ~np.all(np.isfinite(vals), axis=1)
+    if bad.any():
+        raise ValueError(f"{name}: {at(int(np.flatnonzero(bad)[0]))}: NaN or infinite value")
+    bad = np.any(vals < 0, axis=1)
+    if bad.any():
+        raise ValueError(f"{name}: {at(int(np.flatnonzero(bad)[0]))}: negative value; patch "
+                         "values, their sds, depths and distances are >= 0 (raw values with the "
+                         "black level subtracted, or model units)")
+    counts = np.bincount(codes, minlength=N)
+    n = int(counts[0])
+    if np.any(counts != n):
+        j = int(np.flatnonzero(counts != n)[0])
+        raise ValueError(f"{name}: {p}: {label(j)} has {counts[j]} patches, {label(0)} has {n}")
+    patch = values["patch"]
+    bad = (patch != np.round(patch)) | (patch < 1) | (patch > n)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{name}: {at(k)}: patch {patch[k]:g}; "
+                         f"the patch column must number the patches 1..{n} once each")
+    slot = codes * n + (patch.astype(np.int64) - 1)
+    seen = np.bincount(slot, minlength=N * n)
+    if np.any(seen != 1):
+        s = int(np.flatnonzero(seen != 1)[0])
+        raise ValueError(f"{name}: {p}{' (' + label(s // n) + ')' if batch else ''}: patch {s % n + 1} is "
+                         f"{'missing' if seen[s] == 0 else 'given more than once'}; the patch "
+                         f"column must number the patches 1..{n} once each")
+    m = len(channels)
+    placed = np.empty((N * n, vals.shape[1]))
+    placed[slot] = vals
+    placed = placed.reshape(N, n, -1)
+    M = np.ascontiguousarray(placed[:, :, :m].transpose(0, 2, 1))
+    sigma = None if not sds else np.ascontiguousarray(placed[:, :, m:2 * m].transpose(0, 2, 1))
+    out = {}
+    for j, k in enumerate(extras):
+        per = placed[:, :, vals.shape[1] - len(extras) + j]
+        varies = np.ptp(per, axis=1) > 0
+        if varies.any():
+            c = int(np.flatnonzero(varies)[0])
+            raise ValueError(f"{name}: {p}: {label(c)} has more than one {k} (one value per "
+                             "chart)")
+        out[k] = per[:, 0].copy()
+    return M, sigma, out
 
 
 def read_patch_csv(path, *, name: str = "measurements"):
@@ -101,54 +443,48 @@ def read_patch_csv(path, *, name: str = "measurements"):
     Raises
     ------
     ValueError
-        The file is missing, unreadable, not numeric, ragged, or does not number its patches
-        1..n once each; the message starts with ``name``.
+        The file is missing, a folder, not text, has an unknown column, is not numeric,
+        ragged, holds NaN or negative values, or does not number its patches 1..n once each;
+        the message starts with ``name``.
     """
-    p, rows = _rows(path, name)
-    header = None
-    try:
-        [float(x) for x in rows[0]]
-    except ValueError:
-        header, rows = rows[0], rows[1:]
-    if not rows:
-        raise ValueError(f"{name}: {p} has a header but no values")
-    if len({len(r) for r in rows} | ({len(header)} if header else set())) != 1:
-        raise ValueError(f"{name}: every row of {p} needs "
-                         f"{len(header) if header else len(rows[0])} values")
-    arr = _numbers(rows, p, name)
-    sd_idx = None
-    if header is None:
-        patch_col, ch_idx = 0, list(range(1, arr.shape[1]))
+    table = _Table(path, name)
+    if table.header is None:
+        width = len(table.first)
+        if width < 2:
+            raise ValueError(f"{name}: {table.path} needs a patch column and one column per "
+                             "channel")
+        channels = list(RGB) if width == 4 else [f"ch{j}" for j in range(width - 1)]
+        cols = {"patch": 0, **{c: j + 1 for j, c in enumerate(channels)}}
+        sds = None
     else:
-        low = [h.lower() for h in header]
-        if "patch" not in low:
-            raise ValueError(f"{name}: {p} has a header without a 'patch' column")
-        patch_col = low.index("patch")
-        try:
-            ch_idx, _, sd_idx = _channels(header, {"patch"})
-        except ValueError as exc:
-            raise ValueError(f"{name}: {p}: {exc}") from None
-    if not ch_idx:
-        raise ValueError(f"{name}: {p} needs a patch column and one column per channel")
-    order = _patch_order(arr[:, patch_col], p, name)
-    sigma = None if sd_idx is None else arr[order][:, sd_idx].T
-    return arr[order][:, ch_idx].T, sigma
+        where, ch_idx, channels, sd_idx = _columns(table, batch=False)
+        cols = {"patch": where["patch"], **dict(zip(channels, ch_idx))}
+        sds = None if sd_idx is None else [f"{c}_sd" for c in channels]
+        if sds:
+            cols.update(dict(zip(sds, sd_idx)))
+    _, _, values = _read(table, cols, None)
+    codes = np.zeros(values["patch"].size, dtype=np.int64)
+    M, sigma, _ = _assemble(table, ["chart"], codes, values, channels, sds, (), batch=False)
+    return M[0], None if sigma is None else sigma[0]
 
 
-def read_batch_csv(path, *, name: str = "--batch"):
+def read_batch_csv(path, *, name: str = "--batch", progress=None):
     """Read a batch of charts from one CSV file (see the module docstring).
 
     Parameters
     ----------
     path : str or pathlib.Path
-        The CSV file, header ``chart,patch,<channels>[,<channel>_sd...][,depth_m,distance_m]``.
+        The CSV file, columns ``chart``, ``patch``, the channels, optionally their ``_sd``
+        columns, ``depth_m`` and ``distance_m``, by name in any order.
     name : str, optional
         What error messages call the file (the CLI argument), default ``"--batch"``.
+    progress : text stream, optional
+        Where a progress bar of the bytes read is drawn (tqdm); default none.
 
     Returns
     -------
     charts : list of str
-        Chart ids, in order of first appearance.
+        Chart ids, in order of first appearance (stripped of surrounding spaces).
     M : numpy.ndarray
         Patch values, shape (N charts, m channels, n patches), in patch order.
     sigma : numpy.ndarray or None
@@ -163,50 +499,36 @@ def read_batch_csv(path, *, name: str = "--batch"):
     ValueError
         A malformed file (see :func:`read_patch_csv`), charts with different numbers of
         patches, or a chart with more than one depth or distance; the message starts with
-        ``name``.
+        ``name`` and names the chart (its id) and the line.
     """
-    p, rows = _rows(path, name)
-    header = rows[0]
-    low = [h.lower() for h in header]
-    if low[:2] != ["chart", "patch"]:
-        raise ValueError(f"{name}: {p} must start with the columns "
-                         "chart,patch,<channels>[,depth_m,distance_m]")
-    body = rows[1:]
-    if not body:
-        raise ValueError(f"{name}: {p} has a header but no values")
-    if any(len(r) != len(header) for r in body):
-        raise ValueError(f"{name}: every row of {p} needs {len(header)} values")
-    ids = [r[0] for r in body]
-    arr = _numbers([r[1:] for r in body], p, name)  # patch, channels, extras
-    cols = header[1:]
+    table = _Table(path, name)
+    if table.header is None:
+        raise ValueError(f"{name}: {table.path} needs a header naming its columns; known "
+                         f"columns: {known_columns(True)}")
+    where, ch_idx, channels, sd_idx = _columns(table, batch=True)
+    cols = {"patch": where["patch"], **dict(zip(channels, ch_idx))}
+    sds = None if sd_idx is None else [f"{c}_sd" for c in channels]
+    if sds:
+        cols.update(dict(zip(sds, sd_idx)))
+    extras = tuple(k for k in BATCH_EXTRA if k in where)
+    cols.update({k: where[k] for k in extras})
+    bar = None
+    if progress is not None:
+        from tqdm import tqdm
+
+        bar = tqdm(total=table.size, file=progress, desc="reading", unit="B", unit_scale=True,
+                   leave=False)
     try:
-        ch_idx, _, sd_idx = _channels(cols, {"patch", *BATCH_EXTRA})
-    except ValueError as exc:
-        raise ValueError(f"{name}: {p}: {exc}") from None
-    charts = list(dict.fromkeys(ids))
-    ids = np.array(ids, dtype=object)
-    n = int(np.sum(ids == charts[0]))
-    M = np.empty((len(charts), len(ch_idx), n))
-    sigma = None if sd_idx is None else np.empty_like(M)
-    extra = {k: np.full(len(charts), np.nan) for k in BATCH_EXTRA}
-    for j, c in enumerate(charts):
-        sel = arr[ids == c]
-        if sel.shape[0] != n:
-            raise ValueError(f"{name}: chart {c!r} has {sel.shape[0]} patches, chart "
-                             f"{charts[0]!r} has {n}")
-        sel = sel[_patch_order(sel[:, 0], p, name, f" (chart {c!r})")]
-        M[j] = sel[:, ch_idx].T
-        if sigma is not None:
-            sigma[j] = sel[:, sd_idx].T
-        for k in BATCH_EXTRA:
-            if k in cols:
-                vals = sel[:, cols.index(k)]
-                if np.ptp(vals) > 0:
-                    raise ValueError(f"{name}: chart {c!r} has more than one {k} in {p}")
-                extra[k][j] = vals[0]
-    return charts, M, sigma, extra["depth_m"], extra["distance_m"]
+        charts, codes, values = _read(table, cols, where["chart"], bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    M, sigma, ex = _assemble(table, charts, codes, values, channels, sds, extras, batch=True)
+    nan = np.full(len(charts), np.nan)
+    return charts, M, sigma, ex.get("depth_m", nan), ex.get("distance_m", nan.copy())
 
 
+# --------------------------------------------------------------------------- writing
 def patch_csv(rgb, sigma=None) -> str:
     """Patch values as CSV text, the format :func:`read_patch_csv` reads.
 
