@@ -203,6 +203,8 @@ def worlds() -> list[World]:
         World("cdom_slope_0.019", "ends", "S_CDOM = 0.019 nm^-1", {"cdom_slope": 0.019}),
         World("yellowing_0.03", "ends", "aged chart, yellowing 0.03", {"yellowing": 0.03}),
         World("balance_1%", "ends", f"channel gains {gains}", {"camera_gains": gains}),
+        World("path_split", "ends", "daylight attenuated by K_d on its way down (the "
+              "renderer's own split path, b_bp/b_p 0.0183)", {"path": "split"}),
         World("depth_told_+0.3m", "geometry", "depth told +0.3 m; budget depth sd 0.3 m",
               uncertain={**DEFAULT_UNCERTAIN, "depth": 0.3}, depth_bias=0.3),
         World("distance_told_x1.10", "geometry", "distance told x 1.10; budget distance sd 10 %",

@@ -21,7 +21,7 @@ from .spectra import (
     quadrature_weights,
     wavelength_grid,
 )
-from .water import PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
+from .water import DIFFUSE_TERMS, PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
 
 __all__ = [
     "PATH_MODELS",
@@ -106,7 +106,7 @@ def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *
         Depth of the chart below the surface, m (default 10).
     distance : float or array_like, shape S
         Camera-to-chart distance, m (default 5).
-    path_model : {'beam', 'absorption'}, optional
+    path_model : {'beam', 'absorption', 'split'}, optional
         Replaces ``water.path_model``.
     water : Water, optional
         The water model (default: the paper's).
@@ -134,11 +134,12 @@ def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *
     only").
     """
     wl = wavelength_grid(wavelengths)
-    L = path_length(depth, distance)
+    path_length(depth, distance)  # checks both lengths
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
     terms = water.on_grid(wl, basis=basis, weights=weights)
-    coef = terms.coefficient(validate.nonnegative("chl", chl), validate.nonnegative("cdom", cdom))
-    return np.exp(-L[..., None] * coef)
+    tau, _ = terms.optical_depth(validate.nonnegative("chl", chl),
+                                 validate.nonnegative("cdom", cdom), depth, distance)
+    return np.exp(-tau)
 
 
 def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *,
@@ -152,8 +153,8 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
         rho_b = i(lambda) exp(-c depth) (b_b / c) (1 - exp(-c distance)),
 
     the classical veiling-light form (b_b / c is the asymptote of an infinitely long ray).
-    Uses the beam attenuation c (eq 4) and b_b of :meth:`forward.WaterTerms.backscattering`,
-    whatever the path model.
+    Uses the beam attenuation c (eq 4) and b_b of :meth:`forward.WaterTerms.backscattering`
+    (for the 'split' path model the way down is attenuated by K_d instead of c).
 
     Parameters
     ----------
@@ -171,7 +172,7 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
         The surface illuminant, as for :func:`forward.illuminant_spd` (default D65; scaled to
         maximum 1).
     water : Water, optional
-        The water model (default: the paper's); its path model is ignored here.
+        The water model (default: the paper's); of its path model only 'split' matters here.
     basis : array_like, shape (q,) or (q, z), or str or os.PathLike, optional
         The phytoplankton basis T of eq 9 (default: the water's table).
     weights : array_like, shape (z,), optional
@@ -199,11 +200,15 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
     i = illuminant_spd(illuminant, wl)
     d = length("depth", depth)
     r = length("distance", distance)
-    terms = resolve_water(water, cdom_slope=cdom_slope).on_grid(wl, basis=basis, weights=weights)
+    water = resolve_water(water, cdom_slope=cdom_slope)
+    terms = water.on_grid(wl, basis=basis, weights=weights)
     chl, cdom = validate.nonnegative("chl", chl), validate.nonnegative("cdom", cdom)
     c = terms.beam_coefficient(chl, cdom)
     bb = terms.backscattering(chl)
-    return i * np.exp(-d[..., None] * c) * (bb / c) * -np.expm1(-r[..., None] * c)
+    # the daylight's way down: c, or K_d for the 'split' path model
+    down = (terms.path_coefficient(chl, cdom, terms=DIFFUSE_TERMS)[0]
+            if water.path_model == "split" else c)
+    return i * np.exp(-d[..., None] * down) * (bb / c) * -np.expm1(-r[..., None] * c)
 
 
 @dataclass(frozen=True, eq=False)

@@ -178,9 +178,9 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
         Every constant and table of eqs 4-12 and the path model (default: the paper's).
     cdom_slope : float, optional
         Shortcut that replaces that field of ``water``: eq 6's slope, nm^-1.
-    path_model : {'beam', 'absorption'}, optional
-        Shortcut that replaces that field of ``water``: 'beam' (k = exp(-L c), default) or
-        'absorption' (the literal eq 13).
+    path_model : {'beam', 'absorption', 'split'}, optional
+        Shortcut that replaces that field of ``water``: 'beam' (k = exp(-L c), default),
+        'absorption' (the literal eq 13) or 'split' (K_d down, c along the view).
     backscatter : bool, optional
         Include the veiling light of eq 2 (default True).
     sensor : forward.SensorSettings, optional
@@ -215,7 +215,8 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
     wl = setup.wavelengths
     terms = water.on_grid(wl, basis=basis, weights=weights)
-    k = np.exp(-path_length(depth, distance) * terms.coefficient(chl, cdom))
+    path_length(depth, distance)  # checks both lengths
+    k = np.exp(-terms.optical_depth(chl, cdom, depth, distance)[0])
     c = terms.beam_coefficient(chl, cdom)
     if backscatter:
         rho_b = veiling_light(wl, chl, cdom, depth, distance, illuminant=setup.illuminant,

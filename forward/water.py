@@ -60,6 +60,9 @@ __all__ = [
     "PAPER_WATER",
     "PATH_MODELS",
     "PATH_TERMS",
+    "PATH_LEGS",
+    "BEAM_TERMS",
+    "DIFFUSE_TERMS",
     "ABSORPTION_TERMS",
     "PARTICLE_TERMS",
     "SCATTERING_TERMS",
@@ -90,7 +93,7 @@ __all__ = [
 
 #: Path models for the attenuation k: 'beam' uses c = a + b (eqs 3, 4), 'absorption' the
 #: literal eq 13 / 14 (absorption a only).
-PATH_MODELS = ("beam", "absorption")
+PATH_MODELS = ("beam", "absorption", "split")
 #: CDOM spectral slope of eq 6 (nm^-1); the paper uses 0.014 (range 0.014-0.019).
 CDOM_SLOPE = 0.014
 #: NAP spectral slope of eq 7 (nm^-1); the paper uses 0.011 (range 0.006-0.014).
@@ -205,9 +208,11 @@ class Water:
 
     Parameters
     ----------
-    path_model : {'beam', 'absorption'}
-        'beam' (k = exp(-L c), c = a + b, eqs 3-4; default) or 'absorption' (k = exp(-L a),
-        eq 13 as printed). DECISIONS.md.
+    path_model : {'beam', 'absorption', 'split'}
+        'beam' (k = exp(-L c), c = a + b, eqs 3-4; default), 'absorption' (k = exp(-L a),
+        eq 13 as printed) or 'split' (k = exp(-depth K_d - distance c): the daylight's way
+        down with the diffuse attenuation K_d = (a + b_b) / mu_d, the camera's horizontal ray
+        with the beam attenuation c). DECISIONS.md.
     reference_nm : float
         lambda_0 of eqs 6-8, 10 and 17, nm (440).
     cdom_slope : float
@@ -242,6 +247,10 @@ class Water:
     particle_backscatter_fraction : float
         b_bp / b_p for the veiling light (1: eq 12 *is* a backscattering model in its source,
         Brewin et al. 2012; DECISIONS.md).
+    downwelling_cosine : float
+        mu_d, the mean cosine of the downwelling light of the 'split' path model, dimensionless
+        (0.75: K_d ~ (a + b_b) / mu_d, Gordon 1989; mu_d ~ 0.7-0.9 in the upper ocean, Kirk
+        2011, ch. 6).
     pure_water_absorption_table : tuple (wavelengths, values) or str or os.PathLike
         (wavelength nm, a_w m^-1) of eq 5 (Smith & Baker 1981, ref. [16],
         ``data/pure_water_absorption_smith_baker_1981.csv``), linearly interpolated; or a CSV
@@ -287,11 +296,12 @@ class Water:
     water_scattering_exponent: float = 4.32
     water_backscatter_fraction: float = 0.5
     particle_backscatter_fraction: float = 1.0
+    downwelling_cosine: float = 0.75
     pure_water_absorption_table: tuple = field(default_factory=_default_pure_water, repr=False)
     phytoplankton_basis_table: tuple = field(default_factory=_default_basis, repr=False)
 
     _POSITIVE = ("reference_nm", "phyto_scale", "phyto_exponent", "nap_exponent",
-                 "scattering_reference_nm")
+                 "scattering_reference_nm", "downwelling_cosine")
     _NONNEGATIVE = ("nap_scale", "c_12", "s_12", "b_p12_star", "b_p3_star", "b_k",
                     "water_scattering", "water_backscatter_fraction",
                     "particle_backscatter_fraction")
@@ -801,13 +811,59 @@ class WaterTerms:
         c = _sum_pieces(pieces, lead, q)
         derivatives = {}
         for name in wrt:
-            if name == "w":
-                derivatives[name] = np.broadcast_to(self.T, lead + self.T.shape)
+            if name == "w":  # d/dw of the phytoplankton term: T (times a leg's factor)
+                T = sum(by_name["w"]) if by_name.get("w") else self.T
+                derivatives[name] = np.broadcast_to(T, lead + self.T.shape)
                 continue
             found = [piece for d in by_name.get(name, []) for piece in d]
             derivatives[name] = _sum_pieces(found, lead, q) if found else \
                 np.zeros(lead + (q,))
         return c, derivatives
+
+    def optical_depth(self, chl, cdom, depth, distance, *, w=None, values=None, wrt=(),
+                      floor: float = 0.0):
+        """tau of k = exp(-tau) along the light's path, and its derivatives: the one place
+        where the path model's legs are put together.
+
+        Parameters
+        ----------
+        chl, cdom, w, values, floor :
+            As :meth:`path_coefficient`.
+        depth, distance : array_like, shape S
+            The chart's depth and the camera-to-chart distance, m.
+        wrt : sequence of str
+            Names of :meth:`path_coefficient`, and 'depth' and 'distance'.
+
+        Returns
+        -------
+        tau : ndarray, shape S + (q,)
+            (depth + distance) c for the one-leg path models ('beam', 'absorption'), depth K_d +
+            distance c for 'split' (dimensionless).
+        derivatives : dict
+            name -> d tau / d name, shape S + (q,) (S + (q, z) for 'w').
+
+        References
+        ----------
+        Blasinski & Farrell, eqs 3, 4, 13, 14; H. R. Gordon, "Can the Lambert-Beer law be
+        applied to the diffuse attenuation coefficient of ocean water?", Limnol. Oceanogr. 34
+        (1989) 1389-1409 (K_d ~ (a + b_b) / mu_d).
+        """
+        depth = np.asarray(depth, float)[..., None]
+        distance = np.asarray(distance, float)[..., None]
+        spectral = tuple(n for n in wrt if n not in ("depth", "distance"))
+        tau, out = 0.0, {}
+        for terms, leg in PATH_LEGS[self.water.path_model]:
+            coef, dcoef = self.path_coefficient(chl, cdom, w=w, values=values, wrt=spectral,
+                                                floor=floor, terms=terms)
+            length = depth + distance if leg == "path" else depth if leg == "depth" else distance
+            tau = tau + length * coef
+            for name, d in dcoef.items():
+                term = (length[..., None] if name == "w" else length) * d
+                out[name] = out[name] + term if name in out else term
+            for geo in ("depth", "distance"):
+                if geo in wrt and (leg == "path" or leg == geo):
+                    out[geo] = out[geo] + coef if geo in out else coef
+        return tau, out
 
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """The path coefficient (c for 'beam', a for 'absorption'), m^-1, shape S + (q,).
@@ -1173,7 +1229,39 @@ def _sum_pieces(pieces, lead, q):
 ABSORPTION_TERMS = (_water_absorption_term, _cdom_term, _phytoplankton_term, _nap_term)
 PARTICLE_TERMS = (_background_term, _particle_term)
 SCATTERING_TERMS = (_water_scattering_term,) + PARTICLE_TERMS
-PATH_TERMS = {"beam": ABSORPTION_TERMS + SCATTERING_TERMS, "absorption": ABSORPTION_TERMS}
+BEAM_TERMS = ABSORPTION_TERMS + SCATTERING_TERMS
+
+
+def _scaled(term, factor):
+    """``term`` with every weight (value and derivatives) times ``factor(x)``."""
+    def scaled(x, wrt):
+        f = factor(x)
+        value, parts = term(x, wrt)
+        parts = {k: (v * f if k == "w" else [(w * f, sh) for w, sh in v])
+                 for k, v in parts.items()}
+        return [(w * f, sh) for w, sh in value], parts
+    scaled.__name__ = f"{term.__name__}_scaled"
+    return scaled
+
+
+def _per_mu(x):
+    return 1.0 / x.terms.water.downwelling_cosine
+
+
+#: K_d = (a + b_b) / mu_d (Gordon 1989): the absorption terms and the backscattering of pure
+#: water and particles (fractions ``water_backscatter_fraction``, ``particle_backscatter_
+#: fraction``), over the downwelling light's mean cosine: the 'split' path model's way down.
+DIFFUSE_TERMS = tuple(_scaled(t, _per_mu) for t in ABSORPTION_TERMS) + (
+    _scaled(_water_scattering_term,
+            lambda x: x.terms.water.water_backscatter_fraction / x.terms.water.downwelling_cosine),
+) + tuple(_scaled(t, lambda x: (x.terms.water.particle_backscatter_fraction
+                                / x.terms.water.downwelling_cosine)) for t in PARTICLE_TERMS)
+#: The path model's coefficient (one leg, length depth + distance) or, for 'split', the
+#: horizontal leg's (distance; :data:`DIFFUSE_TERMS` for the depth).
+PATH_TERMS = {"beam": BEAM_TERMS, "absorption": ABSORPTION_TERMS, "split": BEAM_TERMS}
+#: Each path model's legs: (terms, the length they act over).
+PATH_LEGS = {"beam": ((BEAM_TERMS, "path"),), "absorption": ((ABSORPTION_TERMS, "path"),),
+             "split": ((DIFFUSE_TERMS, "depth"), (BEAM_TERMS, "distance"))}
 
 
 # =========================================================================== public functions

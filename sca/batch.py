@@ -18,6 +18,7 @@ not converge within ``max_iter`` is flagged (``converged`` False, ``status`` say
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -37,6 +38,7 @@ from .assess import (
     profile_delta,
 )
 from .budget import resolve_budget, variance_shares
+from .pathmodels import candidates, combine_batch
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
@@ -168,6 +170,12 @@ class BatchEstimate:
     #: each source's share of the variance of C and a_CDOM: {'chl': {'sd': (N,), 'shares':
     #: {source: (N,)}}, 'cdom': ...} (:func:`sca.budget.variance_shares`); {} without a budget
     budget: dict = field(default_factory=dict)
+    #: (N,) the path model of each chart's estimate (:mod:`sca.pathmodels`)
+    path_model: np.ndarray | None = None
+    #: N tuples: the path models the data support (more than one: the intervals span them)
+    path_models: list = field(default_factory=list)
+    #: path model -> (N,) objective of each chart under it
+    path_objective: dict = field(default_factory=dict)
 
     def __len__(self):
         return self.chl.size
@@ -230,7 +238,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    cdom_slope: float | None = None, fix=None, free=(), intervals: bool = True,
                    max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE, gain: str = "known",
-                   uncertain=None) -> BatchEstimate:
+                   uncertain=None, path_models=None) -> BatchEstimate:
     """Estimate the water of a stack of charts ``rgb_stack`` (N, m, n).
 
     Parameters
@@ -271,6 +279,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         Gaussian priors ('depth', 'distance', Water constants, 'balance') and the per-patch
         systematic term ('patch'). Default (None): :data:`sca.budget.DEFAULT_UNCERTAIN`;
         ``{}``: the paper's exact model. Applied only with ``sigma``.
+    path_models : sequence of str, optional
+        The path models fitted (:mod:`sca.pathmodels`): each chart's is chosen by likelihood
+        ratio, and where several fit about equally well its intervals span them (flag
+        ``path-model-span``). Default: all of :data:`forward.water.PATH_MODELS` where a budget
+        applies, else only the water's.
 
     Returns
     -------
@@ -287,8 +300,28 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     S. H. Moolgavkar, Applied Statistics 37 (1988) 87-94 (profile-likelihood intervals).
     """
     t0 = time.perf_counter()
-    setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
+    exact = resolve_budget(uncertain, depth=1.0, distance=1.0, water=water).exact
+    models = candidates(path_models, water, sigma is not None and not exact)
+    kw = dict(depth=depth, distance=distance, sigma=sigma, saturation=saturation, camera=camera,
+              illuminant=illuminant, reflectances=reflectances, wavelengths=wavelengths,
+              basis=basis, fix=fix, free=free, intervals=intervals, max_iter=max_iter, tol=tol,
+              setup=setup, engine=engine, gain=gain, uncertain=uncertain)
+    if len(models) == 1:
+        return _estimate_batch(rgb_stack, water=water, **kw)
+    results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
+                                  **kw) for m in models}
+    out = combine_batch(results)
+    out.elapsed_s = time.perf_counter() - t0
+    return out
+
+
+def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, illuminant,
+                    reflectances, wavelengths, basis, water, fix, free, intervals, max_iter, tol,
+                    setup, engine, gain, uncertain) -> BatchEstimate:
+    """:func:`estimate_batch` under one path model (``water``'s)."""
+    t0 = time.perf_counter()
+    setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     validate.real("rgb_stack", rgb_stack)
     try:
         M = np.asarray(rgb_stack, dtype=float)
@@ -373,6 +406,8 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         status=np.array([STATUS[c] for c in code]), status_code=code,
         elapsed_s=time.perf_counter() - t0, values=values, intervals=ints,
         uncertain={} if budget is None else dict(budget.sd), budget=shares,
+        path_model=np.full(N, water.path_model), path_models=[(water.path_model,)] * N,
+        path_objective={water.path_model: objective},
     )
 
 

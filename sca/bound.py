@@ -265,9 +265,9 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     else:
         cdom_sd, corr, sel = np.zeros(N), np.full(N, np.nan), [0]
     # the attenuation's delta-method variance from the (C[, a_CDOM]) block
-    dk = (-(depth + distance)[:, None, None] * pred.attenuation[:, :, None]) * np.stack(
-        [mdl.terms.path_coefficient(chl, cdom, wrt=(nm,), floor=CHL_DERIVATIVE_FLOOR)[1][nm]
-         for nm in (names[j] for j in sel)], axis=-1)
+    _, dtau = mdl.terms.optical_depth(chl, cdom, depth, distance,
+                                      wrt=tuple(names[j] for j in sel), floor=CHL_DERIVATIVE_FLOOR)
+    dk = -pred.attenuation[:, :, None] * np.stack([dtau[names[j]] for j in sel], axis=-1)
     cov_x = cov[:, sel][:, :, sel]
     bands = np.isin(setup.wavelengths, RRMSE_BANDS_NM)
     var_k = np.einsum("nlp,npq,nlq->nl", dk[:, bands], cov_x, dk[:, bands])

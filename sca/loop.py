@@ -28,6 +28,7 @@ and the trust-region update) and ``_result`` (:mod:`sca.verdict`).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -41,6 +42,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
 from .budget import resolve_budget
+from .pathmodels import candidates, combine_single
 from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, linear_part, lower_bound
@@ -55,7 +57,7 @@ from .trust_region import (
 )
 from .verdict import assess
 
-__all__ = ["MODES", "GAINS", "Estimator", "estimate", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
+__all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
            "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",
            "INIT_CDOM", "GRADIENT_VANISHES"]
 
@@ -653,7 +655,8 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
              mode: str = "safeguarded", max_iter: int = 100,
              tol: float = 1e-10, fix=None, free=(), x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
-             setup: ChartSetup | None = None, gain: str = "known", uncertain=None) -> Estimate:
+             setup: ChartSetup | None = None, gain: str = "known", uncertain=None,
+             path_models=None) -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -707,6 +710,11 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         at their priors' centres, then the one Levenberg-Marquardt engine (:mod:`sca.lm`)
         moves every nuisance within its prior to the penalised optimum; the intervals profile
         the nuisances, and ``Estimate.budget`` gives each source's share of the variance.
+    path_models : sequence of str, optional
+        The path models fitted (:mod:`sca.pathmodels`): the best-fitting is chosen by
+        likelihood ratio, and where several fit about equally well the intervals span them
+        (flag ``path-model-span``). Default: all of :data:`forward.water.PATH_MODELS` where a
+        budget applies (``sigma`` given, ``uncertain`` not ``{}``), else only the water's.
 
     Returns
     -------
@@ -724,9 +732,24 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     ``mode='safeguarded'``); D. J. Venzon & S. H. Moolgavkar, "A method for computing
     profile-likelihood-based confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
-    est = Estimator(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
-                    reflectances=reflectances, wavelengths=wavelengths, basis=basis, water=water,
-                    path_model=path_model, cdom_slope=cdom_slope, fix=fix, free=free,
-                    setup=setup, gain=gain, uncertain=uncertain)
-    return est.fit(rgb, sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol,
-                   x0=x0)
+    kw = dict(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
+              reflectances=reflectances, wavelengths=wavelengths, basis=basis, fix=fix,
+              free=free, setup=setup, gain=gain, uncertain=uncertain)
+    est = Estimator(water=water, path_model=path_model, cdom_slope=cdom_slope, **kw)
+    fit = dict(sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
+    return over_path_models(est, path_models, sigma, lambda e: e.fit(rgb, **fit), kw)
+
+
+def over_path_models(est: "Estimator", path_models, sigma, run, kw) -> Estimate:
+    """``run(estimator)`` under every candidate path model (:func:`sca.pathmodels.candidates`)
+    and the results combined (:func:`sca.pathmodels.combine_single`); ``kw``: the other
+    arguments of :class:`Estimator`."""
+    models = candidates(path_models, est.water, sigma is not None and not est.budget.exact)
+    first = run(est)
+    if len(models) == 1:
+        return dataclasses.replace(first, path_models=(est.water.path_model,),
+                                   path_objective={est.water.path_model: first.objective})
+    results = {models[0]: first}
+    for m in models[1:]:
+        results[m] = run(Estimator(water=dataclasses.replace(est.water, path_model=m), **kw))
+    return combine_single(results)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .loop import MODES, Estimator
+from .loop import MODES, Estimator, over_path_models
 from .model import CHL_DERIVATIVE_FLOOR, lower_bound
 from .results import Estimate
 from .verdict import assess
@@ -122,9 +122,19 @@ def estimate_least_squares(rgb, *, depth, distance, sigma=None, saturation=None,
         raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
     if int(max_iter) != max_iter or max_iter < 1:
         raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
-    est = Estimator(depth=depth, distance=distance, gain=gain, **kwargs)
+    path_models = kwargs.pop("path_models", None)
+    kw = dict(depth=depth, distance=distance, gain=gain, **kwargs)
+    est = Estimator(**kw)
     if est.model.z != 1:
         raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
+    for key in ("water", "path_model", "cdom_slope"):
+        kw.pop(key, None)
+    return over_path_models(est, path_models, sigma,
+                            lambda e: _fit(e, rgb, sigma, saturation, x0, max_iter, tol), kw)
+
+
+def _fit(est, rgb, sigma, saturation, x0, max_iter, tol) -> Estimate:
+    """The scipy fit of one estimator (one path model)."""
     st = est.prepare(rgb, sigma)
     fun, jac, unpack, lower = residual_functions(est, st)
     x = est.initial_point(st, x0)

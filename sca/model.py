@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from forward.imaging import ChartSetup
-from forward.water import COEFFICIENT_PARAMS, Water, resolve_water
+from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
 from .projection import linear_part_stats
 
@@ -250,7 +250,8 @@ class Prediction:
     attenuation : ndarray, S + (q,)
         k = exp(-L c).
     coefficient : ndarray, S + (q,)
-        The path coefficient c (m^-1).
+        The path coefficient c (m^-1; a for the 'absorption' path model, the path-averaged
+        (depth K_d + distance c) / (depth + distance) for 'split').
     jacobian : ndarray, S + (m n, p) or None
         d values / d theta, columns in the order of ``columns``.
     columns : tuple of str
@@ -423,9 +424,18 @@ class ChartModel:
             raise ValueError("free: 'w' needs the weights in params['w']")
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
         spectral = tuple(n for n in free if n in SPECTRAL)
-        c, dc = self.terms.path_coefficient(chl, cdom, w=w, values=consts, wrt=spectral,
-                                            floor=chl_floor)
-        k = np.exp(-L[..., None] * c)
+        legs = len(PATH_LEGS[self.water.path_model]) > 1
+        if legs:  # 'split': tau = depth K_d + distance c (forward.WaterTerms.optical_depth)
+            tau, dtau = self.terms.optical_depth(
+                chl, cdom, params["depth"], params["distance"], w=w, values=consts,
+                wrt=spectral + tuple(n for n in free if n in GEOMETRY), floor=chl_floor)
+            k = np.exp(-tau)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                c = tau / L[..., None]  # the path-averaged coefficient
+        else:
+            c, dc = self.terms.path_coefficient(chl, cdom, w=w, values=consts, wrt=spectral,
+                                                floor=chl_floor)
+            k = np.exp(-L[..., None] * c)
         lead = k.shape[:-1]
         q, mn = self.wavelengths.size, self.m * self.n
         if not jacobian:
@@ -446,7 +456,12 @@ class ChartModel:
         minus_Lk = -L[..., None] * k
         row = 1
         for name in in_q:
-            if name == "w":
+            if legs:  # dk = -k d tau / d theta
+                d = dtau[name]
+                stack[..., row:row + count[name], :] = (
+                    -k[..., None, :] * np.swapaxes(d, -1, -2) if name == "w" else -k * d
+                ).reshape(lead + (count[name], q))
+            elif name == "w":
                 stack[..., row:row + self.z, :] = minus_Lk[..., None, :] * np.swapaxes(dc["w"], -1, -2)
             elif name in GEOMETRY:
                 stack[..., row, :] = -c * k

@@ -108,6 +108,11 @@ class Estimate:
         {'chl': {'sd': float, 'shares': {source: fraction}}, 'cdom': ...}; {} without a budget.
     nuisance : dict
         The budget's nuisance parameters at the fit: name -> value ('balance': m values).
+    path_models : tuple of str
+        The path models the data support (:mod:`sca.pathmodels`); with more than one the
+        intervals span them (flag ``path-model-span``). ``path_model`` is the best-fitting.
+    path_objective : dict
+        Path model -> the objective of the fit under it.
     """
 
     chl: float
@@ -162,6 +167,11 @@ class Estimate:
     budget: dict = field(default_factory=dict)
     #: the budget's nuisance parameters at the fit (name -> float, or (m,) list for 'balance')
     nuisance: dict = field(default_factory=dict)
+    #: the path models the data support (:mod:`sca.pathmodels`; more than one: the intervals
+    #: span them, flag ``path-model-span``); ``path_model`` is the best-fitting one
+    path_models: tuple = ()
+    #: path model -> the objective of the fit under it
+    path_objective: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Every field, JSON-ready (arrays as lists).

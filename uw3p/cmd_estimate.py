@@ -268,6 +268,13 @@ def _summary(res, gain) -> str:
                              f"{budget_text(res.budget, key)}")
     elif res.noise_known:
         lines.append("budget           none: the paper's exact model (--exact)")
+    others = [m for m in res.path_models if m != res.path_model]
+    if others:
+        lines.append(f"path model       {res.path_model}; the data cannot tell it from "
+                     f"{', '.join(others)}: the intervals span them")
+    elif len(res.path_objective) > 1:
+        lines.append(f"path model       {res.path_model}, chosen by the data over "
+                     + ", ".join(m for m in res.path_objective if m != res.path_model))
     lines.append(f"reliable         {res.reliable}"
                  + (f" (flags: {', '.join(res.flags)})" if res.flags else ""))
     lines.append(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
