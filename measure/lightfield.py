@@ -25,6 +25,7 @@ import numpy as np
 from scipy import optimize, stats
 
 import sca
+from forward.water import resolve_water
 
 __all__ = ["FIELDS", "LIGHT_FIELD_ALPHA", "FIELD_FLOOR", "field_basis", "fit_light_field"]
 
@@ -75,7 +76,8 @@ def _chi2(theta, basis, M, sigma, setup, depth, distance, water, uncertain=None)
         return INFEASIBLE_CHI2
     b = sca.estimate_batch(M[None], depth=depth, distance=distance, sigma=sigma,
                            setup=_setup_with_field(setup, field), water=water, gain="free",
-                           intervals=False, uncertain=uncertain)
+                           intervals=False, uncertain=uncertain,
+                           path_models=(resolve_water(water).path_model,))
     return float(b.objective[0])
 
 

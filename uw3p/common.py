@@ -78,8 +78,11 @@ def add_water_options(p) -> None:
     None
     """
     g = p.add_argument_group("water model (forward.Water; defaults: the paper's)")
-    g.add_argument("--path-model", default="beam", choices=["beam", "absorption"],
-                   help="k = exp(-L c) (beam, default) or exp(-L a) (eq 13 as printed)")
+    g.add_argument("--path-model", default="beam", choices=["beam", "absorption", "split"],
+                   help="the water's own path model: k = exp(-L c) (beam, default), exp(-L a) "
+                        "(eq 13 as printed) or exp(-depth Kd - distance c) (split); with the "
+                        "uncertainty budget every one is fitted and the data decide (or the "
+                        "intervals span them)")
     g.add_argument("--cdom-slope", type=float, default=None, help="eq 6 slope, nm^-1 (0.014)")
     g.add_argument("--nap-slope", type=float, default=None, help="eq 7 slope, nm^-1 (0.011)")
     g.add_argument("--b-k", type=float, default=None, help="Table 1 b_k at 470 nm, m^-1 (0.00068)")
