@@ -37,7 +37,7 @@ from .sweep import rrmse_bands
 
 __all__ = ["chart_set", "run_single", "run_batch", "coverage", "equal_optimum", "machine",
            "photo_bench", "main", "RESOLUTIONS_NM", "METHODS", "COVERAGE_LUX", "BATCH_N",
-           "BATCH_REPEATS", "SEED", "PHOTO_SIZE"]
+           "BATCH_REPEATS", "BUDGET_BATCH_N", "BUDGET_REPEATS", "SEED", "PHOTO_SIZE"]
 
 RESOLUTIONS_NM = (10.0, 5.0, 2.0, 1.0)
 CHLS = (1e-3, 0.05, 1.0, 20.0, 100.0)
@@ -62,6 +62,9 @@ QUICK_BATCH_N = 2000
 WARMUP_N = 2000
 #: Timed batch runs (0.1-1 s each): their median is the batch rows' speed
 BATCH_REPEATS = 5
+#: The ``batch_budget`` rows: charts timed and runs (the default budget fits every chart under
+#: three path models with ten nuisance parameters: about 100x the exact model's work).
+BUDGET_BATCH_N, BUDGET_REPEATS = 600, 1
 #: Noise seeds of the chart set: SEED * 1000 + the chart's index
 SEED = 7
 #: Every GRID_STRIDE-th case of the chart grid is used (QUICK_GRID_STRIDE with --quick)
@@ -177,7 +180,8 @@ def run_single(method, conds, rgbs, sigmas, grid):
     return ests, times, iters, dict(solve_call_s=solve_t, clarabel_s=clarabel_t)
 
 
-def run_batch(conds, rgbs, sigmas, grid, n_total, intervals, uncertain=PAPER_MODEL):
+def run_batch(conds, rgbs, sigmas, grid, n_total, intervals, uncertain=PAPER_MODEL,
+              repeats=BATCH_REPEATS, warmup=WARMUP_N):
     """:func:`sca.estimate_batch` on the chart set (for the errors), then timed on ``n_total``
     charts (the set tiled; the median of BATCH_REPEATS runs after a warm-up of WARMUP_N);
     returns estimates, per-fit times, iterations and the batch timings, as :func:`run_single`."""
@@ -195,10 +199,10 @@ def run_batch(conds, rgbs, sigmas, grid, n_total, intervals, uncertain=PAPER_MOD
     big = np.tile(rgbs, (reps, 1, 1))[:n_total]
     bs = np.tile(sigmas, (reps, 1, 1))[:n_total]
     bd, br = np.tile(depth, reps)[:n_total], np.tile(dist, reps)[:n_total]
-    w = WARMUP_N
+    w = warmup
     sca.estimate_batch(big[:w], depth=bd[:w], distance=br[:w], sigma=bs[:w], **kw)
     runs = []
-    for _ in range(BATCH_REPEATS):  # a 0.1-1 s measurement: the median of several
+    for _ in range(repeats):  # a 0.1-1 s measurement: the median of several
         t0 = time.perf_counter()
         rb = sca.estimate_batch(big, depth=bd, distance=br, sigma=bs, **kw)
         runs.append(time.perf_counter() - t0)
@@ -394,10 +398,13 @@ def main(argv=None):
         for method in METHODS:
             t0 = time.perf_counter()
             if method.startswith("batch"):
-                ests, times, iters, extra = run_batch(conds, rgbs, sigmas, grid,
-                                                      QUICK_BATCH_N if args.quick else BATCH_N,
-                                                      intervals=method != "batch_no_intervals",
-                                                      uncertain=_uncertain(method))
+                budget = method.endswith("_budget")
+                n_total = (len(conds) if args.quick else BUDGET_BATCH_N) if budget else (
+                    QUICK_BATCH_N if args.quick else BATCH_N)
+                ests, times, iters, extra = run_batch(
+                    conds, rgbs, sigmas, grid, n_total, intervals=method != "batch_no_intervals",
+                    uncertain=_uncertain(method), repeats=BUDGET_REPEATS if budget else BATCH_REPEATS,
+                    warmup=len(conds) if budget else WARMUP_N)
             else:
                 ests, times, iters, extra = run_single(method, conds, rgbs, sigmas, grid)
             rec = _record(method, res_nm, conds, ests, times, iters, grid, extra)

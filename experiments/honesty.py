@@ -325,7 +325,8 @@ def fit_set(rendered: dict, uncertain):
     -------
     sca.batch.BatchEstimate
     """
-    return sca.estimate_batch(rendered["rgb"], depth=rendered["depth"],
+    # a patch mean below the black level is read noise around 0: taken as 0, as measure does
+    return sca.estimate_batch(np.maximum(rendered["rgb"], 0.0), depth=rendered["depth"],
                               distance=rendered["distance"], sigma=rendered["sigma"],
                               gain="free", uncertain=uncertain)
 
