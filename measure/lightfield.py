@@ -74,9 +74,12 @@ def _chi2(theta, basis, M, sigma, setup, depth, distance, water, uncertain=None)
     field = 1.0 + basis[:, :theta.size] @ theta
     if np.any(field < FIELD_FLOOR):
         return INFEASIBLE_CHI2
+    # the budget's per-patch term weighs the residuals; its nuisances are left at their
+    # priors' centres (the search compares light fields, each a few hundred fits)
+    patch = {"patch": uncertain["patch"]} if uncertain and "patch" in uncertain else {}
     b = sca.estimate_batch(M[None], depth=depth, distance=distance, sigma=sigma,
                            setup=_setup_with_field(setup, field), water=water, gain="free",
-                           intervals=False, uncertain=uncertain,
+                           intervals=False, uncertain=patch,
                            path_models=(resolve_water(water).path_model,))
     return float(b.objective[0])
 
@@ -107,7 +110,10 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
     models : tuple of str, optional
         Names of :data:`FIELDS` in nesting order (default all: none, plane, plane+radial).
     uncertain : dict, optional
-        The uncertainty budget of the fits (:mod:`sca.budget`; default its default).
+        The measurement's uncertainty budget (:mod:`sca.budget`): its per-patch term weighs
+        the fits' residuals; its nuisance parameters are held at their priors' centres during
+        the search (the final fit of :func:`measure.measure` profiles them). Default None:
+        the photon noise alone.
 
     Returns
     -------

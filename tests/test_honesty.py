@@ -20,7 +20,7 @@ from experiments import honesty as h
 
 #: Charts of the reduced clean world and of each garbage world.
 N_CLEAN = 40
-N_GARBAGE = 10
+N_GARBAGE = 6
 #: An independent sample (the full run uses h.SEED).
 TEST_SEED = 1
 #: Chance of a false failure per assertion if the estimator is as good as the full run.

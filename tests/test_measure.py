@@ -86,7 +86,8 @@ def test_underwater_round_trip_is_right_within_its_intervals(files, corners, pro
     m = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
                         distance=UW["distance"], profile=profile)
     e = m.estimate
-    assert m.reliable and m.flags == () and m.orientation == "as given"
+    # 'path-model-span' is information: the intervals span the path models the data allow
+    assert m.reliable and set(m.flags) <= {"path-model-span"} and m.orientation == "as given"
     assert _inside(e.chl_ci, UW["chl"]) and _inside(e.cdom_ci, UW["cdom"])
     assert _inside(e.gain_ci, 30000.0)
     assert 0.5 < e.chi2_dof < 2.0
