@@ -7,6 +7,8 @@ Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 
 from .batch import BatchEstimate, estimate_batch
 from .bound import Precision, precision
+from .budget import DEFAULT_UNCERTAIN
+from .pathmodels import PATH_MODEL_DELTA
 from .fitspec import FIXABLE, FREEABLE
 from .loop import MODES, Estimator, estimate
 from .lsq import estimate_least_squares
@@ -18,4 +20,5 @@ from .subproblem import build_subproblem, compiled_subproblem
 __all__ = ["BatchEstimate", "estimate_batch", "MODES", "Estimate", "Estimator", "estimate",
            "estimate_least_squares", "rrmse", "rrmse_bands", "RRMSE_BANDS_NM", "ChartModel",
            "Prediction", "PARAMS", "FREEABLE", "FIXABLE", "CHL_DERIVATIVE_FLOOR",
-           "build_subproblem", "compiled_subproblem", "Precision", "precision"]
+           "build_subproblem", "compiled_subproblem", "Precision", "precision",
+           "DEFAULT_UNCERTAIN", "PATH_MODEL_DELTA"]
