@@ -1,7 +1,8 @@
 """``python -m experiments [--out DIR] [--grid paper|reduced] [--setting NAME] [names...]``:
-regenerate the figures (PNG + PDF + the CSV behind each) at each sensor setting of
-:data:`experiments.grids.SETTINGS` into ``DIR/<setting>/``, the paper-like search into ``DIR/``,
-and the generated tables of REPRODUCTION.md and INSTRUMENT.md (``--report``)."""
+regenerate Figs 5-13 (PNG + PDF + the CSV behind each) at each sensor setting of
+:data:`experiments.grids.SETTINGS` into ``DIR/<setting>/``; Figs 3-4 (which no sensor setting
+changes), the paper-like search and the instrument study into ``DIR/``; and the generated tables
+of REPRODUCTION.md and INSTRUMENT.md (``--report``)."""
 
 from __future__ import annotations
 
@@ -27,8 +28,9 @@ FIGURES = [
     "fig12_chlorophyll_estimates",
     "fig13_cdom_estimates",
 ]
-#: Studies made once (into DIR itself), after the figures (instrument reads Fig 12's CSV).
-STUDIES = ["paper_like", "instrument"]
+#: Made once (into DIR itself), after the figures (instrument reads Fig 12's CSV): Figs 3-4
+#: (the constituents' spectra, the same at every setting) and the two studies.
+STUDIES = ["fig03_04_spectra", "paper_like", "instrument"]
 
 
 def _call(name, outdir, args, setting=None):

@@ -10,7 +10,8 @@ import matplotlib
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
 
-__all__ = ["figures_dir", "save_figure", "write_csv", "style", "DPI", "MIN_FONT_PT"]
+__all__ = ["figures_dir", "save_figure", "write_csv", "style", "percent_axis", "DPI",
+           "MIN_FONT_PT"]
 
 
 def figures_dir(outdir=None) -> Path:
@@ -36,13 +37,28 @@ def style():
                          "figure.titlesize": 10})
 
 
+def percent_axis(ax, axis="y"):
+    """Tick labels of a logarithmic axis of fractions written as percentages ("0.02 %", not a
+    bare 10^-2 beside a "%" unit), at 1, 2 and 5 of every decade."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    a = ax.yaxis if axis == "y" else ax.xaxis
+    a.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    a.set_major_formatter(FuncFormatter(lambda v, _: f"{100 * v:.3g} %"))
+    a.set_minor_formatter(NullFormatter())
+
+
 def save_figure(fig, name: str, outdir=None) -> list[Path]:
-    """Save ``fig`` as ``name``.png (``DPI``) and ``name``.pdf; returns the paths."""
+    """Save ``fig`` as ``name``.png (``DPI``) and ``name``.pdf; returns the paths. A figure
+    with a layout engine (every figure here: constrained layout) already fits its canvas and is
+    saved as laid out (a "tight" bounding box would draw it twice more per file); others are
+    cropped to their tight bounding box."""
     out = figures_dir(outdir)
     paths = [out / f"{name}.png", out / f"{name}.pdf"]
+    tight = None if fig.get_layout_engine() is not None else "tight"
     for p in paths:
         tmp = p.with_name(p.stem + ".tmp" + p.suffix)
-        fig.savefig(tmp, dpi=DPI, bbox_inches="tight", metadata=_metadata(p.suffix))
+        fig.savefig(tmp, dpi=DPI, bbox_inches=tight, metadata=_metadata(p.suffix))
         os.replace(tmp, p)
     return paths
 

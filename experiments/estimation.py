@@ -13,17 +13,19 @@ __all__ = ["fig10_conditions", "fig12_conditions", "mean_se", "resolve", "fit_he
            "fit_row"]
 
 
-def fig10_conditions(g, illuminance_lux=20000.0, exposure="capped"):
-    return [sweep.condition(c, a, d, r, s, illuminance_lux=illuminance_lux, exposure=exposure)
+def fig10_conditions(g, illuminance_lux=20000.0, exposure="capped", estimation_step_nm=1.0):
+    return [sweep.condition(c, a, d, r, s, illuminance_lux=illuminance_lux, exposure=exposure,
+                            estimation_step_nm=estimation_step_nm)
             for d, r, c, a, s in itertools.product(g["fig10_depths_m"], g["fig10_distances_m"],
                                                    g["fig10_chl"], g["fig10_cdom"],
                                                    range(g["fig10_seeds"]))]
 
 
-def fig12_conditions(g, depths=None, illuminance_lux=20000.0, exposure="capped"):
+def fig12_conditions(g, depths=None, illuminance_lux=20000.0, exposure="capped",
+                     estimation_step_nm=1.0):
     depths = g["fig12_depths_m"] if depths is None else depths
     return [sweep.condition(c, a, d, g["fig12_distance_m"], s, illuminance_lux=illuminance_lux,
-                            exposure=exposure)
+                            exposure=exposure, estimation_step_nm=estimation_step_nm)
             for d, c, a, s in itertools.product(depths, g["fig12_chl"], g["fig12_cdom"],
                                                 range(g["fig12_seeds"]))]
 
@@ -40,13 +42,14 @@ def resolve(grid_name):
 
 def fit_header():
     """Columns of the per-fit CSVs (``*_fits.csv``)."""
-    return ["chl", "cdom", "depth_m", "distance_m", "illuminance_lux", "exposure", "seed", "chl_hat",
-            "cdom_hat", "rrmse_k", "converged", "iterations", "status"]
+    return ["chl", "cdom", "depth_m", "distance_m", "illuminance_lux", "exposure",
+            "estimation_step_nm", "seed", "chl_hat", "cdom_hat", "rrmse_k", "converged",
+            "iterations", "status"]
 
 
 def fit_row(x):
     """One sweep result as a row of :func:`fit_header`."""
     return [x["chl"], x["cdom"], x["depth"], x["distance"], x["illuminance_lux"],
-            x.get("exposure", "capped"), x["seed"],
+            x.get("exposure", "capped"), f"{x.get('estimation_step_nm', 1.0):g}", x["seed"],
             f"{x['chl_hat']:.8g}", f"{x['cdom_hat']:.8g}", f"{x['rrmse_k']:.6g}", x["converged"],
             x["iterations"], x["status"]]

@@ -9,13 +9,16 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from . import sweep
-from .common import figures_dir, save_figure, style, write_csv
+from .common import figures_dir, percent_axis, save_figure, style, write_csv
 from .estimation import fig10_conditions, fit_header, fit_row, mean_se, resolve
 from .grids import setting as get_setting
 
 __all__ = ["summarise", "main", "SQRT_Q"]
 
+#: sqrt(q) of eq 19 for the 1 nm estimator (its 31 nodes at 10 nm); a coarser estimator's is
+#: ``sqrt(sweep.q_eq19(step))``
 SQRT_Q = float(np.sqrt(sweep.RRMSE_BANDS_NM.size))
+
 
 
 def summarise(results, g):
@@ -33,36 +36,41 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     g = resolve(grid_name)
     s = get_setting(setting)
     style()
-    results, _ = sweep.run(fig10_conditions(g, s["illuminance_lux"], s["exposure"]),
+    step = s["estimation_step_nm"]
+    results, _ = sweep.run(fig10_conditions(g, s["illuminance_lux"], s["exposure"], step),
                            cache_dir=cache_dir, workers=workers, desc="fig10")
     rows = summarise(results, g)
-    factor = SQRT_Q if s["rrmse_reading"] != "eq19" else 1.0
-    fig, ax = plt.subplots(figsize=(4.8, 3.4), constrained_layout=True)
+    q = sweep.q_eq19(step)
+    sqrt_q = float(np.sqrt(q))
+    factor = sqrt_q if s["rrmse_reading"] != "eq19" else 1.0
+    fig, ax = plt.subplots(figsize=(4.8, 3.6), constrained_layout=True)
     for r in g["fig10_distances_m"]:
         sel = [x for x in rows if x["distance"] == r]
-        ax.errorbar([x["depth"] for x in sel], [100 * factor * x["mean"] for x in sel],
-                    yerr=[100 * factor * x["se"] for x in sel], marker="o", ms=3, capsize=2,
+        ax.errorbar([x["depth"] for x in sel], [factor * x["mean"] for x in sel],
+                    yerr=[factor * x["se"] for x in sel], marker="o", ms=3, capsize=2,
                     label=f"distance {r:g} m")
     ax.set_xlabel("depth (m)")
     ax.set_xticks(g["fig10_depths_m"])
-    reading = "eq 19" if factor == 1.0 else "eq 19 without √q"
-    ax.set_ylabel(f"RRMSE of k, {reading} (%)")
+    reading = f"eq 19, q = {q}" if factor == 1.0 else f"eq 19 without √q (q = {q})"
+    ax.set_ylabel(f"RRMSE of k ({reading})")
     ax.set_yscale("log")
+    percent_axis(ax)
     ax.legend(fontsize=8)
     ax.set_title(f"mean ± SE over {len(g['fig10_chl'])} C × {len(g['fig10_cdom'])} a$_{{CDOM}}$ × "
-                 f"{g['fig10_seeds']} seeds; {s['illuminance_lux']:g} lx")
+                 f"{g['fig10_seeds']} seeds\n{s['illuminance_lux']:g} lx, estimator on a "
+                 f"{step:g} nm grid")
     save_figure(fig, "fig10_rrmse", outdir)
     plt.close(fig)
     write_csv(figures_dir(outdir) / "fig10_rrmse.csv",
               ["depth_m", "distance_m", "rrmse_mean", "rrmse_se", "rrmse_mean_without_sqrt_q",
                "n", "n_converged"],
               [[x["depth"], x["distance"], f"{x['mean']:.6g}", f"{x['se']:.3g}",
-                f"{x['mean'] * SQRT_Q:.6g}", x["n"], x["converged"]] for x in rows],
+                f"{x['mean'] * sqrt_q:.6g}", x["n"], x["converged"]] for x in rows],
               comment=f"Fig 10 ({g['name']} grid, setting {s['name']}: {s['illuminance_lux']:g} lx, "
                       f"{s['exposure']} exposure): C {g['fig10_chl']}, CDOM {g['fig10_cdom']}, "
                       f"{g['fig10_seeds']} seeds per condition; charts in the 1 nm world, fitted "
-                      "at the estimator's default (1 nm); RRMSE (eq 19) on the 31 bands of 10 nm "
-                      "(experiments.sweep.RRMSE_BANDS_NM), and without eq 19's 1/sqrt(q)")
+                      f"on a {step:g} nm grid; RRMSE (eq 19) on the estimator's q = {q} nodes "
+                      "at 10 nm (experiments.sweep.rrmse_on_grid), and without eq 19's 1/sqrt(q)")
     write_csv(figures_dir(outdir) / "fig10_fits.csv", fit_header(), [fit_row(x) for x in results],
               comment="every fit behind Fig 10")
     return rows

@@ -41,14 +41,17 @@ def delta_e(xyz, ref, white_xyz):
     return colour.delta_E(colour.XYZ_to_Lab(xyz, xy), colour.XYZ_to_Lab(ref, xy), method="CIE 2000")
 
 
-def correct(rgb, k_hat, s_hat, setup):
-    """Corrected XYZ (n, 3): remove s_hat, then von Kries from i * k_hat to i."""
+def correct(rgb, k_hat, s_hat, setup, setup_k=None):
+    """Corrected XYZ (n, 3): remove s_hat, then von Kries from i * k_hat to i. ``setup_k`` is
+    the estimator's setup when k_hat is on another grid than ``setup`` (the white points are
+    computed on k_hat's grid; the camera-to-XYZ matrix is the camera's, from ``setup``)."""
     import colour
 
     M = forward.camera_to_xyz_matrix(setup)
+    sk = setup if setup_k is None else setup_k
     xyz = (M @ (np.asarray(rgb) - np.asarray(s_hat)[:, None])).T
-    white_eff = M @ (setup.sensitivities.T @ (setup.illuminant * np.asarray(k_hat)))
-    white_ref = M @ (setup.sensitivities.T @ setup.illuminant)
+    white_eff = M @ (sk.sensitivities.T @ (sk.illuminant * np.asarray(k_hat)))
+    white_ref = M @ (sk.sensitivities.T @ sk.illuminant)
     return colour.adaptation.chromatic_adaptation_VonKries(xyz, white_eff, white_ref,
                                                           transform="Von Kries")
 
@@ -75,8 +78,12 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     white = ref[WHITE_PATCH] / ref[WHITE_PATCH, 1]
     air = _normalise((M @ (setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances))).T, ref)
     floor = float(np.mean(delta_e(air, ref, white)))
+    step = s["estimation_step_nm"]
+    wl_hat = sweep.estimation_grid(step)
+    setup_k = None if wl_hat is None else forward.chart_setup(wavelengths=wl_hat)
     conds = [sweep.condition(FIG11["chl"], FIG11["cdom"], d, FIG11["distance"], 0,
-                             illuminance_lux=s["illuminance_lux"], exposure=s["exposure"])
+                             illuminance_lux=s["illuminance_lux"], exposure=s["exposure"],
+                             estimation_step_nm=step)
              for d in FIG11["depths"]]
     results, _ = sweep.run(conds, cache_dir=cache_dir, workers=1, progress=False, desc="fig11")
     fig, axes = plt.subplots(len(conds), len(METHODS), figsize=(7.2, 1.9 * len(conds) + 0.4),
@@ -87,7 +94,8 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
         images = {
             "captured": _normalise((M @ rgb).T, ref),
             "von Kries (estimated k)": _normalise(correct(rgb, res["attenuation_hat"],
-                                                          res["backscatter_hat"], setup), ref),
+                                                          res["backscatter_hat"], setup, setup_k),
+                                                  ref),
             "grey-world": _normalise(baseline(rgb, setup, "grey-world"), ref),
             "white-patch": _normalise(baseline(rgb, setup, "white-patch"), ref),
         }
@@ -100,7 +108,8 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
             ax.set_title(f"{res['depth']:g} m, {method}\nmean ΔE$_{{00}}$ {de[method]:.1f}",
                          fontsize=8)
             ax.set_axis_off()
-    fig.suptitle(f"Colour correction, distance 5 m ({s['illuminance_lux']:g} lx)")
+    fig.suptitle(f"Colour correction, distance 5 m ({s['illuminance_lux']:g} lx; estimator on a "
+                 f"{step:g} nm grid)")
     save_figure(fig, "fig11_colour_correction", outdir)
     plt.close(fig)
     write_csv(figures_dir(outdir) / "fig11_colour_correction.csv",

@@ -15,18 +15,25 @@ from .common import figures_dir, save_figure, style, write_csv
 from .estimation import fig12_conditions, fit_header, fit_row, resolve
 from .grids import setting as get_setting
 
-__all__ = ["make", "correlations", "group_r", "LABEL", "PLAIN"]
+__all__ = ["make", "correlations", "group_r", "LABEL", "PLAIN", "ZERO"]
+
+#: Estimates below this (mg m^-3 or m^-1; 1 % of the smallest true value of either grid) are
+#: the solver's bound at 0 in all but name (values down to 1e-22 occur): they are drawn at ZERO
+#: and left out of the log-log correlation (``pearson_r_log10``; ``n_log`` counts the rest).
+ZERO = 1e-4
 
 LABEL = {"chl": "C (mg m$^{-3}$)", "cdom": "a$_{CDOM}$(440) (m$^{-1}$)"}
 PLAIN = {"chl": "C", "cdom": "a_CDOM(440)"}
 
 
 def correlations(results, depth, quantity):
+    """(Pearson r, Pearson r of log10 over estimates >= ZERO, n, n of the log r)."""
     sel = [x for x in results if x["depth"] == depth]
     t = np.array([x[quantity] for x in sel])
     e = np.array([x[quantity + "_hat"] for x in sel])
-    pos = (t > 0) & (e > 0)
-    return (sweep.pearson(t, e), sweep.pearson(np.log10(t[pos]), np.log10(e[pos])), len(sel))
+    pos = (t > 0) & (e >= ZERO)
+    return (sweep.pearson(t, e), sweep.pearson(np.log10(t[pos]), np.log10(e[pos])), len(sel),
+            int(pos.sum()))
 
 
 def group_r(results, depth, quantity, colour_by):
@@ -46,7 +53,8 @@ def make(quantity, name, colour_by, outdir=None, grid_name=None, cache_dir=None,
     s = get_setting(setting)
     style()
     results, _ = sweep.run(fig12_conditions(g, illuminance_lux=s["illuminance_lux"],
-                                            exposure=s["exposure"]),
+                                            exposure=s["exposure"],
+                                            estimation_step_nm=s["estimation_step_nm"]),
                            cache_dir=cache_dir, workers=workers, desc=name)
     depths = g["fig12_depths_m"]
     groups = sorted({x[colour_by] for x in results})
@@ -55,8 +63,9 @@ def make(quantity, name, colour_by, outdir=None, grid_name=None, cache_dir=None,
                              squeeze=False, constrained_layout=True)
     rows, group_rows = [], []
     for ax, d in zip(axes[0], depths):
-        r, r_log, n = correlations(results, d, quantity)
-        rows.append([d, g["fig12_distance_m"], f"{r:.4f}", f"{r * r:.4f}", f"{r_log:.4f}", n])
+        r, r_log, n, n_log = correlations(results, d, quantity)
+        rows.append([d, g["fig12_distance_m"], f"{r:.4f}", f"{r * r:.4f}",
+                     f"{r_log:.4f}" if np.isfinite(r_log) else "", n, n_log])
         per = group_r(results, d, quantity, colour_by)
         for v, col in zip(groups, colours):
             pts = [x for x in results if x["depth"] == d and x[colour_by] == v]
@@ -64,7 +73,7 @@ def make(quantity, name, colour_by, outdir=None, grid_name=None, cache_dir=None,
             e = np.array([x[quantity + "_hat"] for x in pts])
             rg, ng = per[v]
             group_rows.append([d, f"{v:g}", f"{rg:.4f}", f"{rg * rg:.4f}", ng])
-            ax.scatter(t, np.maximum(e, 1e-4), color=col, s=10,
+            ax.scatter(t, np.maximum(e, ZERO), color=col, s=10,
                        label=f"{v:g}: r$^2$ = {rg * rg:.2f}")
         lo, hi = min(x[quantity] for x in results) / 2, max(x[quantity] for x in results) * 2
         ax.plot([lo, hi], [lo, hi], "k--", lw=0.8)
@@ -75,13 +84,16 @@ def make(quantity, name, colour_by, outdir=None, grid_name=None, cache_dir=None,
                   bbox_to_anchor=(0.5, -0.2), ncol=2, handletextpad=0.2, borderpad=0.3,
                   labelspacing=0.2, columnspacing=0.8)
     fig.suptitle(f"{PLAIN[quantity]}: estimated vs true, distance {g['fig12_distance_m']:g} m, "
-                 f"{s['illuminance_lux']:g} lx (estimates of 0 drawn at 10$^{{-4}}$)")
+                 f"{s['illuminance_lux']:g} lx, estimator on a {s['estimation_step_nm']:g} nm grid "
+                 f"(estimates below 10$^{{-4}}$ drawn at 10$^{{-4}}$)")
     save_figure(fig, name, outdir)
     plt.close(fig)
     write_csv(figures_dir(outdir) / f"{name}.csv",
-              ["depth_m", "distance_m", "pearson_r", "r2", "pearson_r_log10", "n"], rows,
+              ["depth_m", "distance_m", "pearson_r", "r2", "pearson_r_log10", "n", "n_log"], rows,
               comment=f"{name} ({g['name']} grid, setting {s['name']}): Pearson r between true "
-                      f"and estimated {quantity}, all points of a depth")
+                      f"and estimated {quantity}, all points of a depth; pearson_r_log10 over the "
+                      f"n_log estimates >= {ZERO:g} (below: the solver's bound at 0; empty where fewer "
+                      "than two distinct values remain)")
     write_csv(figures_dir(outdir) / f"{name}_groups.csv",
               ["depth_m", colour_by, "pearson_r", "r2", "n"], group_rows,
               comment=f"{name}: Pearson r within each {colour_by} group (the captions' colours)")

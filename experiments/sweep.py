@@ -1,11 +1,14 @@
 """The sweep runner shared by all estimation figures.
 
-Each condition (C, a_CDOM, depth, distance, seed, illuminance, mode) is simulated with
-:func:`forward.simulate_chart` and fitted with :func:`sca.estimate`. Results are cached on
-disk, one JSON file per condition, written atomically (temporary file + ``os.replace``), so an
-interrupted run loses nothing and a rerun computes only what is missing. The cache key
-includes a fingerprint of the ``forward`` and ``sca`` source code, so any code change
-invalidates old results. Work is spread over a process pool (both cores by default) with a
+Each condition (C, a_CDOM, depth, distance, seed, illuminance, exposure, the estimator's
+grid, mode) is simulated with :func:`forward.simulate_chart` in the 1 nm world and fitted with
+:func:`sca.estimate` (the paper's exact model, ``uncertain={}``) on the condition's estimation
+grid. Results are cached on disk, one JSON file per condition, written atomically (temporary
+file + ``os.replace``), so an interrupted run loses nothing and a rerun computes only what is
+missing. The cache key is the condition and :data:`FINGERPRINT`: the source of ``forward``,
+``sca`` and this module, the data tables and the versions of the libraries the numbers come
+from (numpy's random streams, the solver, the colour tables), so no cached fit outlives what it
+was computed from. Work is spread over a process pool (both cores by default) with a
 tqdm progress bar. The pool never outlives the run: on Ctrl-C or any error it is terminated at
 once, and a worker whose parent process has died (``kill -9``) exits by itself.
 """
@@ -32,7 +35,8 @@ from .grids import BASE_SEED
 
 __all__ = ["run", "condition", "key", "fit_condition", "pearson", "FINGERPRINT",
            "DEFAULT_CACHE", "DEFAULT_WORKERS", "SEED_MULTIPLIER", "ORPHAN_CHECK_S",
-           "RRMSE_BANDS_NM", "rrmse_bands"]
+           "RRMSE_BANDS_NM", "rrmse_bands", "estimation_grid", "rrmse_on_grid", "q_eq19",
+           "FINGERPRINT_PACKAGES"]
 
 DEFAULT_CACHE = Path(os.environ.get("UW3P_CACHE", "cache"))
 #: Worker processes when not given (at most the machine's cores): the reference machine's two
@@ -42,13 +46,27 @@ DEFAULT_WORKERS = 2
 SEED_MULTIPLIER = 100003
 
 
+#: Distributions whose versions enter :data:`FINGERPRINT` (random streams, solvers, the
+#: colour tables of colour-science: camera curves, illuminant, chart)
+FINGERPRINT_PACKAGES = ("numpy", "scipy", "cvxpy", "clarabel", "colour-science", "numba")
+
+
 def _code_fingerprint() -> str:
+    from importlib import metadata
+
     h = hashlib.sha256()
     root = Path(__file__).resolve().parents[1]
-    for pkg in ("forward", "sca"):
-        for path in sorted((root / pkg).glob("*.py")):
-            h.update(path.name.encode())
-            h.update(path.read_bytes())
+    files = [p for pkg in ("forward", "sca") for p in sorted((root / pkg).glob("*.py"))]
+    files += [Path(__file__).resolve()] + sorted((root / "data").glob("*.csv"))
+    for path in files:
+        h.update(str(path.relative_to(root)).encode())
+        h.update(path.read_bytes())
+    for name in FINGERPRINT_PACKAGES:
+        try:
+            version = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            version = "absent"
+        h.update(f"{name}={version}".encode())
     return h.hexdigest()[:16]
 
 
@@ -56,11 +74,12 @@ FINGERPRINT = _code_fingerprint()
 
 
 def condition(chl, cdom, depth, distance, replicate=0, *, illuminance_lux=20000.0,
-              exposure="capped", mode="safeguarded") -> dict:
-    """A condition dict with its noise seed derived from the condition and the replicate."""
+              exposure="capped", mode="safeguarded", estimation_step_nm=1.0) -> dict:
+    """A condition dict with its noise seed derived from the condition and the replicate (not
+    from the estimation grid: the same chart is fitted on every grid)."""
     c = dict(chl=float(chl), cdom=float(cdom), depth=float(depth), distance=float(distance),
              illuminance_lux=float(illuminance_lux), exposure=exposure, mode=mode,
-             replicate=int(replicate))
+             replicate=int(replicate), estimation_step_nm=float(estimation_step_nm))
     tag = json.dumps([c[k] for k in ("chl", "cdom", "depth", "distance", "illuminance_lux",
                                      "replicate")])
     c["seed"] = int(BASE_SEED * SEED_MULTIPLIER + zlib.crc32(tag.encode())) % (2**31)
@@ -73,8 +92,32 @@ def key(cond: dict) -> str:
 
 
 
+def estimation_grid(step_nm):
+    """The estimator's wavelengths for a grid step (nm): None (its default, 400-700 nm at 1 nm)
+    for 1 nm, else 400-700 nm every ``step_nm``."""
+    step_nm = float(step_nm)
+    if step_nm == 1.0:
+        return None
+    return np.arange(400.0, 700.0 + step_nm / 2, step_nm)
+
+
+def q_eq19(step_nm) -> int:
+    """q of eq 19 for an estimator on a ``step_nm`` grid: its nodes on the 10 nm grid."""
+    wl = estimation_grid(step_nm)
+    return int(RRMSE_BANDS_NM.size if wl is None else np.isin(wl, RRMSE_BANDS_NM).sum())
+
+
+def rrmse_on_grid(wl_hat, k_hat, wl, k) -> float:
+    """Eq 19 of an estimate ``k_hat`` on its grid ``wl_hat`` against the truth ``k`` of the
+    world grid ``wl``: on the estimator's nodes that are 10 nm nodes (:func:`rrmse_bands`;
+    q = 31 for a 1, 5 or 10 nm estimator, 16 for a 20 nm one)."""
+    truth = np.interp(np.asarray(wl_hat, float), np.asarray(wl, float), np.asarray(k, float))
+    return rrmse_bands(wl_hat, k_hat, truth)
+
+
 def fit_condition(cond: dict) -> dict:
-    """Simulate and fit one condition; returns a JSON-ready dict."""
+    """Simulate (1 nm world) and fit (the condition's estimation grid) one condition; returns a
+    JSON-ready dict."""
     import forward
     import sca
 
@@ -82,16 +125,19 @@ def fit_condition(cond: dict) -> dict:
                                     exposure_mode=cond.get("exposure", "capped"))
     sim = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], cond["distance"],
                                  seed=cond["seed"], sensor=sensor)
-    est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"], uncertain={})
+    wl_hat = estimation_grid(cond.get("estimation_step_nm", 1.0))
+    est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"],
+                       wavelengths=wl_hat, uncertain={})
+    wl_hat = sim.wavelengths if wl_hat is None else wl_hat
     return dict(
         cond,
         chl_hat=est.chl, cdom_hat=est.cdom, converged=est.converged, status=est.status,
         iterations=est.iterations, objective=est.objective,
-        rrmse_k=rrmse_bands(sim.wavelengths, est.attenuation, sim.attenuation),
+        rrmse_k=rrmse_on_grid(wl_hat, est.attenuation, sim.wavelengths, sim.attenuation),
         attenuation=sim.attenuation.tolist(), attenuation_hat=est.attenuation.tolist(),
         backscatter=sim.backscatter.tolist(), backscatter_hat=est.backscatter.tolist(),
         rgb=sim.rgb.tolist(), exposure_s=sim.exposure_s,
-        wavelengths=sim.wavelengths.tolist(),
+        wavelengths=sim.wavelengths.tolist(), wavelengths_hat=np.asarray(wl_hat).tolist(),
     )
 
 
