@@ -159,17 +159,20 @@ def _report(meas, path, raw_preview):
     a.set_title(f"photo (sampled boxes; orientation: {meas.orientation})", fontsize=9)
     a.axis("off")
     a = ax[0, 1]
+    # residuals in units of each value's standard error: a misfit shows even where measured
+    # and fitted values look equal on a log scale
+    patches = np.arange(1, meas.fitted.shape[1] + 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = (meas.sample.rgb - meas.fitted) / meas.sample.sigma
     for c, col in enumerate("rgb"):
-        a.errorbar(meas.fitted[c], meas.sample.rgb[c], yerr=2 * meas.sample.sigma[c], fmt="o",
-                   ms=3, color=col, label="RGB"[c])
-    top = float(max(meas.fitted.max(), meas.sample.rgb.max()))
-    lo = float(max(min(meas.fitted.min(), meas.sample.rgb.min()), 1e-3 * top))
-    a.plot([lo, top], [lo, top], "k:", lw=0.8)
-    a.set_xscale("log")
-    a.set_yscale("log")
-    a.set_xlabel("fitted patch value (raw units)")
-    a.set_ylabel("measured patch value (raw units, ±2 SE)")
-    a.set_title(f"fit: fit_rms {e.fit_rms:.3g}, chi²/dof {e.chi2_dof:.3g}", fontsize=9)
+        a.plot(patches + (c - 1) * 0.2, z[c], "o", ms=3, color=col, label="RGB"[c])
+    a.axhline(0, color="k", lw=0.8)
+    for v in (-2, 2):
+        a.axhline(v, color="k", lw=0.6, ls=":")
+    a.set_xlabel("patch")
+    a.set_ylabel("(measured - fitted) / SE")
+    a.set_title(f"residuals: fit_rms {e.fit_rms:.3g}, chi²/dof {e.chi2_dof:.3g} (with the "
+                "budget's per-patch term)", fontsize=9)
     a.legend(fontsize=8)
     a = ax[1, 0]
     wl = e.wavelengths

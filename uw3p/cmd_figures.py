@@ -1,4 +1,4 @@
-"""``uw3p figures``: regenerate Figs 5-13 and the noise study (what ``make reproduce-figures``
+"""``uw3p figures``: regenerate Figs 3-13 and the noise study (what ``make reproduce-figures``
 runs).
 
     uw3p figures [NAMES...] [--grid reduced] [--out figures] [--report REPRODUCTION.md]
@@ -32,7 +32,7 @@ def add_parser(sub):
     argparse.ArgumentParser
         The subcommand's parser, its ``func`` default set to :func:`run`.
     """
-    p = sub.add_parser(NAME, help="regenerate Figs 5-13 and the noise study (make reproduce-figures)")
+    p = sub.add_parser(NAME, help="regenerate Figs 3-13 and the noise study (make reproduce-figures)")
     p.add_argument("names", nargs="*", help="a subset of the figure scripts (default all)")
     p.add_argument("--out", default="figures", help="output folder (default figures/)")
     p.add_argument("--grid", default=None, choices=["paper", "reduced"], help="sweep grid (default paper)")
