@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import inspect
+import os
 import sys
 import time
 from pathlib import Path
@@ -86,4 +87,9 @@ if __name__ == "__main__":
         main()
     except KeyboardInterrupt:  # finished fits are cached; a rerun resumes
         print("interrupted (finished fits are cached; rerun to resume)", file=sys.stderr)
-        sys.exit(130)
+        sys.stderr.flush()
+        sys.stdout.flush()
+        # at once: the pool's workers are already terminated, and the interpreter's exit would
+        # wait on the executor's management thread (a worker caught while starting up can keep
+        # it waiting); every output is written atomically, so nothing is left half-done
+        os._exit(130)

@@ -36,11 +36,13 @@ from .grids import BASE_SEED
 __all__ = ["run", "condition", "key", "fit_condition", "pearson", "FINGERPRINT",
            "DEFAULT_CACHE", "DEFAULT_WORKERS", "SEED_MULTIPLIER", "ORPHAN_CHECK_S",
            "RRMSE_BANDS_NM", "rrmse_bands", "estimation_grid", "rrmse_on_grid", "q_eq19",
-           "FINGERPRINT_PACKAGES"]
+           "FINGERPRINT_PACKAGES", "WORKER_EXIT_S"]
 
 DEFAULT_CACHE = Path(os.environ.get("UW3P_CACHE", "cache"))
 #: Worker processes when not given (at most the machine's cores): the reference machine's two
 DEFAULT_WORKERS = 2
+#: Seconds a terminated worker is given to exit before it is killed.
+WORKER_EXIT_S = 2.0
 #: A condition's noise seed is (BASE_SEED * SEED_MULTIPLIER + crc32 of the condition) mod 2^31
 #: (a prime multiplier, so that another BASE_SEED gives unrelated seeds)
 SEED_MULTIPLIER = 100003
@@ -183,8 +185,14 @@ def _run_pool(todo, workers, bar):
             fut.result()
             bar.update()
     except BaseException:
-        for proc in list(getattr(pool, "_processes", {}).values()):
+        procs = list(getattr(pool, "_processes", {}).values())
+        for proc in procs:
             proc.terminate()
+        for proc in procs:  # gone before we return (SIGKILL if SIGTERM was not enough)
+            proc.join(WORKER_EXIT_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join(WORKER_EXIT_S)
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown()
