@@ -230,7 +230,11 @@ def _start_sweep(tmp_path):
         kids = _children(proc.pid)
         time.sleep(0.1)
     assert len(kids) >= 2, f"the pool did not start: {proc.poll()} {proc.stderr.read() if proc.poll() is not None else ''}"
-    time.sleep(1.0)  # the workers are fitting
+    # the workers are fitting once the first result is cached (on a cold machine the pool's
+    # start-up can take longer than a fixed wait)
+    while time.time() < deadline and proc.poll() is None and not any((tmp_path / "cache").glob("*.json")):
+        time.sleep(0.1)
+    time.sleep(0.5)
     return proc, kids
 
 
