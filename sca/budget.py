@@ -33,6 +33,8 @@ import numpy as np
 
 from forward.water import COEFFICIENT_PARAMS, Water
 
+from .model import covariance
+
 __all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Budget",
            "resolve_budget", "parse_sd", "variance_shares", "limiting_source"]
 
@@ -253,18 +255,11 @@ def _shares(J, names, w2_total, w2_photon, active, prior_weight, of):
     J = np.asarray(J, float) * np.asarray(active, bool)[:, None, :]
     Jw = np.sqrt(w2_total)[..., None] * J
     pw = np.asarray(prior_weight, float)
-    F = np.swapaxes(Jw, 1, 2) @ Jw + pw[:, :, None] * np.eye(J.shape[2])
     idle = ~np.asarray(active, bool)
-    F[idle[:, :, None] & np.eye(J.shape[2], dtype=bool)] = 1.0  # held columns: decoupled
-    with np.errstate(all="ignore"):
-        d = np.sqrt(np.diagonal(F, axis1=1, axis2=2))
-        ok = np.all(np.isfinite(F), axis=(1, 2)) & np.all(d > 0, axis=1)
-        D = np.where(ok[:, None], d, 1.0)
-        Fs = F / (D[:, :, None] * D[:, None, :])
-        ok[ok] = np.linalg.cond(Fs[ok]) < 1e14
-    S = np.full(F.shape, np.nan)
-    if ok.any():
-        S[ok] = np.linalg.inv(Fs[ok]) / (D[ok][:, :, None] * D[ok][:, None, :])
+    # the package's one covariance (Jacobi-scaled inverse of J^T J + P); a held column, all
+    # zeros, is decoupled by a unit prior of its own
+    S = covariance(Jw, prior_weight=pw + idle)
+    S[~np.all(np.isfinite(S), axis=(1, 2))] = np.nan
     phi = np.clip(w2_total / w2_photon, 0.0, 1.0)  # photon fraction of each patch's variance
     SJ = S @ np.swapaxes(Jw, 1, 2)  # (N, p, m n)
     names = list(names)
