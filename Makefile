@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures honesty bench clean
+.PHONY: install test test-fast reproduce-figures real-data dive honesty bench clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -24,6 +24,20 @@ test-fast: $(STAMP)
 reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
+	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
+	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
+
+# REALWATER.md: the physics against real water (NOMAD, COPS casts, G7X photos); needs
+# ../shared/realdata beside the repository (exit 2 without it)
+real-data: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.realwater
+
+# DIVE.md: the joint estimate of a dive on worlds the independent renderer made, and the
+# acceptance dive of whole photographs (metadata CSV, no corners, a chartless frame, rerun,
+# Ctrl-C); exit 1 when a criterion fails
+dive: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty --strict
 
 # HONESTY.md alone: the estimator on worlds an independent renderer made (exit 1 when an
 # acceptance criterion fails; the report says which)

@@ -3,7 +3,8 @@
     python -m experiments.compare_commits OLD_REV [NEW_REV] [--rounds 3]
 
 Each commit is exported with ``git archive`` into a temporary folder and run from there with
-this environment's packages; the rounds alternate old, new, old, new, ... so that a machine
+this environment's packages (``NEW_REV`` = ``WORKTREE``, :data:`WORKTREE`: this working tree
+itself, uncommitted changes included, run in place); the rounds alternate old, new, old, new, ... so that a machine
 whose speed drifts treats both alike, and the best round of each is reported (fits per
 second; higher is better). The workload: the 60 charts of ``make bench`` (every 4th case of
 its grid, noisy), one at a time through ``sca.estimate`` and ``sca.estimate_least_squares``,
@@ -21,9 +22,11 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["WORKLOAD", "export", "main", "run_once"]
+__all__ = ["WORKLOAD", "WORKTREE", "export", "main", "run_once"]
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The revision name that stands for this working tree as it is (not exported).
+WORKTREE = "WORKTREE"
 #: Charts in the batch rows (the 60 tiled).
 BATCH_CHARTS = 20000
 
@@ -68,7 +71,10 @@ print(json.dumps(out))
 
 
 def export(rev: str, dest: Path) -> Path:
-    """``git archive`` of ``rev`` unpacked into ``dest``; returns ``dest``."""
+    """``git archive`` of ``rev`` unpacked into ``dest``; returns ``dest`` (:data:`ROOT`
+    itself, nothing exported, for :data:`WORKTREE`)."""
+    if rev == WORKTREE:
+        return ROOT
     dest.mkdir(parents=True, exist_ok=True)
     archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev], check=True,
                              capture_output=True).stdout
@@ -89,7 +95,8 @@ def main(argv=None) -> int:
     """Run both commits alternately and print a Markdown table of the best rounds."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("old")
-    p.add_argument("new", nargs="?", default="HEAD")
+    p.add_argument("new", nargs="?", default="HEAD",
+                   help=f"a revision, or {WORKTREE} for this working tree as it is")
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--batch", type=int, default=BATCH_CHARTS)
     args = p.parse_args(argv)

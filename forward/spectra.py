@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 from importlib import resources
 from pathlib import Path
 
@@ -26,6 +27,8 @@ import numpy as np
 from . import validate
 
 __all__ = [
+    "COLOUR_CACHE",
+    "COLOUR_CACHE_COLUMNS",
     "DEFAULT_CAMERA",
     "DEFAULT_CHART",
     "DEFAULT_ILLUMINANT",
@@ -37,6 +40,8 @@ __all__ = [
     "camera_sensitivities",
     "chart_reflectances",
     "cie_1931_cmfs",
+    "colour_spectrum",
+    "colour_wavelength_range",
     "illuminant_spd",
     "is_path",
     "on_grid",
@@ -75,6 +80,24 @@ DEFAULT_CHART = "BabelColor Average"
 #: (McCamy, Marcus & Davidson, "A Color-Rendition Chart", J. Appl. Photogr. Eng. 2(3), 1976;
 #: ``colour.SDS_COLOURCHECKERS["BabelColor Average"]``, in the same order).
 WHITE_PATCH = 18
+#: colour-science's spectra used by default, cached in the package data on the 1 nm grid of
+#: 400-700 nm (``data/README.md``): importing colour-science costs seconds (it loads its
+#: plotting), the table milliseconds. Written by ``python -m experiments.colour_tables`` from
+#: colour-science itself; ``tests/test_wait.py`` checks every value against the installed
+#: colour-science, so the table cannot outlive its numbers unnoticed.
+COLOUR_CACHE = "colour_science_spectra_1nm.csv"
+#: (colour-science database, name) -> the cache's columns (ColorChecker: patches 1-24 in order)
+COLOUR_CACHE_COLUMNS = {
+    ("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)"): ("nikon_5100_npl_r", "nikon_5100_npl_g",
+                                                         "nikon_5100_npl_b"),
+    ("SDS_ILLUMINANTS", "D65"): ("cie_d65",),
+    ("SDS_COLOURCHECKERS", "BabelColor Average"): tuple(f"babelcolor_average_{j:02d}"
+                                                        for j in range(1, 25)),
+    ("MSDS_CMFS", "CIE 1931 2 Degree Standard Observer"): ("cie_1931_x", "cie_1931_y",
+                                                           "cie_1931_z"),
+}
+#: The cached cameras' data ranges in colour-science, nm (first and last wavelength measured)
+COLOUR_CACHE_RANGES_NM = {("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)"): (380.0, 780.0)}
 
 
 # --------------------------------------------------------------------------- grid
@@ -151,7 +174,7 @@ def _data_dir():
     return resources.files("uw3p_data")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def read_table(filename: str) -> tuple[tuple[str, ...], tuple[tuple[str, ...], ...]]:
     """Read a CSV table of ``data/`` as column names and rows of strings.
 
@@ -179,7 +202,7 @@ def read_table(filename: str) -> tuple[tuple[str, ...], tuple[tuple[str, ...], .
     return names, rows
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def read_spectral_table(filename: str) -> tuple[np.ndarray, np.ndarray]:
     """Return the wavelengths and values of a spectral table of ``data/``.
 
@@ -259,10 +282,13 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def resample(src_wavelengths, values, wavelengths, *, name: str, tail: float | None = None) -> np.ndarray:
-    """Resample tabulated spectra (rows = wavelengths) onto ``wavelengths`` with colour-science.
+    """Resample tabulated spectra (rows = wavelengths) onto ``wavelengths``, linearly.
 
-    Each column is evaluated as a :class:`colour.SpectralDistribution` with a linear
-    interpolator: exact at the table's nodes, never overshooting.
+    Each column is evaluated as colour-science evaluates a :class:`colour.SpectralDistribution`
+    with its ``LinearInterpolator`` -- which is ``numpy.interp``, called here directly so that
+    resampling the package's own tables does not import colour-science (seconds; the numbers
+    are the same bit for bit, ``tests/test_wait.py``): exact at the table's nodes, never
+    overshooting.
 
     Parameters
     ----------
@@ -291,8 +317,6 @@ def resample(src_wavelengths, values, wavelengths, *, name: str, tail: float | N
         Naming ``name``, when the table does not cover the grid (and, with ``tail``, has not
         fallen to zero at the end it misses). The message gives the data's range.
     """
-    import colour
-
     src = np.asarray(src_wavelengths, dtype=float)
     vals = np.asarray(values, dtype=float)
     wl = np.asarray(wavelengths, dtype=float)
@@ -321,20 +345,14 @@ def resample(src_wavelengths, values, wavelengths, *, name: str, tail: float | N
     one_d = vals.ndim == 1
     vals2 = vals[:, None] if one_d else vals
     out = np.empty((wl.size, vals2.shape[1]))
-    for j in range(vals2.shape[1]):
-        sd = colour.SpectralDistribution(vals2[:, j], src, interpolator=colour.LinearInterpolator)
-        out[:, j] = sd[wl]
+    for j in range(vals2.shape[1]):  # colour.LinearInterpolator's evaluation
+        out[:, j] = np.interp(wl, src, vals2[:, j])
     return out[:, 0] if one_d else out
 
 
 @functools.lru_cache(maxsize=32)
 def _cmfs(wl_key: tuple) -> np.ndarray:
-    import colour
-
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    out = np.asarray(cmfs[np.array(wl_key)], dtype=float)
-    out.setflags(write=False)
-    return out
+    return _named("MSDS_CMFS", "wavelengths", "CIE 1931 2 Degree Standard Observer", wl_key)
 
 
 def cie_1931_cmfs(wavelengths=None) -> np.ndarray:
@@ -381,6 +399,13 @@ def is_path(x) -> bool:
     )
 
 
+def _is_colour(obj, cls: str) -> bool:
+    """``isinstance(obj, colour.<cls>)`` without importing colour-science: an object of its
+    classes exists only once it is imported."""
+    mod = sys.modules.get("colour")
+    return mod is not None and isinstance(obj, getattr(mod, cls))
+
+
 def _from_colour(obj, wl, name, tail=None):
     """Resample a colour-science (Multi)SpectralDistribution onto the grid (``tail``: as
     :func:`resample`)."""
@@ -424,27 +449,117 @@ def on_grid(value, wl, name, ncols):
     return arr
 
 
-@functools.lru_cache(maxsize=64)
-def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
-    """A colour-science spectrum (``colour.<database>[name]``) resampled onto the grid, cached;
-    for a chart database the (q, n) stack of its patches. ``arg`` names the argument."""
+@functools.cache
+def _colour_cache() -> tuple[np.ndarray, dict]:
+    """The cached colour-science table: its grid (nm) and column name -> values (read-only)."""
+    names, _ = read_table(COLOUR_CACHE)
+    wl, vals = read_spectral_table(COLOUR_CACHE)
+    return wl, {name: vals[:, j] for j, name in enumerate(names[1:])}
+
+
+def _cached(database: str, name: str, wl: np.ndarray):
+    """The spectrum from :data:`COLOUR_CACHE` when it holds it and every grid point is one of
+    its nodes (colour-science's resampling is linear between the source's nodes, or the source
+    is tabulated at every 1 nm node, so a node's value does not depend on the rest of the
+    grid); else None."""
+    columns = COLOUR_CACHE_COLUMNS.get((database, name))
+    if columns is None:
+        return None
+    grid, table = _colour_cache()
+    idx = np.clip(np.searchsorted(grid, wl), 0, grid.size - 1)
+    if not np.array_equal(grid[idx], wl):
+        return None
+    out = np.stack([table[c][idx] for c in columns], axis=1)
+    return out[:, 0] if database == "SDS_ILLUMINANTS" else out
+
+
+def colour_spectrum(database: str, name: str, wavelengths=None, *, arg: str = "name"):
+    """A colour-science spectrum (``colour.<database>[name]``) resampled onto the grid, always
+    from colour-science itself (never the cache; what :data:`COLOUR_CACHE` is made of).
+
+    Parameters
+    ----------
+    database : str
+        ``'MSDS_CAMERA_SENSITIVITIES'``, ``'SDS_ILLUMINANTS'``, ``'SDS_COLOURCHECKERS'`` or
+        ``'MSDS_CMFS'``.
+    name : str
+        A name of that database.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+    arg : str, optional
+        The argument's name in error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        (q,) for an illuminant; (q, k) otherwise (a chart: its patches in order), in the
+        database's units.
+
+    Raises
+    ------
+    ValueError
+        Naming ``arg``, for an unknown name or a table that does not cover the grid.
+    """
     import colour
 
     db = getattr(colour, database)
     if name not in db:
         raise ValueError(f"{arg}: unknown name {name!r}; known: {sorted(db.keys())}")
-    wl = np.array(wl_key)
+    wl = wavelength_grid(wavelengths)
     entry = db[name]
+    if database == "MSDS_CMFS":  # colour-science's own interpolation of the observer
+        return np.asarray(entry[wl], dtype=float)
     if not hasattr(entry, "wavelengths"):  # a ColorChecker (a mapping): its patches in order
-        out = np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
-    else:
-        tail = TAIL_FRACTION if database == "MSDS_CAMERA_SENSITIVITIES" else None
-        out = _from_colour(entry, wl, arg, tail)
+        return np.stack([_from_colour(sd, wl, arg) for sd in entry.values()], axis=1)
+    tail = TAIL_FRACTION if database == "MSDS_CAMERA_SENSITIVITIES" else None
+    return _from_colour(entry, wl, arg, tail)
+
+
+def colour_wavelength_range(database: str, name: str) -> tuple[float, float]:
+    """First and last wavelength (nm) of a colour-science spectrum's data, without importing
+    colour-science for the cached cameras (:data:`COLOUR_CACHE_RANGES_NM`).
+
+    Parameters
+    ----------
+    database : str
+        A colour-science database, e.g. ``'MSDS_CAMERA_SENSITIVITIES'``.
+    name : str
+        A name of that database.
+
+    Returns
+    -------
+    tuple of float
+        (first, last) wavelength of the data, nm.
+
+    Raises
+    ------
+    KeyError
+        For a name that is not in the database.
+    """
+    known = COLOUR_CACHE_RANGES_NM.get((database, name))
+    if known is not None:
+        return known
+    import colour
+
+    wl = getattr(colour, database)[name].wavelengths
+    return float(wl[0]), float(wl[-1])
+
+
+@functools.lru_cache(maxsize=64)
+def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
+    """A colour-science spectrum (``colour.<database>[name]``) resampled onto the grid, cached
+    (from :data:`COLOUR_CACHE` when it holds it); for a chart database the (q, n) stack of its
+    patches. ``arg`` names the argument."""
+    wl = np.array(wl_key)
+    out = _cached(database, name, wl)
+    if out is None:
+        out = colour_spectrum(database, name, wl, arg=arg)
     out.setflags(write=False)  # cached: read-only
     return out
 
 
-def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
+def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None, *,
+                         normalise: bool = True) -> np.ndarray:
     """Camera spectral sensitivities on the grid, (q, m), each channel scaled to peak 1.
 
     These are the columns of P in eq 15 (before quadrature): the p(lambda) of eq 1. Negative
@@ -461,11 +576,16 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
         (wavelength in nm, one column per channel) or an array (q, m) on the grid.
     wavelengths : array_like, shape (q,), optional
         Wavelengths in nm (default: 400-700 nm at 1 nm).
+    normalise : bool, optional
+        True (default): each channel scaled to peak 1. False: the curves as given (negative
+        values clipped), so their channel balance is kept (measured curves such as the Canon
+        G7X's carry it; ``measure.camera_setup`` uses it).
 
     Returns
     -------
     numpy.ndarray, shape (q, m)
-        Relative sensitivities (dimensionless), each channel's maximum on the grid 1.
+        Relative sensitivities (dimensionless), each channel's maximum on the grid 1 (or the
+        curves' own values with ``normalise=False``).
 
     Raises
     ------
@@ -478,15 +598,13 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     ----------
     Blasinski & Farrell, eqs 1 and 15 (p(lambda), the matrix P).
     """
-    import colour
-
     wl = wavelength_grid(wavelengths)
     if isinstance(camera, str) and not is_path(camera):
         sens = _named("MSDS_CAMERA_SENSITIVITIES", "camera", camera, tuple(wl)).copy()
     elif is_path(camera):
         sens = resample(*read_spectral_csv(camera, name="camera"), wl, name="camera",
                         tail=TAIL_FRACTION)
-    elif isinstance(camera, colour.MultiSpectralDistributions):
+    elif _is_colour(camera, "MultiSpectralDistributions"):
         sens = _from_colour(camera, wl, "camera", TAIL_FRACTION)
     else:
         sens = on_grid(camera, wl, "camera", None)
@@ -494,6 +612,8 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None) -> np.ndarray:
     peak = sens.max(axis=0)
     if np.all(peak <= 0):
         raise ValueError("camera: all channels are zero on the wavelength grid")
+    if not normalise:
+        return sens
     # a channel that is zero on the grid stays zero (a legitimate, if useless, channel)
     return sens / np.where(peak > 0, peak, 1.0)
 
@@ -530,8 +650,6 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     ----------
     Blasinski & Farrell, eqs 3 and 15 (i(lambda), the diag(i) of eq 15).
     """
-    import colour
-
     wl = wavelength_grid(wavelengths)
     if illuminant is None:
         illuminant = DEFAULT_ILLUMINANT
@@ -539,7 +657,7 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
         spd = _named("SDS_ILLUMINANTS", "illuminant", illuminant, tuple(wl)).copy()
     elif is_path(illuminant):
         spd = resample(*read_spectral_csv(illuminant, name="illuminant"), wl, name="illuminant")[:, 0]
-    elif isinstance(illuminant, colour.SpectralDistribution):
+    elif _is_colour(illuminant, "SpectralDistribution"):
         spd = _from_colour(illuminant, wl, "illuminant")
     else:
         spd = on_grid(illuminant, wl, "illuminant", 1)[:, 0]
@@ -580,8 +698,6 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
     Blasinski & Farrell, eqs 3 and 15 (r(lambda), the matrix R).
     McCamy, Marcus & Davidson, "A Color-Rendition Chart", J. Appl. Photogr. Eng. 2(3), 1976.
     """
-    import colour
-
     wl = wavelength_grid(wavelengths)
     if reflectances is None:
         reflectances = DEFAULT_CHART
@@ -589,12 +705,12 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
         refl = _named("SDS_COLOURCHECKERS", "reflectances", reflectances, tuple(wl)).copy()
     elif is_path(reflectances):
         refl = resample(*read_spectral_csv(reflectances, name="reflectances"), wl, name="reflectances")
-    elif isinstance(reflectances, colour.MultiSpectralDistributions):
+    elif _is_colour(reflectances, "MultiSpectralDistributions"):
         refl = _from_colour(reflectances, wl, "reflectances")
     elif isinstance(reflectances, dict) or (
         isinstance(reflectances, (list, tuple))
         and reflectances
-        and isinstance(reflectances[0], colour.SpectralDistribution)
+        and _is_colour(reflectances[0], "SpectralDistribution")
     ):
         sds = list(reflectances.values()) if isinstance(reflectances, dict) else list(reflectances)
         refl = np.stack([_from_colour(sd, wl, "reflectances") for sd in sds], axis=1)

@@ -745,7 +745,7 @@ class WaterTerms:
 
     # ---------------------------------------------------------------- the path coefficient
     def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0,
-                         terms=None):
+                         terms=None, stacked: bool = False):
         """The path coefficient c(x) and its analytic derivatives: the one place they are built.
 
         Parameters
@@ -768,6 +768,10 @@ class WaterTerms:
         terms : sequence of term functions, optional
             Which terms to add (default: the path model's, :data:`PATH_TERMS`); e.g.
             :data:`ABSORPTION_TERMS` gives a, :data:`SCATTERING_TERMS` b.
+        stacked : bool
+            Return the terms' (weight, spectrum) pieces instead of their sums (see Returns):
+            the form a compiled evaluation adds up without knowing any term. Only where every
+            spectrum is one for all points (no ``w``, no ``values`` that change a shape).
 
         Returns
         -------
@@ -776,11 +780,22 @@ class WaterTerms:
         derivatives : dict
             name -> d c / d name, shape S + (q,) (S + (q, z) for 'w').
 
+        With ``stacked``, instead (c = weights @ spectra, d c / d name = dweights[name] @
+        spectra):
+
+        weights : ndarray, shape S + (P,)
+            The pieces' weights.
+        spectra : ndarray, shape (P, q)
+            The pieces' spectra, each once.
+        dweights : dict
+            name -> S + (P,), the weights of d c / d name on the same spectra.
+
         Raises
         ------
         ValueError
             For a name of ``values`` outside :data:`COEFFICIENT_PARAMS`, a name of ``wrt``
-            that c(x) does not depend on, or (without ``w``) a z > 1 basis without weights.
+            that c(x) does not depend on, (without ``w``) a z > 1 basis without weights, or
+            (``stacked``) a spectrum that differs between points or 'w'.
 
         References
         ----------
@@ -808,6 +823,11 @@ class WaterTerms:
             pieces += value
             for name, d in parts.items():
                 by_name.setdefault(name, []).append(d)
+        if stacked:
+            if w is not None or "w" in wrt:
+                raise ValueError("stacked: not available with free phytoplankton weights 'w'")
+            return _stack_pieces(pieces, {name: [piece for d in by_name.get(name, [])
+                                                 for piece in d] for name in wrt}, lead)
         c = _sum_pieces(pieces, lead, q)
         derivatives = {}
         for name in wrt:
@@ -821,7 +841,7 @@ class WaterTerms:
         return c, derivatives
 
     def optical_depth(self, chl, cdom, depth, distance, *, w=None, values=None, wrt=(),
-                      floor: float = 0.0):
+                      floor: float = 0.0, stacked: bool = False):
         """tau of k = exp(-tau) along the light's path, and its derivatives: the one place
         where the path model's legs are put together.
 
@@ -833,6 +853,10 @@ class WaterTerms:
             The chart's depth and the camera-to-chart distance, m.
         wrt : sequence of str
             Names of :meth:`path_coefficient`, and 'depth' and 'distance'.
+        stacked : bool
+            Return (weights, spectra, dweights) as :meth:`path_coefficient` does, for tau:
+            tau = weights @ spectra, d tau / d name = dweights[name] @ spectra (each leg's
+            weights times its length; d tau / d depth and d distance are the legs' c).
 
         Returns
         -------
@@ -851,6 +875,8 @@ class WaterTerms:
         depth = np.asarray(depth, float)[..., None]
         distance = np.asarray(distance, float)[..., None]
         spectral = tuple(n for n in wrt if n not in ("depth", "distance"))
+        if stacked:
+            return self._stacked_depth(chl, cdom, depth, distance, values, wrt, spectral, floor)
         tau, out = 0.0, {}
         for terms, leg in PATH_LEGS[self.water.path_model]:
             coef, dcoef = self.path_coefficient(chl, cdom, w=w, values=values, wrt=spectral,
@@ -864,6 +890,28 @@ class WaterTerms:
                 if geo in wrt and (leg == "path" or leg == geo):
                     out[geo] = out[geo] + coef if geo in out else coef
         return tau, out
+
+    def _stacked_depth(self, chl, cdom, depth, distance, values, wrt, spectral, floor):
+        """:meth:`optical_depth` with ``stacked``: each leg's pieces times its length, the
+        legs' spectra side by side."""
+        weights, spectra, dweights = [], [], {name: [] for name in wrt}
+        for terms, leg in PATH_LEGS[self.water.path_model]:
+            wt, sp, dw = self.path_coefficient(chl, cdom, values=values, wrt=spectral,
+                                               floor=floor, terms=terms, stacked=True)
+            length = depth + distance if leg == "path" else depth if leg == "depth" else distance
+            weights.append(length * wt)
+            spectra.append(sp)
+            for name in wrt:
+                if name in dw:
+                    dweights[name].append(length * dw[name])
+                elif leg == "path" or leg == name:  # d tau / d length = the leg's c
+                    dweights[name].append(wt)
+                else:
+                    dweights[name].append(np.zeros_like(wt))
+        weights = np.concatenate(np.broadcast_arrays(*weights), axis=-1)
+        return (weights, np.concatenate(spectra),
+                {name: np.concatenate(np.broadcast_arrays(*d), axis=-1)
+                 for name, d in dweights.items()})
 
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """The path coefficient (c for 'beam', a for 'absorption'), m^-1, shape S + (q,).
@@ -1221,6 +1269,28 @@ def _sum_pieces(pieces, lead, q):
     if total is None:
         return np.zeros(lead + (q,))
     return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))
+
+
+def _stack_pieces(pieces, derivative_pieces, lead):
+    """(weights S + (P,), spectra (P, q), dweights {name: S + (P,)}) of value ``pieces`` and
+    ``derivative_pieces`` (name -> pieces): each distinct spectrum once; ``ValueError`` for a
+    spectrum that differs between points."""
+    spectra, index = [], {}
+    for sh in [sh for _, sh in pieces] + [sh for p in derivative_pieces.values() for _, sh in p]:
+        if np.ndim(sh) != 1:
+            raise ValueError("stacked: a spectrum differs between points (a constant that "
+                             "changes a shape is given per point)")
+        if id(sh) not in index:
+            index[id(sh)] = len(spectra)
+            spectra.append(sh)
+
+    def weights(plist):
+        out = np.zeros(lead + (len(spectra),))
+        for w, sh in plist:
+            out[..., index[id(sh)]] += np.broadcast_to(w, lead + (1,))[..., 0]
+        return out
+    return (weights(pieces), np.array(spectra, float).reshape(len(spectra), -1),
+            {name: weights(p) for name, p in derivative_pieces.items()})
 
 
 #: The terms of the absorption a (eq 5) and of the scattering b (eqs 11-12), each returning

@@ -6,7 +6,9 @@ camera's true R:G:B balance is unknown -- and underwater that balance carries th
 water. :func:`calibrate` fits it: from a photograph of the chart in air under a known
 illuminant, the per-channel gains g_c with M_c = g_c (P^T diag(i) R)_c (weighted least squares,
 one gain per channel, no offset: in air there is no veiling light). A :class:`Profile` stores
-them; :func:`camera_setup` applies them to the curves.
+them; :func:`camera_setup` applies them to the curves. Curves that carry a measured balance
+(a CSV or array whose channels do not all peak at 1, e.g. the Canon G7X's) keep it
+(:func:`own_balance`); a profile's gains are relative to it.
 
 ``quantal=True`` says the curves act on photons (quantum efficiencies): they are converted to
 act on energy, S_E(lambda) = S_Q(lambda) lambda (photons per unit energy are proportional to
@@ -25,8 +27,16 @@ from scipy import optimize
 import forward
 from forward.imaging import ChartSetup
 
-__all__ = ["Profile", "camera_setup", "calibrate", "load_profile", "MIN_CALIBRATION_PATCHES",
-           "PATCH_SD_MAX", "patch_systematic"]
+__all__ = [
+    "MIN_CALIBRATION_PATCHES",
+    "PATCH_SD_MAX",
+    "Profile",
+    "calibrate",
+    "camera_setup",
+    "load_profile",
+    "own_balance",
+    "patch_systematic",
+]
 
 #: A calibration whose per-patch systematic error (beyond photon noise, relative) exceeds this
 #: is not reliable: a ColorChecker's reflectance tolerance (0.1-0.7 % per patch) and a camera
@@ -51,7 +61,8 @@ class Profile:
     illuminant : str
         The illuminant of the calibration photo (``"D65"`` by default, ``"custom"``).
     gains : list of float, (3,)
-        Relative channel gains (R, G, B), dimensionless, the largest 1.
+        Relative channel gains (R, G, B), dimensionless, the largest 1, relative to the
+        curves' own balance (:func:`own_balance`; (1, 1, 1) for peak-normalised curves).
     gains_se : list of float, (3,)
         Their standard errors, same scale.
     gains_raw : list of float, (3,)
@@ -140,8 +151,9 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
         The curves act on photons (quantum efficiencies): they are converted to act on energy,
         S_E(lambda) = S_Q(lambda) lambda, before use.
     gains : array_like, (3,), optional
-        Channel gains (a :class:`Profile`'s ``gains``, dimensionless, positive); default: the
-        curves' own balance.
+        Channel gains (a :class:`Profile`'s ``gains``, dimensionless, positive), relative to
+        the curves' own balance (:func:`own_balance`, which is always applied: the set-up's
+        balance is ``own_balance * gains``); default: the curves' own balance alone.
     illuminant : str, path or array, optional
         The surface illuminant (default D65).
     wavelengths : array_like, optional
@@ -158,16 +170,44 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
         When the camera has not three channels or ``gains`` are not three positive numbers.
     """
     wl = forward.wavelength_grid(wavelengths)
-    sens = forward.camera_sensitivities(camera, wl)
+    sens = forward.camera_sensitivities(camera, wl, normalise=False)  # the curves' own balance
     if sens.shape[1] != 3:
         raise ValueError(f"camera: expected three channels (red, green, blue), got {sens.shape[1]}")
     if quantal:
-        camera = sens * wl[:, None]  # photons -> energy (renormalised to peak 1 by forward)
+        sens = camera = sens * wl[:, None]  # photons -> energy, balance included
     if gains is not None:
         gains = np.asarray(gains, float)
         if gains.shape != (3,) or np.any(~np.isfinite(gains)) or np.any(gains <= 0):
             raise ValueError(f"gains: expected three positive numbers, got {gains!r}")
-    return forward.chart_setup(camera, illuminant, None, wl, channel_gains=gains)
+    balance = own_balance(sens)
+    total = balance if gains is None else balance * gains
+    if gains is None and np.all(balance == 1.0):
+        total = None  # peak-normalised curves (colour-science's NPL cameras): the cached set-up
+    return forward.chart_setup(camera, illuminant, None, wl, channel_gains=total)
+
+
+def own_balance(sensitivities) -> np.ndarray:
+    """The channel balance that a camera's curves carry: each channel's peak over the largest.
+
+    Measured curves (the Canon G7X's of Blasinski & Farrell's uwSim, fitted against a
+    monochromator) keep the camera's R:G:B balance; :func:`forward.camera_sensitivities`
+    scales every channel to peak 1, so :func:`camera_setup` puts the balance back with
+    :func:`forward.chart_setup`'s ``channel_gains``. Curves normalised per channel (the NPL
+    curves of colour-science) give (1, 1, 1).
+
+    Parameters
+    ----------
+    sensitivities : array_like, (q, 3)
+        The curves on the grid as given (not normalised), any unit.
+
+    Returns
+    -------
+    numpy.ndarray, (3,)
+        Peak of each channel over the largest peak, dimensionless (a zero channel gives 1).
+    """
+    peak = np.max(np.asarray(sensitivities, float), axis=0)
+    top = float(np.max(peak))
+    return np.where(peak > 0, peak / top, 1.0)
 
 
 def patch_systematic(residuals, sigma, values, dof: int) -> float:

@@ -10,11 +10,16 @@ the same in every channel (achromatic) and smooth over the chart. On synthetic p
 with (x_p, y_p) the patch centre in chart coordinates scaled to [-1, 1]. An achromatic f_p is
 exactly a per-patch scaling of the reflectances, so for given field parameters the water is
 fitted by the unchanged estimators on a chart with reflectances f_p R_p; the field parameters
-are found by minimising that fit's chi^2 (Nelder-Mead on 2-3 parameters, the batched solver
-inside). The nested models none < plane < plane+radial are compared by the likelihood-ratio
-test (the noise is known, so Delta chi^2 is chi^2-distributed with the number of added
-parameters): a larger model is taken only when its p-value is below ``LIGHT_FIELD_ALPHA``.
-The intervals of C and a_CDOM are then conditional on the fitted field (DECISIONS.md).
+minimise that fit's chi^2. They are found by Gauss-Newton on the profile (variable projection,
+Kaufman 1975): the model is linear in the field, d M_cp / d theta_j = gain G_cp basis_pj =
+(M_cp - s_c) basis_pj / f_p, and the step is the least-squares step of those columns after
+projecting out the columns of the water, the gain and the backscatter (the one model function,
+:meth:`sca.ChartModel.predict`, at the batch fit), halved until chi^2 falls. Each step costs one
+batched fit, so a model takes a few fits, not the hundreds of a derivative-free search. The
+nested models none < plane < plane+radial are compared by the likelihood-ratio test (the noise
+is known, so Delta chi^2 is chi^2-distributed with the number of added parameters): a larger
+model is taken only when its p-value is below ``LIGHT_FIELD_ALPHA``. The intervals of C and
+a_CDOM are then conditional on the fitted field (DECISIONS.md).
 """
 
 from __future__ import annotations
@@ -22,12 +27,11 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import optimize, stats
 
 import sca
 from forward.water import resolve_water
 
-__all__ = ["FIELDS", "LIGHT_FIELD_ALPHA", "FIELD_FLOOR", "field_basis", "fit_light_field"]
+__all__ = ["FIELDS", "FIELD_FLOOR", "LIGHT_FIELD_ALPHA", "field_basis", "fit_light_field"]
 
 #: The nested light-field models and their number of parameters.
 FIELDS = {"none": 0, "plane": 2, "plane+radial": 3}
@@ -36,13 +40,13 @@ FIELDS = {"none": 0, "plane": 2, "plane+radial": 3}
 LIGHT_FIELD_ALPHA = 0.01
 #: The field may not fall below this anywhere on the chart (a factor, not a physical limit).
 FIELD_FLOOR = 0.2
-#: The chi^2 returned for a field below FIELD_FLOOR (Nelder-Mead then steps away from it)
-INFEASIBLE_CHI2 = 1e300
-#: Nelder-Mead's tolerances: on the field coefficients (dimensionless) and on chi^2
-NM_XATOL = 1e-5
-NM_FATOL = 1e-4
-#: Nelder-Mead's iteration cap: this many per field parameter
-NM_ITERATIONS_PER_PARAMETER = 400
+#: Gauss-Newton stops when a step lowers chi^2 by less than this (absolute; chi^2 is O(dof))...
+GN_FTOL = 1e-6
+#: ... or moves no field coefficient (dimensionless) by more than this
+GN_XTOL = 1e-8
+#: Gauss-Newton's iteration cap per model, and the step halvings tried before it stops
+GN_MAX_ITER = 50
+GN_MAX_HALVINGS = 30
 
 
 def field_basis(columns=6, rows=4) -> np.ndarray:
@@ -70,18 +74,65 @@ def _setup_with_field(setup, field):
     return dataclasses.replace(setup, reflectances=setup.reflectances * field[None, :])
 
 
-def _chi2(theta, basis, M, sigma, setup, depth, distance, water, uncertain=None):
+def _fit_at(theta, basis, M, sigma, setup, depth, distance, water, patch):
+    """The free-gain batch fit of the water on the chart lit by the field ``theta``: (batch
+    estimate, the set-up with the field, the field), or None where the field falls below
+    :data:`FIELD_FLOOR`."""
     field = 1.0 + basis[:, :theta.size] @ theta
     if np.any(field < FIELD_FLOOR):
-        return INFEASIBLE_CHI2
-    # the budget's per-patch term weighs the residuals; its nuisances are left at their
-    # priors' centres (the search compares light fields, each a few hundred fits)
-    patch = {"patch": uncertain["patch"]} if uncertain and "patch" in uncertain else {}
+        return None
+    fit_setup = _setup_with_field(setup, field)
     b = sca.estimate_batch(M[None], depth=depth, distance=distance, sigma=sigma,
-                           setup=_setup_with_field(setup, field), water=water, gain="free",
-                           intervals=False, uncertain=patch,
-                           path_models=(resolve_water(water).path_model,))
-    return float(b.objective[0])
+                           setup=fit_setup, water=water, gain="free", intervals=False,
+                           uncertain=patch, path_models=(resolve_water(water).path_model,))
+    return b, fit_setup, field
+
+
+def _step(fit, theta, basis, M, noise_sd, depth, distance, water):
+    """The Gauss-Newton step of the field coefficients on the profile (variable projection):
+    the least-squares step of the field's whitened columns after projecting out the active
+    columns of the water (C, a_CDOM), the gain and the backscatter at the batch fit."""
+    b, fit_setup, field = fit
+    s = b.backscatter[0]
+    pred = sca.ChartModel(fit_setup, water=water).predict(
+        {"chl": b.chl, "cdom": b.cdom, "depth": depth, "distance": distance, "gain": b.gain,
+         "backscatter": b.backscatter}, free=("chl", "cdom", "gain", "backscatter"),
+        chl_floor=sca.CHL_DERIVATIVE_FLOOR)
+    values, J = pred.values[0], pred.jacobian[0]
+    m, n = M.shape
+    active = np.concatenate([[b.chl[0] > 0, b.cdom[0] > 0, b.gain[0] > 0], s > 0])
+    w = 1.0 / noise_sd.ravel()
+    Jx = J[:, active] * w[:, None]
+    # d M_cp / d theta_j = gain G_cp basis_pj = (M_cp - s_c) basis_pj / f_p
+    signal = (values - np.repeat(s, n)).reshape(m, n) / field
+    Jt = (signal[:, :, None] * basis[None, :, :theta.size]).reshape(m * n, -1) * w[:, None]
+    r = (M.ravel() - values) * w
+    Q = np.linalg.qr(Jx)[0] if Jx.shape[1] else np.zeros((m * n, 0))
+    return np.linalg.lstsq(Jt - Q @ (Q.T @ Jt), r - Q @ (Q.T @ r), rcond=None)[0]
+
+
+def _minimise(theta, basis, M, sigma, noise_sd, setup, depth, distance, water, patch):
+    """Gauss-Newton from ``theta``, each step halved until the fit's chi^2 falls: (theta,
+    chi^2)."""
+    fit = _fit_at(theta, basis, M, sigma, setup, depth, distance, water, patch)
+    if fit is None:
+        raise ValueError("theta: the starting field falls below FIELD_FLOOR")
+    chi2 = float(fit[0].objective[0])
+    for _ in range(GN_MAX_ITER):
+        delta = _step(fit, theta, basis, M, noise_sd, depth, distance, water)
+        for _ in range(GN_MAX_HALVINGS):
+            trial = _fit_at(theta + delta, basis, M, sigma, setup, depth, distance, water,
+                            patch)
+            if trial is not None and float(trial[0].objective[0]) <= chi2:
+                break
+            delta = delta / 2
+        else:
+            return theta, chi2
+        gain_chi2 = chi2 - float(trial[0].objective[0])
+        theta, fit, chi2 = theta + delta, trial, float(trial[0].objective[0])
+        if gain_chi2 < GN_FTOL or np.max(np.abs(delta)) < GN_XTOL:
+            break
+    return theta, chi2
 
 
 def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FIELD_ALPHA,
@@ -89,9 +140,9 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
     """Fit the nested light-field models and choose the smallest the data support.
 
     For each model of ``models`` in turn, the field coefficients minimise the chi^2 of the
-    free-gain batch fit of the water on a chart with reflectances f_p R_p (Nelder-Mead, started
-    at the previous model's coefficients); a larger model is chosen only while its
-    likelihood-ratio test against the previous one has a p-value below ``alpha``.
+    free-gain batch fit of the water on a chart with reflectances f_p R_p (Gauss-Newton on the
+    profile, started at the previous model's coefficients); a larger model is chosen only while
+    its likelihood-ratio test against the previous one has a p-value below ``alpha``.
 
     Parameters
     ----------
@@ -126,27 +177,25 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
     ----------
     S. S. Wilks, "The large-sample distribution of the likelihood ratio for testing composite
     hypotheses", Ann. Math. Statist. 9(1), 60-62, 1938 (the likelihood-ratio test).
-    J. A. Nelder and R. Mead, "A simplex method for function minimization", Comput. J. 7(4),
-    308-313, 1965.
+    L. Kaufman, "A variable projection method for solving separable nonlinear least squares
+    problems", BIT 15 (1975) 49-57 (the Gauss-Newton step of the field on the profile).
     """
+    from scipy import stats
+
     basis = field_basis()
+    # the budget's per-patch term weighs the residuals; its nuisances are left at their
+    # priors' centres (the search compares light fields)
+    patch = {"patch": uncertain["patch"]} if uncertain and "patch" in uncertain else {}
+    noise_sd = sca.budget.Budget(patch, {}, float(patch.get("patch", 0.0))).noise_sd(M, sigma)
     fits = {}
     prev = None
     for name in models:
         k = FIELDS[name]
-        if k == 0:
-            theta, chi2 = np.zeros(0), _chi2(np.zeros(0), basis, M, sigma, setup, depth,
-                                             distance, water, uncertain)
-        else:
-            start = np.zeros(k)
-            if prev is not None:
-                start[:fits[prev]["theta"].size] = fits[prev]["theta"]
-            res = optimize.minimize(_chi2, start, args=(basis, M, sigma, setup, depth, distance,
-                                                        water, uncertain),
-                                    method="Nelder-Mead",
-                                    options=dict(xatol=NM_XATOL, fatol=NM_FATOL,
-                                                 maxiter=NM_ITERATIONS_PER_PARAMETER * k))
-            theta, chi2 = res.x, float(res.fun)
+        start = np.zeros(k)
+        if prev is not None:
+            start[:fits[prev]["theta"].size] = fits[prev]["theta"][:k]
+        theta, chi2 = _minimise(start, basis, M, sigma, noise_sd, setup, depth, distance,
+                                water, patch)
         p = None
         if prev is not None:
             dk = k - FIELDS[prev]

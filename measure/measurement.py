@@ -24,7 +24,15 @@ from forward.water import resolve_water
 from sca.assess import BLOCKING
 
 from .camera import Profile, camera_setup, load_profile
-from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, sample_patches
+from .chart import (
+    LAYOUTS,
+    ChartLayout,
+    PatchSample,
+    orientations,
+    parse_corners,
+    sample_patches,
+)
+from .detect import find_chart
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
 
@@ -291,7 +299,7 @@ def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
     return np.vstack([k_low, k_high])
 
 
-def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
+def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
             white_level=None, light_field: str = "auto", uncertain=None) -> Measurement:
@@ -306,9 +314,10 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     ----------
     image : str, os.PathLike or Photo
         A RAW (any LibRaw format) or linear 16-bit TIFF, or a :class:`measure.Photo`.
-    corners : str or array_like, (4, 2)
+    corners : str or array_like, (4, 2), optional
         'x1,y1 x2,y2 x3,y3 x4,y4' pixels: next to patch 1, 6, 24, 19 (see
-        :mod:`measure.chart`).
+        :mod:`measure.chart`). None (default): the chart is found in the photo
+        (:func:`measure.find_chart`; what was found is in ``inputs['chart']``).
     depth, distance : float
         The chart's depth and the camera-to-chart distance, m.
     camera : str, path or array, optional
@@ -344,7 +353,8 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     ------
     ValueError
         Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
-        ``light_field``, ...) when it is wrong.
+        ``light_field``, ...) when it is wrong; :class:`measure.ChartNotFound` (``no chart
+        found``, with the reason) when ``corners`` is None and the photo shows no chart.
 
     References
     ----------
@@ -366,6 +376,11 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
     if light_field != "auto" and light_field not in FIELDS:
         raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
     budget = budget_for(uncertain, profile)
+    if corners is None:
+        found = find_chart(photo, lay)
+        corners, chart = found.corners, found.to_dict()
+    else:
+        chart = {"corners": parse_corners(corners).tolist(), "detected": False}
     cands = orientations(photo, corners, lay)
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
                                                              distance, water, budget)
@@ -424,6 +439,6 @@ def measure(image, *, corners, depth, distance, camera=forward.DEFAULT_CAMERA,
               "water": {f.name: getattr(water, f.name) for f in dataclasses.fields(water)
                         if not f.name.endswith("_table")},
               "path_model": water.path_model, "light_field": light_field,
-              "layout": dataclasses.asdict(lay)}
+              "layout": dataclasses.asdict(lay), "chart": chart}
     return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
                        all_flags, reliable, notes, field_report, inputs)

@@ -2,23 +2,54 @@
 path, the batched variable-projection solver and the Cramér-Rao bound, all on one model function
 (:meth:`sca.ChartModel.predict`).
 
+The public names are loaded on first use (PEP 562 module ``__getattr__``): ``import sca`` costs
+nothing, and ``sca.estimate`` imports cvxpy, ``sca.estimate_batch`` numba, each only when asked
+(the command line's start-up; DECISIONS.md "Start-up").
+
 Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 """
 
-from .batch import BatchEstimate, estimate_batch
-from .bound import Precision, precision
-from .budget import DEFAULT_UNCERTAIN
-from .pathmodels import PATH_MODEL_DELTA
-from .fitspec import FIXABLE, FREEABLE
-from .loop import MODES, Estimator, estimate
-from .lsq import estimate_least_squares
-from .metrics import RRMSE_BANDS_NM, rrmse, rrmse_bands
-from .model import CHL_DERIVATIVE_FLOOR, PARAMS, ChartModel, Prediction
-from .results import Estimate
-from .subproblem import build_subproblem, compiled_subproblem
+from __future__ import annotations
+
+import importlib
+import importlib.util
 
 __all__ = ["BatchEstimate", "estimate_batch", "MODES", "Estimate", "Estimator", "estimate",
            "estimate_least_squares", "rrmse", "rrmse_bands", "RRMSE_BANDS_NM", "ChartModel",
            "Prediction", "PARAMS", "FREEABLE", "FIXABLE", "CHL_DERIVATIVE_FLOOR",
            "build_subproblem", "compiled_subproblem", "Precision", "precision",
            "DEFAULT_UNCERTAIN", "PATH_MODEL_DELTA"]
+
+#: Where each public name lives (submodule of ``sca``).
+_HOME = {
+    "BatchEstimate": "batch", "estimate_batch": "batch",
+    "Precision": "bound", "precision": "bound",
+    "DEFAULT_UNCERTAIN": "budget_defaults",
+    "PATH_MODEL_DELTA": "pathmodels",
+    "FIXABLE": "fitspec", "FREEABLE": "fitspec",
+    "MODES": "loop", "Estimator": "loop", "estimate": "loop",
+    "estimate_least_squares": "lsq",
+    "RRMSE_BANDS_NM": "metrics", "rrmse": "metrics", "rrmse_bands": "metrics",
+    "CHL_DERIVATIVE_FLOOR": "model", "PARAMS": "model", "ChartModel": "model",
+    "Prediction": "model",
+    "Estimate": "results",
+    "build_subproblem": "subproblem", "compiled_subproblem": "subproblem",
+}
+
+
+def __getattr__(name):
+    """Load a public name from its submodule, or a submodule (``sca.budget``), on first use
+    (PEP 562)."""
+    home = _HOME.get(name)
+    if home is None:
+        if name.startswith("_") or importlib.util.find_spec(f"{__name__}.{name}") is None:
+            raise AttributeError(f"module 'sca' has no attribute {name!r}")
+        return importlib.import_module(f".{name}", __name__)  # binds sca.<name> itself
+    value = getattr(importlib.import_module(f".{home}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    """The module's names, the public ones not yet loaded included."""
+    return sorted(set(globals()) | set(__all__))

@@ -12,8 +12,10 @@ differ), for any free parameters (``free=``):
   parameters at their given values;
 * the 95 % profile-likelihood interval of every free parameter (:mod:`sca.intervals`).
 
-Every prediction and Jacobian comes from :meth:`sca.model.ChartModel.predict`. A chart that does
-not converge within ``max_iter`` is flagged (``converged`` False, ``status`` says why).
+Every prediction and Jacobian is :meth:`sca.model.ChartModel.predict`'s (for C, a_CDOM and the
+path alone computed chart by chart from :meth:`forward.WaterTerms.optical_depth`'s pieces,
+:func:`sca.lm.evaluate`). A chart that does not converge within ``max_iter`` is flagged
+(``converged`` False, ``status`` says why).
 """
 
 from __future__ import annotations
@@ -38,11 +40,10 @@ from .assess import (
     profile_delta,
 )
 from .budget import resolve_budget, variance_shares
-from .pathmodels import candidates, combine_batch
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
+from .limits import EXACT_FIT, MAX_RGB
 from .lm import STATUS, Problem, evaluate, levenberg_marquardt
-from .projection import grid_best
 from .model import (
     CAMERA,
     CHL_DERIVATIVE_FLOOR,
@@ -52,10 +53,20 @@ from .model import (
     u_from_chl,
     upper_cap,
 )
-from .limits import EXACT_FIT, MAX_RGB
+from .pathmodels import candidates, combine_batch
+from .projection import grid_best
 
-__all__ = ["BatchEstimate", "estimate_batch", "ENGINES", "DEFAULT_ENGINE", "INIT_CHL",
-           "INIT_CDOM", "CHUNK", "STATUS", "start_grid"]
+__all__ = [
+    "CHUNK",
+    "DEFAULT_ENGINE",
+    "ENGINES",
+    "INIT_CDOM",
+    "INIT_CHL",
+    "STATUS",
+    "BatchEstimate",
+    "estimate_batch",
+    "start_grid",
+]
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).
 INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 8)])
@@ -64,8 +75,9 @@ INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 6)])
 CHUNK = 65536
 #: Values per block of the free-gain start search (charts x grid points x m n).
 START_BLOCK = 2_000_000
-#: The engine: the model function (numpy, in blocks on every core) and the compiled,
-#: physics-free variable projection (:mod:`sca.projection`).
+#: The engine: the model function's columns (or, for C, a_CDOM and the path only, the optical
+#: depth's (weight, spectrum) pieces, :func:`sca.lm.fused`) and the compiled, physics-free
+#: variable projection (:mod:`sca.projection`).
 ENGINES = ("numba",)
 DEFAULT_ENGINE = "numba"
 
@@ -270,7 +282,8 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     tol : float
         Relative decrease at which a chart stops.
     engine : {'numba'}
-        The one engine: the model function's columns, projected by compiled code
+        The one engine: the model function's columns, or the optical depth's (weight,
+        spectrum) pieces (:func:`sca.lm.fused`), projected by compiled code
         (:mod:`sca.projection`).
     gain : {'known', 'free'}
         'free': M = gain G + s with one unknown gain per chart (a photograph's exposure).
@@ -303,10 +316,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
     exact = resolve_budget(uncertain, depth=1.0, distance=1.0, water=water).exact
     models = candidates(path_models, water, sigma is not None and not exact)
-    kw = dict(depth=depth, distance=distance, sigma=sigma, saturation=saturation, camera=camera,
-              illuminant=illuminant, reflectances=reflectances, wavelengths=wavelengths,
-              basis=basis, fix=fix, free=free, intervals=intervals, max_iter=max_iter, tol=tol,
-              setup=setup, engine=engine, gain=gain, uncertain=uncertain)
+    kw = {"depth": depth, "distance": distance, "sigma": sigma, "saturation": saturation,
+          "camera": camera, "illuminant": illuminant, "reflectances": reflectances,
+          "wavelengths": wavelengths, "basis": basis, "fix": fix, "free": free,
+          "intervals": intervals, "max_iter": max_iter, "tol": tol, "setup": setup,
+          "engine": engine, "gain": gain, "uncertain": uncertain}
     if len(models) == 1:
         return _estimate_batch(rgb_stack, water=water, **kw)
     results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
@@ -426,11 +440,12 @@ def _concatenate_budgets(parts):
 def _empty(mdl, spec):
     z = np.zeros(0)
     names = spec.names
-    return dict(code=np.zeros(0, int), f=z, s=np.zeros((0, mdl.m)), k=np.zeros((0, mdl.wavelengths.size)),
-                it=np.zeros(0, int), gain=z, fit_rms=z, dof=np.zeros(0, int), chi2_dof=z,
-                chi2_p=z, gain_ci=np.zeros((0, 2)), ci_codes=np.zeros((0, 4), int),
-                values={n: z for n in names}, intervals={n: np.zeros((0, 2)) for n in names},
-                budget={})
+    return {"code": np.zeros(0, int), "f": z, "s": np.zeros((0, mdl.m)),
+            "k": np.zeros((0, mdl.wavelengths.size)), "it": np.zeros(0, int), "gain": z,
+            "fit_rms": z, "dof": np.zeros(0, int), "chi2_dof": z, "chi2_p": z,
+            "gain_ci": np.zeros((0, 2)), "ci_codes": np.zeros((0, 4), int),
+            "values": {n: z for n in names}, "intervals": {n: np.zeros((0, 2)) for n in names},
+            "budget": {}}
 
 
 def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> Problem:
@@ -552,8 +567,8 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     if prob.prior_mean is not None:
         it = it + it0
     idx = np.arange(N)
-    f, g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
-    res = dict(s=s, k=k, f=f, it=it, code=code, gain=gain)
+    f, _g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
+    res = {"s": s, "k": k, "f": f, "it": it, "code": code, "gain": gain}
     res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", prob.M, prob.M))
     n_s = np.zeros(N, dtype=int) if not spec.free_s else np.sum(s > 0, axis=1)
     dof = mdl.m * mdl.n - len(spec.names) - n_s - int(spec.free_gain)

@@ -131,7 +131,7 @@ class Precision:
 def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
               reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
               water: Water | None = None, gain: str = "known", fix=None, free=(),
-              setup: ChartSetup | None = None, uncertain=None) -> Precision:
+              setup: ChartSetup | None = None, uncertain=None, dive: bool = False) -> Precision:
     """The Cramér-Rao bound of C, a_CDOM(440) and any free parameter for every condition.
 
     Parameters
@@ -164,6 +164,12 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         noise and its nuisances enter with their Gaussian priors, as in the estimators.
         Default (None): :data:`sca.budget.DEFAULT_UNCERTAIN`; ``{}``: the sensor's photon and
         read noise only (the camera's own limit).
+    dive : bool, optional
+        The conditions are the photos of one dive in one water (C and a_CDOM the same in
+        all; each photo its own depth, distance and free exposure gain): the bound of the
+        joint estimate (:func:`sca.joint.dive_precision`), whose budget's water, camera and
+        per-patch terms are shared by the photos. ``chl_sd``, ``cdom_sd`` and ``correlation``
+        are then floats (the dive's), ``depth`` and ``distance`` the photos'. Default False.
 
     Returns
     -------
@@ -234,6 +240,9 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
                       water=spec.water) @ setup.sensitivities  # (N, m)
     M0 = pred.signal.reshape(N, m, n) + s[:, :, None]
     sigma_photon, saturation, _, _ = noise_model(M0, setup, sensor)
+    if dive:
+        return _dive(chl, cdom, depth, distance, setup, spec.water, uncertain, sigma_photon, s,
+                     gain, fix)
     sigma = budget.noise_sd(M0, sigma_photon)
     J = pred.jacobian.reshape(N, m, n, -1)
     if gain == "channels":  # one gain per channel: d M0 / d g_c = M0 in channel c
@@ -292,6 +301,28 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
                       for k_, v in shares.items()}
         out.limiting = out.limiting[0]
     return out
+
+
+def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, gain, fix):
+    """The joint bound of one water from the N photos (:func:`sca.joint.dive_precision`)."""
+    from .joint import dive_precision
+
+    if gain != "free" or fix:
+        raise ValueError("dive: the joint bound frees each photo's exposure gain and holds "
+                         "nothing: give gain='free' and no fix")
+    if np.ptp(chl) > 0 or np.ptp(cdom) > 0:
+        raise ValueError("dive: one water: chl and cdom must be the same for every photo")
+    d = dive_precision(float(chl[0]), float(cdom[0]), depth=depth, distance=distance,
+                       sigma=sigma_photon, setup=setup, water=water, uncertain=uncertain,
+                       backscatter=s)
+    flags = ("near-bound-chl",) * bool(Z95 * d["chl_sd"] >= chl[0]) + \
+        ("near-bound-cdom",) * bool(Z95 * d["cdom_sd"] >= cdom[0])
+    return Precision(chl=float(chl[0]), cdom=float(cdom[0]), depth=depth, distance=distance,
+                     chl_sd=d["chl_sd"], cdom_sd=d["cdom_sd"], correlation=d["correlation"],
+                     rrmse=np.nan, attained=not flags, flags=flags, gain=gain, fixed={},
+                     sd={"chl": d["chl_sd"], "cdom": d["cdom_sd"]},
+                     uncertain={} if uncertain == {} else dict(uncertain or {}),
+                     budget={}, limiting="")
 
 
 def _shares(J, M0, columns, gain, free_s, sigma, sigma_photon, prior):

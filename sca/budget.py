@@ -33,38 +33,15 @@ import numpy as np
 
 from forward.water import COEFFICIENT_PARAMS, Water
 
+from .budget_defaults import BUDGET_SOURCES, DEFAULT_UNCERTAIN, REAL_WATER_UNCERTAIN
 from .model import covariance
 
-__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Budget",
+__all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Budget",
            "resolve_budget", "parse_sd", "variance_shares", "limiting_source"]
 
-#: The default budget (DECISIONS.md, "The uncertainty budget", gives the sources):
-#: depth 0.2 m (a dive computer's depth reading: the issue's 0.1-0.3 m); distance 5 % (a
-#: measured camera-to-chart distance); eq 6's slope 0.0025 nm^-1 and eq 7's 0.0025 nm^-1 (the
-#: paper's ranges 0.014-0.019 and 0.006-0.014 lie within 2 sd of its values 0.014 and 0.011);
-#: the camera's channel balance 1 % (a profile from another day); each channel's curve shifted
-#: by 1 nm (the wavelength scale of a measured sensitivity); per-patch 1 % (a
-#: ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and the
-#: daylight's spectral variation, in quadrature).
-DEFAULT_UNCERTAIN = {
-    "depth": 0.2,
-    "distance": "5%",
-    "cdom_slope": 0.0025,
-    "nap_slope": 0.0025,
-    "balance": 0.01,
-    "camera_shift": 1.0,
-    "patch": 0.01,
-}
-#: Where each default comes from (recorded with every result's budget).
-BUDGET_SOURCES = {
-    "depth": "dive computer depth reading, 0.1-0.3 m",
-    "distance": "camera-to-chart distance measured to about 5 %",
-    "cdom_slope": "Blasinski & Farrell eq 6: 0.014-0.019 nm^-1",
-    "nap_slope": "Blasinski & Farrell eq 7: 0.006-0.014 nm^-1",
-    "balance": "camera channel balance from a profile of another day, ~1 %",
-    "camera_shift": "wavelength scale of measured camera curves, ~1 nm per channel",
-    "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
-}
+# DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
+# plain data in sca.budget_defaults, re-exported here.
+
 #: Names that are nuisance parameters with a Gaussian prior.
 NUISANCE = ("depth", "distance", "balance", "camera_shift") + COEFFICIENT_PARAMS
 #: Names that enter the noise of every patch (relative sd).

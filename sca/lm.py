@@ -1,7 +1,10 @@
 """Variable projection and Levenberg-Marquardt for many charts at once, for any free parameters.
 
 The engine knows no physics: it calls :meth:`sca.model.ChartModel.predict` for the signals and
-their Jacobian. For charts i with weights w2 = 1 / sigma^2 (ones where the noise is unknown):
+their Jacobian (for C, a_CDOM and the path alone, :func:`fused`, the same numbers chart by chart
+in compiled code from :meth:`forward.WaterTerms.optical_depth`'s (weight, spectrum) pieces,
+:func:`sca.projection.project_pieces`). For charts i with weights w2 = 1 / sigma^2 (ones where
+the noise is unknown):
 
     G = predict(theta).signal / scale_i,   (gain, s) = closed form (:func:`sca.model.linear_part`),
     r = sqrt(w2) (M - gain G - s 1^T),   f = ||r||^2,
@@ -10,8 +13,10 @@ their Jacobian. For charts i with weights w2 = 1 / sigma^2 (ones where the noise
 
 The iteration variable of C is u = C^e0 (:func:`sca.model.du_chain`); every other parameter is
 its own coordinate. A Levenberg-Marquardt step with Marquardt scaling (diag of H) and projected
-lower bounds (a variable at its bound whose gradient points outwards is held); all charts
-advance together and converged charts leave the active set.
+lower bounds (a variable at its bound whose gradient points outwards is held), solved per chart
+in compiled code (Gaussian elimination of the unit-diagonal Marquardt matrix; a pivot below
+:data:`SINGULAR_PIVOT` falls back to the diagonal); all charts advance together and
+converged charts leave the active set.
 
 Codes (:data:`STATUS`): 0 relative decrease below tol, 1 exact fit, 2 no further decrease
 predicted, 3 iteration limit, 4 damping grew without decrease.
@@ -23,11 +28,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .compiled import njit
 from .model import TINY, ChartModel, chl_from_u, du_chain, lower_bound
-from .projection import project
+from .projection import project, project_pieces
 
-__all__ = ["STATUS", "LM_MU0", "LM_DOWN", "LM_UP", "LM_MU_MIN", "LM_MU_MAX", "SINGULAR_DET",
-           "Problem", "evaluate", "levenberg_marquardt"]
+__all__ = [
+    "FUSED_NAMES",
+    "LM_DOWN",
+    "LM_MU0",
+    "LM_MU_MAX",
+    "LM_MU_MIN",
+    "LM_UP",
+    "SINGULAR_PIVOT",
+    "STATUS",
+    "Problem",
+    "evaluate",
+    "fused",
+    "levenberg_marquardt",
+]
 
 STATUS = {
     0: "converged: relative decrease below tol",
@@ -41,9 +59,13 @@ STATUS = {
 LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
 #: Damping floor, and the damping above which a chart that cannot decrease stops (code 4).
 LM_MU_MIN, LM_MU_MAX = 1e-12, 1e12
-#: A Marquardt-scaled step matrix whose determinant is below this is treated as singular:
-#: the step falls back to the diagonal (steepest descent scaled by the curvatures).
-SINGULAR_DET = 1e-14
+#: A Marquardt-scaled (unit-diagonal) step matrix with a pivot below this is treated as
+#: singular: the step falls back to the diagonal (steepest descent scaled by the curvatures).
+#: A pivot, not the determinant: the determinant of a unit-diagonal matrix of p strongly but
+#: not fatally correlated columns (C with the budget's bio-optical scales, say) falls below any
+#: fixed threshold as p grows, and the diagonal fallback then crawls along the valley and stops
+#: short of the optimum (DECISIONS.md, "The defaults after real water").
+SINGULAR_PIVOT = 1e-12
 
 
 @dataclass
@@ -100,8 +122,10 @@ class Problem:
         self.chl_col = self.names.index("chl") if "chl" in self.names else -1
         #: the distinct names in column order (a name of m values, 'balance', has m columns)
         self.free = tuple(dict.fromkeys(self.names))
+        #: 1 / scale (the factor of the model's signals)
+        self.inv_scale = 1.0 / np.asarray(self.scale, float)
 
-    def subset(self, idx) -> "Problem":
+    def subset(self, idx) -> Problem:
         """The charts ``idx`` as a problem of their own."""
         def rows(a):
             return None if a is None else a[idx]
@@ -149,7 +173,7 @@ class Problem:
         return out
 
 
-def evaluate(prob: Problem, idx, theta, grad: bool = True):
+def evaluate(prob: Problem, idx, theta, grad: bool = True, attenuation: bool = True):
     """Objective, variable-projection gradient and Gauss-Newton matrix of charts ``idx``.
 
     Parameters
@@ -162,6 +186,8 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
         Their nonlinear parameters, LM coordinates (u = C^e0 for C).
     grad : bool, optional
         Also the gradient and Gauss-Newton matrix (default True).
+    attenuation : bool, optional
+        Also the attenuation k (default True; else k may be None).
 
     Returns
     -------
@@ -177,8 +203,17 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
         The closed-form backscatter (scaled units).
     ssr : ndarray, (k,)
         Unweighted sum of squares (scaled units).
-    k : ndarray, (k, q)
-        The attenuation exp(-(depth + distance) c).
+    k : ndarray, (k, q), or None
+        The attenuation exp(-(depth + distance) c) (None without ``attenuation`` where the
+        charts are evaluated by :func:`sca.projection.project_pieces`).
+
+    Notes
+    -----
+    Where the problem is :func:`fused` the signal and its Jacobian rows are
+    :meth:`sca.model.ChartModel.predict`'s, computed chart by chart in compiled code from
+    :meth:`forward.WaterTerms.optical_depth`'s (weight, spectrum) pieces
+    (:func:`sca.projection.project_pieces`; ``tests/test_fused.py`` checks them against
+    ``predict``).
 
     References
     ----------
@@ -188,6 +223,8 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
     mdl = prob.model
     m, n = mdl.m, mdl.n
     params = prob.params(idx, theta)
+    if fused(prob):
+        return _evaluate_pieces(prob, idx, theta, params, grad, attenuation)
     pred = mdl.predict(params, prob.free if grad else (), chl_floor=TINY, jacobian=grad)
     inv = (1.0 / prob.scale[idx])[:, None]
     fs = None if prob.fixed_s is None else prob.fixed_s[idx]
@@ -198,7 +235,57 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
         JR = pred.jacobian_rows
     f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
                                     prob.free_gain, m, n, grad, col_scale)
-    if prob.prior_mean is not None:  # the budget's Gaussian priors: f + sum w (theta - mu)^2
+    f, g, H = _with_priors(prob, idx, theta, f, g, H, grad)
+    return f, g, H, gain, s, ssr, pred.attenuation
+
+
+#: The names :func:`sca.projection.project_pieces` evaluates (everything of the chart model
+#: that reaches it through the optical depth's pieces; the camera's curves and free Water
+#: constants go through :meth:`sca.model.ChartModel.predict`).
+FUSED_NAMES = ("chl", "cdom", "depth", "distance")
+
+
+def fused(prob: Problem) -> bool:
+    """True where :func:`evaluate` computes the charts from the optical depth's pieces
+    (:func:`sca.projection.project_pieces`): every free and fixed name in :data:`FUSED_NAMES`,
+    one phytoplankton shape.
+
+    Parameters
+    ----------
+    prob : Problem
+        The charts.
+
+    Returns
+    -------
+    bool
+    """
+    return (set(prob.names) <= set(FUSED_NAMES) and set(prob.fixed) <= set(FUSED_NAMES)
+            and not prob.model.terms.free_only)
+
+
+def _evaluate_pieces(prob, idx, theta, params, grad, attenuation):
+    """:func:`evaluate` of a :func:`fused` problem."""
+    mdl = prob.model
+    wrt = prob.free if grad else ()
+    weights, spectra, dweights = mdl.terms.optical_depth(
+        params["chl"], params.get("cdom", 0.0), params["depth"], params["distance"], wrt=wrt,
+        floor=TINY, stacked=True)
+    k_ = len(idx)
+    weights = np.broadcast_to(weights, (k_, spectra.shape[0]))
+    dW = np.zeros((k_, 0, spectra.shape[0])) if not grad else \
+        np.stack([np.broadcast_to(dweights[n], weights.shape) for n in prob.names], axis=1)
+    col_scale = prob.column_scales(idx, params.get("chl")) if grad else np.zeros((k_, 0))
+    f, g, H, gain, s, ssr, k = project_pieces(
+        weights, dW, spectra, mdl.Bt, prob.inv_scale, prob.M, prob.W2, prob.fixed_s,
+        prob.free_gain, mdl.m, mdl.n, grad, col_scale, attenuation, rows=idx)
+    f, g, H = _with_priors(prob, idx, theta, f, g, H, grad)
+    return f, g, H, gain, s, ssr, (k if attenuation else None)
+
+
+def _with_priors(prob, idx, theta, f, g, H, grad):
+    """f, g, H plus the budget's Gaussian priors f + sum w (theta - mu)^2 (g and H None
+    without ``grad``)."""
+    if prob.prior_mean is not None:
         pw = prob.prior_weight[idx]
         d = theta - prob.prior_mean[idx]
         f = f + np.einsum("ip,ip->i", pw, d * d)
@@ -207,28 +294,90 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True):
             H = H + pw[:, :, None] * np.eye(theta.shape[1])
     if not grad:
         g = H = None
-    return f, g, H, gain, s, ssr, pred.attenuation
+    return f, g, H
+
+
+@njit(cache=True, error_model="numpy")
+def _lu_solve(A, b, x):  # pragma: no cover
+    """Gaussian elimination with partial pivoting of A x = b (A and b overwritten): returns
+    the smallest |pivot| (x unset where a pivot is 0 or not finite)."""
+    p = A.shape[0]
+    smallest = np.inf
+    for c in range(p):
+        piv = c
+        for r in range(c + 1, p):
+            if abs(A[r, c]) > abs(A[piv, c]):
+                piv = r
+        if piv != c:
+            for k in range(p):
+                A[c, k], A[piv, k] = A[piv, k], A[c, k]
+            b[c], b[piv] = b[piv], b[c]
+        smallest = min(smallest, abs(A[c, c]))
+        if not (A[c, c] != 0.0 and np.isfinite(A[c, c])):
+            return 0.0
+        for r in range(c + 1, p):
+            f = A[r, c] / A[c, c]
+            for k in range(c, p):
+                A[r, k] -= f * A[c, k]
+            b[r] -= f * b[c]
+    for c in range(p - 1, -1, -1):
+        acc = b[c]
+        for k in range(c + 1, p):
+            acc -= A[c, k] * x[k]
+        x[c] = acc / A[c, c]
+    return smallest
+
+
+@njit(cache=True, error_model="numpy")
+def _step_many(g, H, mu, theta, lower, hold, singular_pivot):  # pragma: no cover
+    N, p = g.shape
+    d = np.zeros((N, p))
+    pred = np.zeros(N)
+    A = np.empty((p, p))
+    y = np.empty(p)
+    b = np.empty(p)
+    root = np.empty(p)
+    free = np.empty(p, dtype=np.bool_)
+    for i in range(N):
+        for a in range(p):
+            diag = H[i, a, a]
+            free[a] = (not (theta[i, a] <= lower[a] and g[i, a] > 0.0)) and diag > 0.0 \
+                and not hold[i, a]
+            dA = diag * (1.0 + mu[i]) if free[a] else 1.0
+            root[a] = np.sqrt(dA)
+            b[a] = (-g[i, a] if free[a] else 0.0) / root[a]
+        # the Marquardt-scaled matrix (unit diagonal scaling): D^-1/2 A D^-1/2 y = D^-1/2 b
+        for a in range(p):
+            for c in range(p):
+                A[a, c] = H[i, a, c] / (root[a] * root[c]) if (free[a] and free[c]) else 0.0
+            A[a, a] = 1.0
+        rhs = b.copy()
+        if _lu_solve(A, b, y) > singular_pivot:
+            for a in range(p):
+                d[i, a] = y[a] / root[a]
+        else:
+            for a in range(p):
+                d[i, a] = rhs[a] / root[a]
+        acc = 0.0
+        for a in range(p):
+            acc -= 2.0 * g[i, a] * d[i, a]
+            for c in range(p):
+                acc -= d[i, a] * H[i, a, c] * d[i, c]
+        pred[i] = acc
+    return d, pred
 
 
 def _step(g, H, mu, theta, lower, hold):
-    """The projected, Marquardt-scaled step d and the decrease the Gauss-Newton model predicts."""
-    diag = np.diagonal(H, axis1=1, axis2=2)
-    free = ~((theta <= lower) & (g > 0)) & (diag > 0) & ~hold
-    both = free[:, :, None] & free[:, None, :]
-    A = np.where(both, H, 0.0)
-    dA = np.where(free, diag * (1.0 + mu[:, None]), 1.0)
-    p = g.shape[1]
-    eye = np.eye(p, dtype=bool)
-    A = np.where(eye, dA[:, :, None], A)
-    b = np.where(free, -g, 0.0)
-    norm = np.sqrt(dA[:, :, None] * dA[:, None, :])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        good = np.linalg.det(A / norm) > SINGULAR_DET
-    d = b / dA
-    if good.any():
-        d[good] = np.linalg.solve(A[good], b[good][..., None])[..., 0]
-    pred = -2.0 * np.einsum("ip,ip->i", g, d) - np.einsum("ip,ipq,iq->i", d, H, d)
-    return d, pred
+    """The projected, Marquardt-scaled step d and the decrease the Gauss-Newton model predicts
+    (compiled, chart by chart: a free coordinate is not at its bound with the gradient pointing
+    out, has positive curvature and is not held; a step matrix with a pivot below
+    :data:`SINGULAR_PIVOT` falls back to the diagonal)."""
+    if g.shape[0] == 0:
+        return np.zeros(g.shape), np.zeros(0)
+    return _step_many(np.ascontiguousarray(g, float), np.ascontiguousarray(H, float),
+                      np.ascontiguousarray(mu, float), np.ascontiguousarray(theta, float),
+                      np.ascontiguousarray(lower, float), np.ascontiguousarray(hold, bool),
+                      SINGULAR_PIVOT)
 
 
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
@@ -279,7 +428,7 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     f = np.zeros(N)
     if N == 0:
         return theta, f, iters, code
-    fa, g, H, *_ = evaluate(prob, np.arange(N), theta, True)
+    fa, g, H, *_ = evaluate(prob, np.arange(N), theta, True, False)
     f[:] = fa
     done = fa <= f_exact
     code[done] = 1
@@ -300,7 +449,7 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         gn = np.zeros_like(g)
         Hn = np.zeros_like(H)
         if ti.size:
-            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, ti, tn[trial], True)
+            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, ti, tn[trial], True, False)
         ok = trial & (fn < fa)
         acc = active[ok]
         theta[acc], f[acc] = tn[ok], fn[ok]

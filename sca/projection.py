@@ -3,7 +3,10 @@ M = gain G + s 1^T in closed form, and the Kaufman Jacobian, objective, gradient
 Gauss-Newton matrix of the nonlinear parameters.
 
 It contains no physics: it receives the model function's columns (the unit-gain signal G and
-its derivatives dG/dtheta, from :meth:`sca.model.ChartModel.predict`), the measurements and
+its derivatives dG/dtheta, from :meth:`sca.model.ChartModel.predict`) or, in
+:func:`project_pieces`, the optical depth's (weight, spectrum) pieces from
+:meth:`forward.WaterTerms.optical_depth` and the chart model's B (then G = B exp(-tau) and
+dG = -B (exp(-tau) dtau) chart by chart, as ``predict`` computes them), the measurements and
 their weights, so numba's on-disk cache (keyed on this file) holds no numbers. For each chart,
 with weights w = 1 / sigma^2 per value:
 
@@ -27,7 +30,7 @@ import numpy as np
 
 from .compiled import KERNEL_LOCK, njit, prange
 
-__all__ = ["SERIAL_BELOW", "grid_best", "linear_part_stats", "project"]
+__all__ = ["SERIAL_BELOW", "grid_best", "linear_part_stats", "project", "project_pieces"]
 
 
 @njit(cache=True)
@@ -104,6 +107,9 @@ def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no c
     return gain, s, act
 
 
+#: numba's fast-math flags of the compiled columns (reassociation and fused multiply-add, so
+#: that the sums vectorise; not 'nnan'/'ninf': a non-finite value compares as IEEE says).
+FAST = {"reassoc", "contract", "nsz", "arcp"}
 #: Below this many charts the kernels run in the calling thread (a parallel launch costs more
 #: than the work).
 SERIAL_BELOW = 64
@@ -150,16 +156,18 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
 
 @njit(cache=True)
 def _scratch(m, n, p):  # pragma: no cover
-    """Work arrays of :func:`_project_one` (allocated once per block of charts, not per chart)."""
+    """Work arrays of :func:`_project_one` (allocated once per block of charts, not per
+    chart)."""
     return (np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.empty(m),
             np.empty(m * n), np.empty((p, m * n)), np.empty(m * n))
 
 
 @njit(cache=True)
-def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain, s,
+def _project_one(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, s, g, H,
                  work):  # pragma: no cover
-    """Chart i of :func:`project` into the output arrays (``work``: :func:`_scratch`)."""
-    p = JR.shape[1]
+    """One chart of :func:`project` (its rows G (m n,), JR (p, m n), CS (p,), M, W2, fs; ``s``
+    (m,), ``g`` (p,), ``H`` (p, p) written; ``work``: :func:`_scratch`): (f, ssr, gain)."""
+    p = JR.shape[0]
     sw, sM, sG, sGG, sGM, act, r, X, Gc = work
     sw[:] = 0.0
     sM[:] = 0.0
@@ -168,33 +176,30 @@ def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr,
     sGM[:] = 0.0
     for ch in range(m):
         for j in range(ch * n, ch * n + n):
-            w = W2[i, j]
-            x = G[i, j]
+            w = W2[j]
+            x = G[j]
             sw[ch] += w
-            sM[ch] += w * M[i, j]
+            sM[ch] += w * M[j]
             sG[ch] += w * x
             sGG[ch] += w * x * x
-            sGM[ch] += w * x * M[i, j]
-    gi = _active_set(sw, sM, sG, sGG, sGM, fs[i], has_fs, free_gain, s[i], act)
-    gain[i] = gi
+            sGM[ch] += w * x * M[j]
+    gi = _active_set(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, s, act)
     fi = 0.0
     si = 0.0
     for ch in range(m):
         for j in range(ch * n, ch * n + n):
-            rj = M[i, j] - gi * G[i, j] - s[i, ch]
+            rj = M[j] - gi * G[j] - s[ch]
             r[j] = rj
-            fi += W2[i, j] * rj * rj
+            fi += W2[j] * rj * rj
             si += rj * rj
-    f[i] = fi
-    ssr[i] = si
     if not grad:
-        return
+        return fi, si, gi
     for a in range(p):
         for ch in range(m):
             mean = 0.0
             for j in range(ch * n, ch * n + n):
-                X[a, j] = gi * CS[i, a] * JR[i, a, j]
-                mean += W2[i, j] * X[a, j]
+                X[a, j] = gi * CS[a] * JR[a, j]
+                mean += W2[j] * X[a, j]
             if act[ch] > 0.0:
                 mean /= sw[ch]
                 for j in range(ch * n, ch * n + n):
@@ -204,29 +209,28 @@ def _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr,
         for ch in range(m):
             mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
             for j in range(ch * n, ch * n + n):
-                Gc[j] = G[i, j] - mean
-                gg += W2[i, j] * Gc[j] * Gc[j]
+                Gc[j] = G[j] - mean
+                gg += W2[j] * Gc[j] * Gc[j]
         if gi > 0.0 and gg > 0.0:
             for a in range(p):
                 dot = 0.0
                 for j in range(m * n):
-                    dot += W2[i, j] * Gc[j] * X[a, j]
+                    dot += W2[j] * Gc[j] * X[a, j]
                 c = dot / gg
                 for j in range(m * n):
                     X[a, j] -= c * Gc[j]
     for a in range(p):
         acc = 0.0
         for j in range(m * n):
-            acc += W2[i, j] * X[a, j] * r[j]
-        g[i, a] = -acc
+            acc += W2[j] * X[a, j] * r[j]
+        g[a] = -acc
         for b in range(a + 1):
             acc = 0.0
             for j in range(m * n):
-                acc += W2[i, j] * X[a, j] * X[b, j]
-            H[i, a, b] = acc
-            H[i, b, a] = acc
-
-
+                acc += W2[j] * X[a, j] * X[b, j]
+            H[a, b] = acc
+            H[b, a] = acc
+    return fi, si, gi
 
 
 @njit(parallel=True, cache=True)
@@ -238,8 +242,8 @@ def _project(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no
     for b in prange(blocks):
         work = _scratch(m, n, p)
         for i in range(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK)):
-            _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H,
-                         gain, s, work)
+            f[i], ssr[i], gain[i] = _project_one(G[i], JR[i], CS[i], M[i], W2[i], fs[i], has_fs,
+                                                 free_gain, m, n, grad, s[i], g[i], H[i], work)
     return f, g, H, gain, s, ssr
 
 
@@ -250,8 +254,8 @@ def _project_serial(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pra
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
     work = _scratch(m, n, p)
     for i in range(N):
-        _project_one(i, G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, f, ssr, g, H, gain,
-                     s, work)
+        f[i], ssr[i], gain[i] = _project_one(G[i], JR[i], CS[i], M[i], W2[i], fs[i], has_fs,
+                                             free_gain, m, n, grad, s[i], g[i], H[i], work)
     return f, g, H, gain, s, ssr
 
 
@@ -297,7 +301,140 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
         return _project(*args)
 
 
+@njit(cache=True, fastmath=FAST)
+def _columns_one(weights, dweights, spectra, Bt, inv_scale, grad, tau, KD, GJ):  # pragma: no cover
+    """One chart's k = exp(-weights @ spectra) (row 0 of ``KD``, times ``inv_scale``) and
+    dk_a = -k (dweights_a @ spectra) (rows 1..p, unit scale), projected: GJ = KD @ Bt, i.e.
+    G = B k inv_scale and the rows B dk_a. Sums of products and an exponential: no physics."""
+    P, q = spectra.shape
+    rows = dweights.shape[0] + 1 if grad else 1
+    mn = Bt.shape[1]
+    for a in range(rows):
+        for l in range(q):
+            tau[a, l] = 0.0
+        for t in range(P):
+            w = weights[t] if a == 0 else dweights[a - 1, t]
+            if w != 0.0:
+                for l in range(q):
+                    tau[a, l] += w * spectra[t, l]
+    for l in range(q):
+        kl = np.exp(-tau[0, l])
+        tau[0, l] = kl
+        KD[0, l] = kl * inv_scale
+        for a in range(1, rows):
+            KD[a, l] = -kl * tau[a, l]
+    for a in range(rows):
+        for j in range(mn):
+            GJ[a, j] = 0.0
+    for l in range(q):
+        for a in range(rows):
+            c = KD[a, l]
+            for j in range(mn):
+                GJ[a, j] += c * Bt[l, j]
+
+
+@njit(cache=True)
+def _fused_block(lo, hi, rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs,
+                 free_gain, m, n, grad, want_k, f, ssr, gain, g, H, s, kout):  # pragma: no cover
+    p, q = dweights.shape[1], spectra.shape[1]
+    work = _scratch(m, n, p)
+    tau = np.empty((p + 1, q))
+    KD = np.empty((p + 1, q))
+    GJ = np.empty((p + 1, m * n))
+    for i in range(lo, hi):
+        row = rows[i]
+        _columns_one(weights[i], dweights[i], spectra, Bt, inv_scale[row], grad, tau, KD, GJ)
+        if want_k:
+            for l in range(q):
+                kout[i, l] = tau[0, l]
+        f[i], ssr[i], gain[i] = _project_one(GJ[0], GJ[1:], CS[i], M[row], W2[row], fs[row],
+                                             has_fs, free_gain, m, n, grad, s[i], g[i], H[i],
+                                             work)
+
+
 @njit(parallel=True, cache=True)
+def _fused(rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain, m, n,
+           grad, want_k):  # pragma: no cover
+    N, p, q = weights.shape[0], dweights.shape[1], spectra.shape[1]
+    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
+    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
+    kout = np.empty((N if want_k else 0, q))
+    blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
+    for b in prange(blocks):
+        _fused_block(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK), rows, weights, dweights,
+                     spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain, m, n, grad,
+                     want_k, f, ssr, gain, g, H, s, kout)
+    return f, g, H, gain, s, ssr, kout
+
+
+@njit(cache=True)
+def _fused_serial(rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain,
+                  m, n, grad, want_k):  # pragma: no cover
+    N, p, q = weights.shape[0], dweights.shape[1], spectra.shape[1]
+    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
+    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
+    kout = np.empty((N if want_k else 0, q))
+    _fused_block(0, N, rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs,
+                 free_gain, m, n, grad, want_k, f, ssr, gain, g, H, s, kout)
+    return f, g, H, gain, s, ssr, kout
+
+
+def project_pieces(weights, dweights, spectra, Bt, inv_scale, M, W2, fixed_s, free_gain: bool,
+                   m: int, n: int, grad: bool = True, col_scale=None, attenuation: bool = False,
+                   rows=None):
+    """:func:`project` of signals given as (weight, spectrum) pieces of the optical depth.
+
+    For every chart, tau = weights @ spectra, k = exp(-tau), G = (k @ Bt) inv_scale and
+    dG/dtheta_a = -(k (dweights_a @ spectra)) @ Bt; then :func:`project`. The pieces are
+    :meth:`forward.WaterTerms.optical_depth`'s (``stacked=True``) and ``Bt`` the chart model's
+    (:class:`sca.model.ChartModel`): this computes :meth:`sca.model.ChartModel.predict`'s
+    signal and Jacobian rows chart by chart in compiled code, without the whole batch's
+    temporaries, and knows no term of c(x).
+
+    Parameters
+    ----------
+    weights : ndarray, (N, P)
+        The pieces' weights of each chart's tau.
+    dweights : ndarray, (N, p, P)
+        The weights of d tau / d theta_a on the same spectra.
+    spectra : ndarray, (P, q)
+        The pieces' spectra.
+    Bt : ndarray, (q, m n)
+        The chart model's B transposed (vec(G) = B k).
+    inv_scale : ndarray, (N,) or (K,)
+        Factors of G (1 / the data's scale).
+    M, W2, fixed_s, free_gain, m, n, grad, col_scale :
+        As :func:`project` (``col_scale`` multiplies the unit-scale rows dG/dtheta). ``M``,
+        ``W2`` and ``fixed_s`` may hold K >= N charts (see ``rows``).
+    attenuation : bool
+        Also return k (else an empty (0, q) array).
+    rows : array_like of int, (N,), optional
+        The rows of ``inv_scale``, ``M``, ``W2`` and ``fixed_s`` that chart i reads (default
+        0..N-1): a subset of charts without copying their data.
+
+    Returns
+    -------
+    f, g (N, p), H (N, p, p), gain (N,), s (N, m), ssr (N,) as :func:`project`, and k (N, q)
+    (``attenuation``) or (0, q).
+    """
+    N = weights.shape[0]
+    p = dweights.shape[1]
+    has_fs = fixed_s is not None
+    rows = np.arange(N) if rows is None else np.ascontiguousarray(rows, np.int64)
+    fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((np.shape(M)[0], m))
+    CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
+    args = (rows, np.ascontiguousarray(weights, float), np.ascontiguousarray(dweights, float),
+            np.ascontiguousarray(spectra, float), np.ascontiguousarray(Bt, float),
+            np.ascontiguousarray(inv_scale, float), CS, np.ascontiguousarray(M, float),
+            np.ascontiguousarray(W2, float), fs, has_fs, bool(free_gain), int(m), int(n),
+            bool(grad), bool(attenuation))
+    if N < SERIAL_BELOW:
+        return _fused_serial(*args)
+    with KERNEL_LOCK:
+        return _fused(*args)
+
+
+@njit(parallel=True, cache=True, error_model="numpy")
 def _grid(sw, sM, sMM, sumG, sumGG, MG, w, inv, fs, has_fs, free_gain):  # pragma: no cover
     R, P, m = MG.shape
     best = np.empty(R, dtype=np.int64)

@@ -256,8 +256,11 @@ def test_cli_measures_a_folder(files, corners, tmp_path):
     ct = _corner_text(corners)
     assert main(["calibrate", f["air"], "--corners", ct, "--out", str(prof)]) == 0
     code = main(["measure", str(dive), "--corners", ct, "--profile", str(prof), "--depth", "5",
-                 "--distance", "1.5", "--out", str(tmp_path / "out")])
+                 "--distance", "1.5", "--scheduler", "synchronous", "--out",
+                 str(tmp_path / "out")])
     rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
-    assert [r["image"].split("/")[-1] for r in rows] == ["a.dng", "b.dng", "c.dng"]
+    # every file is listed (issue 18): notes.txt with its reason (Dask: tests/test_dive.py)
+    assert [r["image"].split("/")[-1] for r in rows] == ["a.dng", "b.dng", "c.dng", "notes.txt"]
+    assert rows[3]["status"] == "not an image"
     assert rows[0]["reliable"] == "True" and rows[2]["error"].startswith("image:")
     assert code == 2 and (tmp_path / "out" / "a" / "measurement.json").exists()

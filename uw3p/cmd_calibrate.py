@@ -1,6 +1,8 @@
 """``uw3p calibrate``: a camera's channel balance from a photograph of the chart in air.
 
-    uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
+    uw3p calibrate AIR.dng --out profile.json [--corners "x1,y1 x2,y2 x3,y3 x4,y4"]
+
+Without ``--corners`` the chart is found in the photo (:func:`measure.find_chart`).
 
 The profile written is what ``uw3p measure --profile`` reads. Exit status 0 when the profile
 fits (reliable), 1 when it does not.
@@ -43,20 +45,27 @@ def add_parser(sub):
     return p
 
 
+def _corner_text(corners) -> str:
+    """'x1,y1 x2,y2 x3,y3 x4,y4' (pixels, one decimal): what --corners takes."""
+    return " ".join(f"{x:.1f},{y:.1f}" for x, y in corners)
+
+
 def run(args, out, err) -> int:
     """Fit the channel balance of the camera from ``image`` and write the profile to ``--out``.
 
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options: ``image``, ``out`` and the photo options (``corners`` in pixels,
+        Parsed options: ``image``, ``out`` and the photo options (``corners`` in pixels or
+        None to find the chart,
         ``layout``, ``camera``, ``quantal``, ``illuminant``, black and white levels in raw
         units).
     out : text stream
         The channel gains (largest 1), chi^2/dof and fit_rms per channel, and whether the
         profile is reliable.
     err : text stream
-        ``wrote <profile>``; a note when the camera's curves stop inside 400-700 nm.
+        ``wrote <profile>``; a note when the camera's curves stop inside 400-700 nm; the
+        corners found when ``--corners`` is not given.
 
     Returns
     -------
@@ -67,7 +76,8 @@ def run(args, out, err) -> int:
     ------
     ValueError
         Bad input (an unreadable image, corners whose grey row does not fall from white to
-        black, an unwritable ``--out``); the message names the argument or file.
+        black, an unwritable ``--out``); the message names the argument or file;
+        :class:`measure.ChartNotFound` (``no chart found``) when no chart is found.
     """
     import measure
 
@@ -77,13 +87,20 @@ def run(args, out, err) -> int:
                          "(profile.json)")
     photo = read_photo(args, args.image)
     err.write(camera_note(args.camera))
-    cands = measure.orientations(photo, args.corners, measure.LAYOUTS[args.layout])
+    corners = args.corners
+    if corners is None:
+        found = measure.find_chart(photo, measure.LAYOUTS[args.layout])
+        corners = found.corners
+        err.write(f"chart found: corners {_corner_text(corners)} (confidence "
+                  f"{found.confidence:.2f}; give --corners to override)\n")
+    cands = measure.orientations(photo, corners, measure.LAYOUTS[args.layout])
     c, _, ok = cands["as given"]
     if not ok:
         passing = [k for k, v in cands.items() if v[2]]
         hint = f" (it does {passing[0]})" if len(passing) == 1 else ""
+        which = "in the order given" if args.corners is not None else "of the chart found"
         raise ValueError("corners: the grey row (patches 19-24) does not fall from white to black "
-                         f"in the order given{hint}; give the corners next to patch 1, 6, 24, 19")
+                         f"{which}{hint}; give the corners next to patch 1, 6, 24, 19")
     sample = measure.sample_patches(photo, c, measure.LAYOUTS[args.layout])
     prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,
                              illuminant=args.illuminant, image=photo.path)

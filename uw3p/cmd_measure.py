@@ -1,33 +1,32 @@
 """``uw3p measure``: the water from a photograph of the chart underwater, and the photograph
-colour-corrected.
+colour-corrected; or a dive: a folder of photos, each with its own depth and distance.
 
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
-    uw3p measure DIVE_FOLDER/ ... --out DIR     (every image: one folder each and summary.csv)
+    uw3p measure DIVE_FOLDER/ --metadata dive.csv --profile profile.json [--joint] --out DIR
 
-Exit status 0 when every measurement is reliable, 1 when one is not, 2 when one could not be
-measured (bad input).
+A folder (:func:`measure.dive.measure_dive`): one output folder per photo, summary.csv (every
+file of the folder: measured or why not), survey.nc, survey.png and, with ``--joint``,
+joint.json; run on Dask (a local cluster, or ``--scheduler ADDRESS``); a rerun skips the photos
+already complete with the same inputs and options. Exit status 0 when every measurement is
+reliable, 1 when one is not, 2 when one could not be measured (bad input), 130 interrupted
+(Ctrl-C; the summary lists what was done).
 """
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 from . import __version__
-from .common import (EXIT_BAD_INPUT, EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options,
-                     add_photo_options, add_water_options, atomic_open, budget_text, camera_note,
+from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK,
+                     add_budget_options, add_photo_options, add_water_options, camera_note,
                      check_spectra_args, read_photo, uncertain_from_args, water_from_args)
 
-__all__ = ["NAME", "BUFFERED", "SUMMARY_COLUMNS", "add_parser", "run"]
+__all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 
 #: The subcommand's name.
 NAME = "measure"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: Columns of a folder's ``summary.csv``, one row per file.
-SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
-                   "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "depth_m",
-                   "depth_sd", "distance_m", "distance_sd", "chl_budget", "out", "error")
 
 
 def add_parser(sub):
@@ -50,6 +49,21 @@ def add_parser(sub):
     p.add_argument("--distance", type=float, default=None, help="camera-to-chart distance, m")
     p.add_argument("--profile", default=None, help="camera profile from uw3p calibrate")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--metadata", default=None, metavar="CSV",
+                   help="a folder's per-photo inputs: columns image,depth_m,distance_m and "
+                        "optionally depth_sd_m,distance_sd_m,corners (image names relative to "
+                        "the folder; a photo without a row is not measured)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace output folders that hold another photo's results (or results "
+                        "of other inputs)")
+    p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
+                   help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
+                        "preview corrected.png is always written)")
+    p.add_argument("--joint", action="store_true",
+                   help="a folder: also fit all its photos as one water (joint.json)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="a folder: the Dask scheduler to run on (e.g. tcp://host:8786); default "
+                        "a local cluster of one process per core; 'synchronous': no Dask")
     add_photo_options(p)
     add_water_options(p)
     add_budget_options(p)
@@ -57,25 +71,32 @@ def add_parser(sub):
     return p
 
 
-def _measure_one(args, image, outdir):
-    """Measure one image into ``outdir``; returns (exit code, summary row)."""
-    import measure
+def _options(args) -> dict:
+    """The keyword arguments of :func:`measure.measure` given by the options."""
+    return {"camera": args.camera, "quantal": args.quantal, "profile": args.profile,
+            "illuminant": args.illuminant, "layout": args.layout, "water": water_from_args(args),
+            "black_level": args.black_level, "white_level": args.white_level,
+            "uncertain": _budget(args)}
 
+
+def _measure_one(args, image, outdir):
+    """Measure one image into ``outdir``; returns (exit code, summary of the estimate)."""
+    import measure
+    from measure.output import check_out
+
+    check_out(outdir, image, args.overwrite)  # a refusal before the work
+    opts = _options(args)
+    opts.pop("black_level"), opts.pop("white_level")
     meas = measure.measure(read_photo(args, image), corners=args.corners, depth=args.depth,
-                           distance=args.distance, camera=args.camera, quantal=args.quantal,
-                           profile=args.profile, illuminant=args.illuminant,
-                           layout=args.layout, water=water_from_args(args),
-                           uncertain=_budget(args))
+                           distance=args.distance, **opts)
     meas.inputs["command"] = getattr(args, "command_line", "")
-    measure.write_outputs(meas, outdir, version=__version__)
+    written = measure.write_outputs(meas, outdir, version=__version__, tiff=args.tiff,
+                                    overwrite=args.overwrite)
     e = meas.estimate
-    row = dict(image=str(image), chl=e.chl, chl_lo=e.chl_ci[0], chl_hi=e.chl_ci[1], cdom=e.cdom,
-               cdom_lo=e.cdom_ci[0], cdom_hi=e.cdom_ci[1], gain=e.gain, fit_rms=e.fit_rms,
-               chi2_dof=e.chi2_dof, orientation=meas.orientation, reliable=meas.reliable,
-               flags=" ".join(meas.flags), depth_m=args.depth,
-               depth_sd=meas.inputs.get("depth_sd"), distance_m=args.distance,
-               distance_sd=meas.inputs.get("distance_sd"),
-               chl_budget=budget_text(e.budget, "chl"), out=str(outdir), error="")
+    row = {"chl": e.chl, "chl_lo": e.chl_ci[0], "chl_hi": e.chl_ci[1], "cdom": e.cdom,
+           "cdom_lo": e.cdom_ci[0], "cdom_hi": e.cdom_ci[1], "gain": e.gain,
+           "fit_rms": e.fit_rms, "chi2_dof": e.chi2_dof, "orientation": meas.orientation,
+           "reliable": meas.reliable, "flags": " ".join(meas.flags), "written": written}
     return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
 
 
@@ -97,15 +118,6 @@ def _budget(args):
     return base | {k: v for k, v in given.items() if defaults.get(k) != v}
 
 
-def _measure_worker(job):
-    """One image of a folder, in a worker process: bad input becomes a summary row."""
-    args, image, outdir = job
-    try:
-        return _measure_one(args, image, outdir)
-    except ValueError as exc:
-        return EXIT_BAD_INPUT, dict(image=str(image), error=str(exc), out=str(outdir))
-
-
 def run(args, out, err) -> int:
     """Measure one photograph, or every RAW/TIFF file of a folder.
 
@@ -124,26 +136,31 @@ def run(args, out, err) -> int:
     -------
     int
         The worst status: ``EXIT_OK`` when every measurement is reliable,
-        ``EXIT_NOT_RELIABLE`` when one is not, ``EXIT_BAD_INPUT`` when a folder's file could not
-        be measured.
+        ``EXIT_NOT_RELIABLE`` when one is not, ``EXIT_BAD_INPUT`` when a folder's photo could
+        not be measured, ``EXIT_INTERRUPTED`` when a folder's run was interrupted (Ctrl-C).
 
     Raises
     ------
     ValueError
-        Bad input (missing ``--depth``/``--distance``, an unreadable image, a folder without
-        images, an output folder that cannot be created); the message names the argument or file.
+        Bad input (missing ``--depth``/``--distance`` for one photo, an unreadable image, a
+        folder without images, a bad ``--metadata`` file, an output folder that cannot be
+        created or holds another photo's results without ``--overwrite``); the message names
+        the argument or file.
     """
-    if args.depth is None or args.distance is None:
-        raise ValueError("--depth, --distance: both are required")
     check_spectra_args(args)
     src = Path(args.image)
     if not src.exists():
         raise ValueError(f"image: file not found: {src}")
     if Path(args.out).is_file():
         raise ValueError(f"--out: {args.out} is a file; give a folder (created if missing)")
+    if args.metadata is not None and not src.is_dir():
+        raise ValueError("--metadata: applies to a folder of photos; for one photo give "
+                         "--depth and --distance")
     err.write(camera_note(args.camera))
     if src.is_dir():
         return _measure_folder(args, src, out, err)
+    if args.depth is None or args.distance is None:
+        raise ValueError("--depth, --distance: both are required")
     outdir = Path(args.out)
     code, row = _measure_one(args, src, outdir)
     e = row
@@ -155,44 +172,35 @@ def run(args, out, err) -> int:
               f"fit              fit_rms {e['fit_rms']:.3g}, chi2/dof {e['chi2_dof']:.3g}\n"
               f"orientation      {e['orientation']}\n"
               f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
-              + f"\nwrote            {outdir / 'measurement.json'}, corrected.tiff, "
-                "corrected.png, report.png\n")
+              + "\nwrote            " + ", ".join(
+                  [str(outdir / "measurement.json")]
+                  + [k for k in e["written"] if k != "measurement.json"]) + "\n")
     return code
 
 
 def _measure_folder(args, src, out, err):
-    """Every image of a folder (a dive's photos): one output folder each, summary.csv, a
-    progress bar, all cores. Files that are not images are listed in the summary with their
-    error."""
-    import csv
-    from concurrent.futures import ProcessPoolExecutor
+    """Every photo of a folder (a dive): :func:`measure.dive.measure_dive` on Dask, a progress
+    bar on ``err``; a count and the outputs' paths on ``out``."""
+    from measure.dive import measure_dive
 
-    from tqdm import tqdm
-
-    from measure.image import RAW_EXTENSIONS, TIFF_EXTENSIONS
-
-    files = sorted(p for p in src.iterdir() if p.is_file() and not p.name.startswith(".")
-                   and p.suffix.lower() in RAW_EXTENSIONS + TIFF_EXTENSIONS)
-    if not files:
-        raise ValueError(f"image: folder {src} has no RAW or TIFF files "
-                         f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
-    root = Path(args.out)
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out: cannot create {root}: {exc.strerror}") from None
-    jobs = [(args, f, root / f.stem) for f in files]
-    workers = max(1, min(len(jobs), os.cpu_count() or 1))
-    with ProcessPoolExecutor(workers) as pool:
-        results = list(tqdm(pool.map(_measure_worker, jobs), total=len(jobs), file=err,
-                            desc="measuring", unit="image"))
-    with atomic_open(root / "summary.csv", "--out") as fh:
-        w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
-        w.writeheader()
-        for _, row in results:
-            w.writerow({k: row.get(k, "") for k in SUMMARY_COLUMNS})
-    codes = [c for c, _ in results]
-    n_ok = codes.count(EXIT_OK)
-    out.write(f"{len(files)} files: {n_ok} reliable, {codes.count(EXIT_NOT_RELIABLE)} not "
-              f"reliable, {codes.count(EXIT_BAD_INPUT)} not measurable; {root / 'summary.csv'}\n")
-    return max(codes)
+    res = measure_dive(src, out=args.out, metadata=args.metadata, depth=args.depth,
+                       distance=args.distance, corners=args.corners, overwrite=args.overwrite,
+                       tiff=args.tiff, joint=args.joint, scheduler=args.scheduler, bar=err,
+                       version=__version__, command=getattr(args, "command_line", ""),
+                       **_options(args))
+    c = res.counts
+    n = len(res.rows)
+    out.write(f"{n} files: {c['measured'] + c['done earlier']} measured ({c['done earlier']} "
+              f"complete from an earlier run), {sum(r.get('reliable') is True for r in res.rows)} "
+              f"reliable; {c['error']} not measurable, {c['not an image']} not photos, "
+              f"{c['interrupted']} interrupted\n")
+    for path in (res.summary, res.survey, res.figure, res.joint):
+        if path is not None:
+            out.write(f"wrote {path}\n")
+    if args.joint and res.joint is None:
+        out.write(f"joint: {res.joint_error}\n")
+    if res.interrupted:
+        err.write(f"uw3p measure: interrupted; {res.summary} lists what was done (a rerun "
+                  "completes the rest)\n")
+        return EXIT_INTERRUPTED
+    return res.code

@@ -97,7 +97,8 @@ def add_budget_options(p) -> None:
     p : argparse.ArgumentParser
         The subcommand's parser.
     """
-    from sca.budget import DEFAULT_UNCERTAIN
+    # plain data: no numpy at start-up
+    from sca.budget_defaults import DEFAULT_UNCERTAIN
 
     def pct(v):  # argparse expands help with %: a percentage's sign is written %%
         return str(v).replace("%", "%%")
@@ -189,7 +190,7 @@ def add_photo_options(p) -> None:
     Parameters
     ----------
     p : argparse.ArgumentParser
-        The subcommand's parser; ``--camera``, ``--quantal``, ``--corners`` (required, pixels),
+        The subcommand's parser; ``--camera``, ``--quantal``, ``--corners`` (pixels; optional),
         ``--layout``, ``--illuminant``, ``--black-level`` and ``--white-level`` (raw units) are
         added.
 
@@ -201,10 +202,10 @@ def add_photo_options(p) -> None:
                    help="colour-science camera name or CSV (wavelength,red,green,blue)")
     p.add_argument("--quantal", action="store_true",
                    help="the camera curves act on photons (quantum efficiency): convert to energy")
-    p.add_argument("--corners", required=True,
+    p.add_argument("--corners", default=None,
                    help='the chart\'s outer corners in pixels, "x1,y1 x2,y2 x3,y3 x4,y4": next to '
                         "patch 1 (dark skin), patch 6 (bluish green), patch 24 (black), patch 19 "
-                        "(white)")
+                        "(white); default: the chart is found in the photo (this overrides it)")
     p.add_argument("--layout", default="patches", choices=["patches", "card"],
                    help="the corners are those of the patch grid (default) or of the whole card")
     p.add_argument("--illuminant", default=None, help="surface illuminant name or CSV (default D65)")
@@ -259,17 +260,21 @@ def camera_note(camera, wavelengths=None) -> str:
     """
     import numpy as np
 
-    from forward.spectra import (TAIL_FRACTION, camera_sensitivities, is_path,
-                                 read_spectral_csv, wavelength_grid)
+    from forward.spectra import (
+        TAIL_FRACTION,
+        camera_sensitivities,
+        colour_wavelength_range,
+        is_path,
+        read_spectral_csv,
+        wavelength_grid,
+    )
 
     try:
         camera_sensitivities(camera, wavelengths)  # refused: the error says it, not a note
         if is_path(camera):
             src, _ = read_spectral_csv(camera, name="camera")
-        else:
-            import colour
-
-            src = np.asarray(colour.MSDS_CAMERA_SENSITIVITIES[camera].wavelengths, float)
+        else:  # no colour-science import for a cached camera
+            src = np.asarray(colour_wavelength_range("MSDS_CAMERA_SENSITIVITIES", camera))
         wl = wavelength_grid(wavelengths)
     except (KeyError, ValueError):
         return ""  # the library call that follows reports it

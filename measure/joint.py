@@ -1,0 +1,133 @@
+"""One water from a dive's photographs: :func:`sca.joint.estimate_joint` on the measurements
+(measurement.json records) of ``uw3p measure``.
+
+Each photo brings its sampled patches and their standard errors, its depth and distance with
+their sds, its light field and its own fit (the starting point); the camera setup (with the
+profile's balance) and the water model are the run's. Photos whose own fit cannot be trusted as
+data (:data:`EXCLUDED_FLAGS`) are left out, each with its reason.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+import sca.joint
+from forward.water import resolve_water
+from sca.budget import parse_sd
+
+from .measurement import CLIPPED_SIGMA
+
+__all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "fit_joint"]
+
+#: A photo whose own measurement has one of these flags does not enter the joint fit.
+EXCLUDED_FLAGS = ("misfit", "not-converged", "saturated", "orientation-unverified",
+                  "noise-unknown")
+#: Flags of the photos' measurements that hold for the joint estimate too (the camera's).
+CARRIED_FLAGS = ("uncalibrated-camera", "unreliable-profile")
+
+
+def _arrays(rec):
+    """(M, sigma) of one record: clipped or unmeasured values left out (sigma inf)."""
+    p = rec["patches"]
+    M = np.maximum(np.asarray(p["rgb"], float), 0.0)
+    sig = np.asarray([[np.nan if v is None else v for v in row] for row in p["sigma"]], float)
+    clipped = np.asarray(p.get("clipped", np.zeros(M.shape)), float) > 0
+    ok = np.isfinite(sig) & (sig > 0) & ~clipped & (sig < CLIPPED_SIGMA * max(M.max(), 1e-300))
+    return M, np.where(ok, sig, np.inf)
+
+
+def _sd(name, value, reference) -> float:
+    """A recorded sd (m, or a percentage string) as metres; 0 where none was applied."""
+    return 0.0 if value is None else float(parse_sd(name, value, reference))
+
+
+def _name(rec, i):
+    path = (rec.get("image") or {}).get("path")
+    return Path(path).name if path else f"photo {i + 1}"
+
+
+def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
+              patch_correlation: float = sca.joint.PATCH_CORRELATION) -> sca.joint.JointEstimate:
+    """The water shared by a dive's photographs.
+
+    Parameters
+    ----------
+    records : sequence of dict or Measurement
+        measurement.json contents (or :class:`measure.Measurement` objects) of the photos.
+    setup : forward.ChartSetup
+        The camera (the profile's balance applied), illuminant and chart of the run
+        (:func:`measure.camera_setup`); each photo's light field is applied to it.
+    water : forward.Water, optional
+        The water model (default the paper's).
+    uncertain : dict, optional
+        The budget; default: the one the photos were measured with (their ``inputs``).
+    path_models, patch_correlation :
+        As :func:`sca.joint.estimate_joint`.
+
+    Returns
+    -------
+    sca.joint.JointEstimate
+        With ``photos`` keyed by image name; photos left out are listed in ``notes`` and in
+        the attribute ``excluded`` (name -> reason).
+
+    Raises
+    ------
+    ValueError
+        Naming ``records`` when there is no usable photo.
+    """
+    recs = [r.to_dict() if hasattr(r, "to_dict") else r for r in records]
+    if not recs:
+        raise ValueError("records: no measurement to combine")
+    used, excluded = [], {}
+    for i, rec in enumerate(recs):
+        flags = set((rec.get("estimate") or {}).get("flags", []))
+        bad = sorted(flags & set(EXCLUDED_FLAGS))
+        if bad:
+            excluded[_name(rec, i)] = "its own fit is flagged " + ", ".join(bad)
+        else:
+            used.append((i, rec))
+    if not used:
+        raise ValueError("records: no photo can enter the joint fit (" + "; ".join(
+            f"{k}: {v}" for k, v in excluded.items()) + ")")
+    if uncertain is None:
+        uncertain = (used[0][1].get("inputs") or {}).get("uncertain")
+    M, sigma, setups, depth, distance, dsd, rsd = [], [], [], [], [], [], []
+    start = {"chl": [], "cdom": [], "gain": [], "backscatter": []}
+    for _, rec in used:
+        m_, s_ = _arrays(rec)
+        M.append(m_)
+        sigma.append(s_)
+        field = (rec.get("light_field") or {}).get("field")
+        setups.append(setup if not field or (rec.get("light_field") or {}).get("model") == "none"
+                      else dataclasses.replace(setup, reflectances=setup.reflectances
+                                               * np.asarray(field, float)[None, :]))
+        inp = rec.get("inputs") or {}
+        depth.append(float(inp["depth_m"]))
+        distance.append(float(inp["distance_m"]))
+        dsd.append(_sd("depth", inp.get("depth_sd"), depth[-1]))
+        rsd.append(_sd("distance", inp.get("distance_sd"), distance[-1]))
+        est = rec["estimate"]
+        for k in start:
+            start[k].append(est[k])
+    names = [_name(rec, i) for i, rec in used]
+    joint = sca.joint.estimate_joint(
+        np.array(M), depth=np.array(depth), distance=np.array(distance), sigma=np.array(sigma),
+        setup=setups, water=resolve_water(water), uncertain=uncertain,
+        depth_sd=np.array(dsd) if uncertain else None,
+        distance_sd=np.array(rsd) if uncertain else None, names=names,
+        path_models=path_models, patch_correlation=patch_correlation,
+        start={k: np.array(v, float) for k, v in start.items()})
+    carried = sorted({f for _, r in used for f in (r.get("estimate") or {}).get("flags", [])
+                      if f in CARRIED_FLAGS})
+    if carried:
+        joint.flags = tuple(dict.fromkeys(joint.flags + tuple(carried)))
+        joint.reliable = False
+        joint.notes.append("the camera's calibration is not trusted (" + ", ".join(carried)
+                           + "): the joint estimate is not reliable either")
+    for k, v in excluded.items():
+        joint.notes.append(f"{k} left out: {v}")
+    joint.excluded = excluded
+    return joint

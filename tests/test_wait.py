@@ -1,0 +1,157 @@
+"""Start-up and speed-path correctness (issue 21): what the command line imports, the cached
+colour-science spectra, the light field's Gauss-Newton search. No timings (those are in
+``experiments/wait_bench.py``)."""
+
+import dataclasses
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import forward
+from forward import spectra
+from measure import lightfield
+
+#: Packages the command line must not load before a command needs them
+HEAVY = ("scipy", "cvxpy", "matplotlib", "colour", "numba", "pandas", "rawpy", "cv2")
+
+
+def _loaded(code: str) -> set:
+    """Top-level packages of HEAVY (and numpy) that ``code`` leaves in sys.modules, run in a
+    fresh interpreter."""
+    probe = (f"{code}\nimport sys\n"
+             "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True).stdout.split()
+    return set(out) & set(HEAVY + ("numpy",))
+
+
+def test_importing_the_cli_loads_nothing_heavy():
+    assert _loaded("import uw3p.cli") == set()
+
+
+def test_help_and_bad_input_load_no_numerics():
+    # --help builds every subcommand's parser; a missing image is refused before any work
+    help_ = ("from uw3p.cli import main\n"
+             "try:\n    main(['measure', '--help'])\nexcept SystemExit:\n    pass")
+    assert _loaded(help_) == set()
+    bad = ("import io\nfrom uw3p.cli import main\n"
+           "assert main(['measure', 'missing.dng', '--depth', '5', '--distance', '1', '--out', "
+           "'x'], out=io.StringIO(), err=io.StringIO()) == 2")
+    assert _loaded(bad) <= {"numpy"}
+
+
+def test_sca_loads_its_names_on_first_use():
+    assert _loaded("import sca") <= {"numpy"}
+    assert _loaded("import sca; sca.DEFAULT_UNCERTAIN") <= {"numpy"}
+    import sca
+    from sca.budget import DEFAULT_UNCERTAIN
+    from sca.loop import estimate
+
+    assert sca.estimate is estimate and sca.DEFAULT_UNCERTAIN is DEFAULT_UNCERTAIN
+    assert all(getattr(sca, name) is not None for name in sca.__all__)
+    assert set(sca.__all__) <= set(dir(sca))
+    assert sca.budget.DEFAULT_UNCERTAIN is DEFAULT_UNCERTAIN  # submodules as attributes
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        sca.nonexistent  # noqa: B018
+
+
+def test_default_spectra_and_tables_need_no_colour_science():
+    code = ("import forward\nfrom uw3p.common import camera_note\n"
+            "forward.Water().on_grid(forward.wavelength_grid())\n"
+            "assert camera_note('Nikon 5100 (NPL)') == ''\nforward.camera_sensitivities()\n"
+            "forward.illuminant_spd()\nforward.chart_reflectances()\nforward.cie_1931_cmfs()")
+    assert "colour" not in _loaded(code)
+
+
+@pytest.mark.parametrize("wavelengths", [None, np.arange(400.0, 701.0, 10.0),
+                                         np.array([410.0, 555.0, 699.0])])
+def test_colour_cache_is_colour_science_bit_for_bit(wavelengths):
+    """Every cached column equals colour-science's own (the installed version's) resampling,
+    on the cache's 1 nm grid and on grids of some of its nodes."""
+    for (database, name) in spectra.COLOUR_CACHE_COLUMNS:
+        wl = spectra.wavelength_grid(wavelengths)
+        cached = spectra._cached(database, name, wl)
+        assert cached is not None
+        np.testing.assert_array_equal(cached, spectra.colour_spectrum(database, name, wl))
+
+
+@pytest.mark.parametrize("table", ["pure_water_absorption_smith_baker_1981.csv",
+                                   "phytoplankton_absorption_basis.csv"])
+def test_resampling_is_colour_sciences_linear_interpolator_bit_for_bit(table):
+    import colour
+
+    src, vals = spectra.read_spectral_table(table)
+    for wl in (spectra.wavelength_grid(), np.linspace(400.0, 700.0, 77)):
+        ours = spectra.resample(src, vals, wl, name="table")
+        for j in range(vals.shape[1]):
+            sd = colour.SpectralDistribution(vals[:, j], src,
+                                             interpolator=colour.LinearInterpolator)
+            np.testing.assert_array_equal(ours[:, j], sd[wl])
+
+
+def test_cached_data_ranges_are_colour_sciences():
+    import colour
+
+    for (database, name), (lo, hi) in spectra.COLOUR_CACHE_RANGES_NM.items():
+        wl = getattr(colour, database)[name].wavelengths
+        assert (lo, hi) == (wl[0], wl[-1])
+    assert spectra.colour_wavelength_range("MSDS_CAMERA_SENSITIVITIES", "Sigma SDMerill (NPL)"
+                                           )[1] == 680.0
+
+
+def test_grids_off_the_cache_come_from_colour_science():
+    wl = np.array([400.5, 550.25, 699.5])
+    assert spectra._cached("SDS_ILLUMINANTS", "D65", wl) is None
+    np.testing.assert_array_equal(forward.illuminant_spd(wavelengths=wl),
+                                  np.clip(spectra.colour_spectrum("SDS_ILLUMINANTS", "D65", wl),
+                                          0, None)
+                                  / spectra.colour_spectrum("SDS_ILLUMINANTS", "D65", wl).max())
+    assert spectra._cached("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)", wl) is None
+    assert spectra._cached("MSDS_CAMERA_SENSITIVITIES", "Sony ILCE-7RII", wl[:1]) is None
+
+
+def _lit_chart(theta, seed):
+    setup = forward.chart_setup()
+    field = 1.0 + lightfield.field_basis()[:, :len(theta)] @ np.asarray(theta, float)
+    lit = dataclasses.replace(setup, reflectances=setup.reflectances * field[None, :])
+    sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.5, setup=lit, seed=seed)
+    return setup, sim.rgb * 3000.0, sim.rgb_sigma * 3000.0
+
+
+@pytest.mark.parametrize("theta,model", [((0.05, -0.03), "plane"),
+                                         ((0.02, 0.01, -0.04), "plane+radial")])
+def test_light_field_search_reaches_the_minimum(theta, model):
+    """The Gauss-Newton search picks the true model, recovers the field to within the noise,
+    and stops at a minimum of the fit's chi^2: no coordinate step of 1e-4 lowers it."""
+    setup, M, sigma = _lit_chart(theta, seed=1)
+    res = lightfield.fit_light_field(M, sigma, setup, 5.0, 1.5, uncertain={"patch": 0.01})
+    assert res["model"] == model
+    np.testing.assert_allclose(res["coefficients"], theta, atol=3e-3)
+    basis = lightfield.field_basis()
+    noise_sd = np.sqrt(sigma ** 2 + (0.01 * M) ** 2)
+    for name, k in lightfield.FIELDS.items():
+        if k == 0:
+            continue
+        best = res["tests"][name]["chi2"]
+        th = np.asarray(res["coefficients"], float) if name == model else None
+        if th is None:  # the other model's optimum: search again from zero
+            th, chi2 = lightfield._minimise(np.zeros(k), basis, M, sigma, noise_sd, setup, 5.0,
+                                            1.5, None, {"patch": 0.01})
+            assert chi2 == pytest.approx(best, abs=1e-4)
+        for j in range(k):
+            for h in (-1e-4, 1e-4):
+                step = th.copy()
+                step[j] += h
+                b = lightfield._fit_at(step, basis, M, sigma, setup, 5.0, 1.5, None,
+                                       {"patch": 0.01})[0]
+                assert float(b.objective[0]) >= best - 1e-6
+
+
+def test_even_light_keeps_no_field():
+    setup, M, sigma = _lit_chart((0.0, 0.0), seed=2)
+    res = lightfield.fit_light_field(M, sigma, setup, 5.0, 1.5)
+    assert res["model"] == "none" and res["coefficients"] == []
+    assert res["tests"]["plane"]["p_value"] > lightfield.LIGHT_FIELD_ALPHA
+    assert res["tests"]["plane"]["chi2"] <= res["tests"]["none"]["chi2"]
