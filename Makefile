@@ -13,9 +13,9 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the whole suite (what CI runs)
+# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded)
 test: $(STAMP)
-	$(PY) -m pytest -q
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2
 
 # the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
 test-fast: $(STAMP)
