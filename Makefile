@@ -47,7 +47,7 @@ honesty: $(STAMP)
 # one BLAS thread: every fit is tiny, and idle BLAS threads spinning after numpy's small
 # matrix calls steal the second core from the batched solver's numba threads
 bench: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(VENV)/bin/uw3p bench
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.benchmark
 
 clean:
 	rm -rf figures cache .pytest_cache

@@ -284,3 +284,12 @@ def test_design_says_what_a_field_scientist_can_act_on():
     assert code == 1 and ("cannot be measured" in out or "coarsely" in out or "fix a_CDOM" in out)
     code, _, err = run(["design", "--depth", "-5", "--distance", "1", "--chl", "1", "--cdom", "0.1"])
     assert code == 2 and "depth" in err
+
+
+def test_bench_writes_to_a_folder_of_its_own_and_refuses_a_file(tmp_path):
+    """``uw3p bench`` never writes over the repository's record: its outputs go to ``--out``
+    (a folder); a file there is bad input (exit 2, the option named)."""
+    f = tmp_path / "afile"
+    f.write_text("x")
+    code, out, err = run(["bench", "--out", str(f)])
+    assert code == 2 and "--out" in err

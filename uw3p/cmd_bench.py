@@ -1,9 +1,11 @@
 """``uw3p bench``: speed against error of every estimator (what ``make bench`` runs).
 
-    uw3p bench [--quick]
+    uw3p bench [--quick] [--out DIR]
 
-Runs ``python -m experiments.benchmark`` in its own process with one BLAS thread, and exits with
-its status.
+Runs ``python -m experiments.benchmark`` in its own process with one BLAS thread, writing
+BENCHMARKS.md, results.json and the speed-error figure into ``--out`` (default
+``bench-results/``), never over the repository's record; ``make bench`` writes the record.
+Exits with the benchmark's status.
 """
 
 from __future__ import annotations
@@ -34,6 +36,9 @@ def add_parser(sub):
     """
     p = sub.add_parser(NAME, help="speed against error of every estimator (make bench)")
     p.add_argument("--quick", action="store_true", help="reduced sizes (a check, not the record)")
+    p.add_argument("--out", default="bench-results",
+                   help="folder for BENCHMARKS.md, results.json and the figure (created; "
+                        "default bench-results/)")
     p.set_defaults(func=run)
     return p
 
@@ -44,7 +49,7 @@ def run(args, out, err) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options: ``quick``.
+        Parsed options: ``quick``, ``out`` (a folder).
     out, err : text streams
         Unused (the child writes to the process's own streams).
 
@@ -52,6 +57,11 @@ def run(args, out, err) -> int:
     -------
     int
         The benchmark's exit status.
+
+    Raises
+    ------
+    ValueError
+        When ``--out`` is a file.
     """
     import subprocess
 
@@ -59,7 +69,15 @@ def run(args, out, err) -> int:
     # benchmark runs in its own process
     env = dict(os.environ)
     env.setdefault("OPENBLAS_NUM_THREADS", "1")
-    cmd = [sys.executable, "-m", "experiments.benchmark"] + (["--quick"] if args.quick else [])
+    from pathlib import Path
+
+    out_dir = Path(args.out)
+    if out_dir.is_file():
+        raise ValueError(f"--out: {out_dir} is a file; give a folder")
+    cmd = [sys.executable, "-m", "experiments.benchmark",
+           "--out", str(out_dir / "results.json"), "--report", str(out_dir / "BENCHMARKS.md"),
+           "--figure", str(out_dir / "benchmark_speed_error.png")] + (
+        ["--quick"] if args.quick else [])
     proc = subprocess.Popen(cmd, env=env)
     try:
         return proc.wait()
