@@ -36,7 +36,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
 from .assess import flag_tuples, input_flag_table
-from .budget import limiting_source, resolve_budget, variance_shares
+from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, profiled_covariance
@@ -321,7 +321,7 @@ def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, 
                      chl_sd=d["chl_sd"], cdom_sd=d["cdom_sd"], correlation=d["correlation"],
                      rrmse=np.nan, attained=not flags, flags=flags, gain=gain, fixed={},
                      sd={"chl": d["chl_sd"], "cdom": d["cdom_sd"]},
-                     uncertain={} if uncertain == {} else dict(uncertain or {}),
+                     uncertain=dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain),
                      budget={}, limiting="")
 
 

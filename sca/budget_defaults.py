@@ -8,8 +8,10 @@ __all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "REAL_WATER_UNCERTAIN"]
 
 #: Real water's chlorophyll-specific absorption about eqs 10 and 8 (NASA NOMAD v2 a_phi(443)/C
 #: and a_d(443)/C: ln sd 0.49 and 1.07 on the even stations, i.e. 49 % and 107 % of 0.0378 and
-#: 0.0124; the odd stations test it: REALWATER.md, DECISIONS.md "The defaults after real
-#: water"). Part of the default.
+#: 0.0124; the odd stations test it: REALWATER.md). Not in the default: the joint fit of a dive
+#: does not yet converge reliably in the valley of C against the two scales (DECISIONS.md, "The
+#: defaults after real water"); a single chart's fit does (``uncertain={**DEFAULT_UNCERTAIN,
+#: **REAL_WATER_UNCERTAIN}``).
 REAL_WATER_UNCERTAIN = {"phyto_scale": 0.0185, "nap_scale": 0.0133}
 #: The default budget (DECISIONS.md, "The uncertainty budget", gives the sources):
 #: depth 0.2 m (a dive computer's depth reading: the issue's 0.1-0.3 m); distance 5 % (a
@@ -18,8 +20,9 @@ REAL_WATER_UNCERTAIN = {"phyto_scale": 0.0185, "nap_scale": 0.0133}
 #: the camera's channel balance 1 % (a profile from another day); each channel's curve shifted
 #: by 1 nm (the wavelength scale of a measured sensitivity); per-patch 1 % (a
 #: ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and the
-#: daylight's spectral variation, in quadrature); and real water's scatter about eqs 8 and 10
-#: (:data:`REAL_WATER_UNCERTAIN`).
+#: daylight's spectral variation, in quadrature). Real water's scatter about eqs 8 and 10
+#: (:data:`REAL_WATER_UNCERTAIN`) is not in it yet (DECISIONS.md, "The defaults after real
+#: water").
 DEFAULT_UNCERTAIN = {
     "depth": 0.2,
     "distance": "5%",
@@ -28,7 +31,6 @@ DEFAULT_UNCERTAIN = {
     "balance": 0.01,
     "camera_shift": 1.0,
     "patch": 0.01,
-    **REAL_WATER_UNCERTAIN,
 }
 #: Where each default comes from (recorded with every result's budget).
 BUDGET_SOURCES = {
@@ -39,8 +41,4 @@ BUDGET_SOURCES = {
     "balance": "camera channel balance from a profile of another day, ~1 %",
     "camera_shift": "wavelength scale of measured camera curves, ~1 nm per channel",
     "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
-    "phyto_scale": "real water's chlorophyll-specific phytoplankton absorption: NOMAD v2 "
-                   "a_phi(443)/C about eq 10, ln sd 0.49 (even stations; REALWATER.md)",
-    "nap_scale": "real water's NAP absorption per unit C: NOMAD v2 a_d(443)/C about eq 8, "
-                 "ln sd 1.07 (even stations; REALWATER.md)",
 }

@@ -9,9 +9,9 @@ photo i is the one model function (:meth:`sca.model.ChartModel.predict`):
 
     M_i = gain_i G(x; depth_i, distance_i, camera) + s_i 1^T + e (.) M_i + noise_i,
 
-with e the per-patch relative error shared by every photo (sd rho x ``patch``, rho =
-``patch_correlation``; the independent remainder sqrt(1 - rho^2) x ``patch`` joins each value's
-own noise). e is not a parameter: for one value (channel, patch) across the photos the noise
+with e the per-patch relative error shared by every photo (sd sqrt(rho) x ``patch``, rho =
+``patch_correlation``, the correlation of the term between photos; the independent remainder
+sqrt(1 - rho) x ``patch`` joins each value's own noise). e is not a parameter: for one value (channel, patch) across the photos the noise
 covariance is D + t t^T, and the residuals are whitened by its exact inverse square root
 (rank one, Sherman-Morrison). The objective is chi^2 plus the priors' terms, minimised by
 :func:`scipy.optimize.least_squares` (trust-region reflective, analytic Jacobian; C in the
@@ -77,9 +77,17 @@ HETEROGENEITY_ALPHA = 0.01
 #: (reflectance tolerance and ageing) and the same camera in every photo (DECISIONS.md).
 PATCH_CORRELATION = 1.0
 #: least_squares' evaluation cap and tolerances (ftol = xtol = gtol) of every joint fit.
-JOINT_MAX_NFEV, JOINT_TOL = 400, 1e-8
+JOINT_MAX_NFEV, JOINT_TOL = 1000, 1e-8
 #: Relative precision of a profile-likelihood end (in u = C^e0 for C, in a_CDOM for a_CDOM).
 PROFILE_XTOL = 1e-3
+#: A profile point below the optimum by more than this (relative) means the fit was not at its
+#: minimum: the estimate is flagged not-converged.
+PROFILE_BELOW = 1e-6
+#: An unconverged profile point counts (flag not-converged) only where its objective is less
+#: than this many delta above the optimum: far beyond the interval it cannot move an end.
+PROFILE_UNSURE = 4.0
+#: Steps of the continuation that re-solves a profile point whose direct solve failed.
+PROFILE_CONTINUATION = 4
 #: Doublings of the first step (twice the Wald sd) before a profile end is called open.
 PROFILE_EXPAND = 40
 #: The largest per-photo relative scatter the joint fit adds beyond the budget (10 %: the
@@ -370,17 +378,40 @@ def _dof(data, lay, theta) -> int:
 
 
 # --------------------------------------------------------------------------- intervals
-def _profile_end(data, lay, theta, f_min, k, sd, side, cap, delta):
+def _profile_end(data, lay, theta, f_min, k, sd, side, cap, delta, issues):
     """One end of the profile-likelihood interval of theta[k] (side -1: lower, +1: upper):
     the first trial at the Wald end, doubling outwards until the profile crosses
     f_min + delta, then regula falsi (Illinois) on the bracket; every solve is warm-started
-    from the nearest solved point."""
+    from the nearest solved point, and one that did not converge is solved again from the
+    optimum (the lower objective kept). ``issues`` (a list) receives 'not-converged' where a
+    profile point stays unconverged, lies below the optimum (the fit was not at its minimum)
+    or the root is not found."""
     x_hat = theta[k]
     solved = {x_hat: (theta.copy(), -delta)}
+    starts = {x_hat: theta.copy()}  # converged points only: the warm starts
+
+    def solve_at(v):
+        """Solve with theta[k] held at v from the nearest converged point; where that fails,
+        by continuation (the hold moved there in PROFILE_CONTINUATION steps)."""
+        near = min(starts, key=lambda x: abs(x - v))
+        t, f, ok = _solve(data, lay, starts[near], {k: v})
+        if not ok:
+            t2 = starts[near]
+            for frac in np.linspace(0.0, 1.0, PROFILE_CONTINUATION + 1)[1:]:
+                t2, f2, ok = _solve(data, lay, t2, {k: near + frac * (v - near)})
+            if f2 < f or ok:
+                t, f = t2, f2
+        if ok:
+            starts[v] = t
+        return t, f, ok
 
     def excess(v):
-        near = min(solved, key=lambda x: abs(x - v))
-        t, f, _ = _solve(data, lay, solved[near][0], {k: v})
+        t, f, ok = solve_at(v)
+        # an unconverged point only matters where it could lie inside the interval (its
+        # objective is an upper bound of the profile's there)
+        if (not ok and f - f_min < PROFILE_UNSURE * delta) or \
+                f < f_min - PROFILE_BELOW * max(1.0, f_min):
+            issues.append("not-converged")
         solved[v] = (t, f - f_min - delta)
         return solved[v][1]
 
@@ -424,6 +455,7 @@ def _profile_end(data, lay, theta, f_min, k, sd, side, cap, delta):
             if side_kept == -1:
                 fb *= 0.5
             side_kept = -1
+    issues.append("not-converged")  # the root was not found to its tolerance
     return c
 
 
@@ -444,8 +476,10 @@ def _intervals(data, lay, theta, f_min):
     out, flags = {}, []
     for name, k, cap in (("chl", lay.u[0], u_from_chl(CHL_MAX, e0)), ("cdom", lay.cdom[0], CDOM_MAX)):
         sd = _wald_sd(data, lay, theta, k)
-        lo = _profile_end(data, lay, theta, f_min, k, sd, -1, cap, delta)
-        hi = _profile_end(data, lay, theta, f_min, k, sd, +1, cap, delta)
+        issues = []
+        lo = _profile_end(data, lay, theta, f_min, k, sd, -1, cap, delta, issues)
+        hi = _profile_end(data, lay, theta, f_min, k, sd, +1, cap, delta, issues)
+        flags += issues[:1]
         if name == "chl":
             lo = float(chl_from_u(lo, e0)) if np.isfinite(lo) else lo
             hi = float(chl_from_u(hi, e0)) if np.isfinite(hi) else hi
@@ -489,7 +523,9 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     rho = float(patch_correlation)
     if not 0.0 <= rho <= 1.0:
         raise ValueError(f"patch_correlation: must lie in [0, 1], got {patch_correlation!r}")
-    return priors, geo, rho * patch, np.sqrt(max(1.0 - rho * rho, 0.0)) * patch, dict(uncertain)
+    # correlation rho between photos: a shared part of variance rho patch^2, an independent
+    # part (1 - rho) patch^2
+    return priors, geo, np.sqrt(rho) * patch, np.sqrt(1.0 - rho) * patch, dict(uncertain)
 
 
 def _data(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, patch_indep):
@@ -632,16 +668,17 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     start = {k: np.asarray(v, float) for k, v in start.items()}
     geometry = {g: geo[g] > 0 for g in ("depth", "distance")}
 
-    def fit(pm, indep):
+    def fit(pm, indep, groups=None):
         w = dataclasses.replace(water, path_model=pm)
         data = _data(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep)
-        lay = _Layout(N, m, n, np.zeros(N, int), tuple(priors), geometry)
+        lay = _Layout(N, m, n, np.zeros(N, int) if groups is None else groups, tuple(priors),
+                      geometry)
         theta, f, ok = _solve(data, lay, _starts(data, lay, start))
         return data, lay, theta, f, ok
 
     scatter = 0.0
     if N > 1 and not exact:
-        scatter = _photo_scatter(fit, models[0], p_indep, N * m * n)
+        scatter = _photo_scatter(lambda indep: fit(models[0], indep, np.arange(N)), p_indep)
         p_indep = float(np.hypot(p_indep, scatter))
     fits = {pm: fit(pm, p_indep) for pm in models}
     objectives = np.array([[fits[pm][3] for pm in models]])
@@ -664,6 +701,10 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
                      + ", ".join(pm for j, pm in enumerate(models) if ok_mask[0, j]))
     dof = _dof(data, lay, theta)
     _, p = goodness(f, dof, True)
+    if scatter >= PHOTO_SCATTER_MAX:
+        flags.append("misfit")
+        notes.append(f"the photos disagree patch by patch by more than {100 * PHOTO_SCATTER_MAX:g} "
+                     "% beyond their noise: not one measurement")
     if scatter > 0:
         flags.append("photo-scatter")
         notes.append(f"the photos disagree patch by patch beyond their noise and the shared chart "
@@ -699,17 +740,21 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         nuisance=nuisance, uncertain=budget, converged=converged, notes=notes)
 
 
-def _photo_scatter(fit, path_model, base, n_values) -> float:
+def _photo_scatter(fit, base) -> float:
     """The per-photo relative scatter s (added in quadrature to the budget's independent
-    per-patch term) at which the joint fit's chi^2 equals its degrees of freedom; 0 where the
-    fit is good without it (chi^2 p >= MISFIT_P), PHOTO_SCATTER_MAX where even that is not
-    enough (the fit is then flagged misfit). Method of moments, as the calibration's per-patch
-    term (:func:`measure.camera.patch_systematic`)."""
+    per-patch term) at which the fit with one (C, a_CDOM) *per photo* has chi^2 equal to its
+    degrees of freedom: the photos' own disagreement beyond their noise and the shared chart
+    term, measured where a difference of water cannot be absorbed (so the heterogeneity test
+    keeps its power). 0 where that fit is good without it (chi^2 p >= MISFIT_P),
+    PHOTO_SCATTER_MAX where even that is not enough (the joint estimate is then flagged
+    misfit). Method of moments, as the calibration's per-patch term
+    (:func:`measure.camera.patch_systematic`); ``fit(indep)`` fits with that independent
+    term."""
     def excess(s):
-        data, lay, theta, f, _ = fit(path_model, float(np.hypot(base, s)))
+        data, lay, theta, f, _ = fit(float(np.hypot(base, s)))
         return f - _dof(data, lay, theta)
 
-    data, lay, theta, f, _ = fit(path_model, base)
+    data, lay, theta, f, _ = fit(base)
     if float(goodness(f, _dof(data, lay, theta), True)[1]) >= MISFIT_P:
         return 0.0
     if excess(PHOTO_SCATTER_MAX) > 0:
@@ -734,8 +779,16 @@ def _heterogeneity(data, lay, theta, f_joint, names, start) -> dict:
     geometry = {g: lay.geometry[g] >= 0 for g in ("depth", "distance")}
 
     def fit(groups):
+        """The fit with (C, a_CDOM) per group, from the photos' own starts and from the joint
+        optimum (each group at the joint C and a_CDOM): the lower of the two."""
         lay_g = _Layout(N, lay.m, lay.n, groups, tuple(lay.shared), geometry)
-        return _solve(data, lay_g, _starts(data, lay_g, start))[1]
+        from_joint = _starts(data, lay_g, start)
+        tail = lay_g.size - (lay_g.u.size + lay_g.cdom.size)
+        from_joint[lay_g.u] = theta[lay.u[0]]
+        from_joint[lay_g.cdom] = theta[lay.cdom[0]]
+        from_joint[-tail:] = theta[-tail:]
+        f = min(_solve(data, lay_g, t0)[1] for t0 in (_starts(data, lay_g, start), from_joint))
+        return min(f, f_joint)  # more freedom never fits worse than the joint optimum
 
     f_sep = fit(np.arange(N))
     stat = max(f_joint - f_sep, 0.0)
@@ -821,8 +874,11 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     _, J = _residuals(theta, data, lay)
     # the information of C itself (not u): d/dC = d/du du/dC
     J[:, lay.u[0]] /= float(du_chain(chl, mdl.e0))
-    cov = np.linalg.pinv(J.T @ J)
+    H = J.T @ J
     k, c = lay.u[0], lay.cdom[0]
+    if np.linalg.matrix_rank(H) < H.shape[0]:  # a direction the data do not determine
+        return {"chl_sd": np.inf, "cdom_sd": np.inf, "correlation": np.nan, "n_photos": N}
+    cov = np.linalg.inv(H)
     sd_c, sd_a = float(np.sqrt(cov[k, k])), float(np.sqrt(cov[c, c]))
     return {"chl_sd": sd_c, "cdom_sd": sd_a, "correlation": float(cov[k, c] / (sd_c * sd_a)),
             "n_photos": N}
