@@ -63,7 +63,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     water : forward.Water, optional
         The water model (default the paper's).
     uncertain : dict, optional
-        The budget; default: the one the photos were measured with (their ``inputs``).
+        The budget, its 'depth' and 'distance' for every photo; default: the one the photos
+        were measured with (their ``inputs``, each photo's own depth and distance sds).
     path_models, patch_correlation :
         As :func:`sca.joint.estimate_joint`.
 
@@ -76,7 +77,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     Raises
     ------
     ValueError
-        Naming ``records`` when there is no usable photo.
+        Naming ``records`` when there is no usable photo, or when the photos were measured
+        with different budgets and ``uncertain`` is not given.
     """
     recs = [r.to_dict() if hasattr(r, "to_dict") else r for r in records]
     if not recs:
@@ -92,8 +94,13 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     if not used:
         raise ValueError("records: no photo can enter the joint fit (" + "; ".join(
             f"{k}: {v}" for k, v in excluded.items()) + ")")
-    if uncertain is None:
-        uncertain = (used[0][1].get("inputs") or {}).get("uncertain")
+    given = uncertain is not None  # an explicit budget replaces the photos' own sds
+    if not given:
+        budgets = [(r.get("inputs") or {}).get("uncertain") for _, r in used]
+        if any(b != budgets[0] for b in budgets[1:]):
+            raise ValueError("records: the photos were measured with different uncertainty "
+                             "budgets; give uncertain= to fit them as one water")
+        uncertain = budgets[0]
     M, sigma, setups, depth, distance, dsd, rsd = [], [], [], [], [], [], []
     start = {"chl": [], "cdom": [], "gain": [], "backscatter": []}
     for _, rec in used:
@@ -113,11 +120,15 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
         for k in start:
             start[k].append(est[k])
     names = [_name(rec, i) for i, rec in used]
+    if len(set(names)) < len(names):  # same file name in two folders: the full paths
+        names = [(rec.get("image") or {}).get("path") or f"photo {i + 1}" for i, rec in used]
+    if len(set(names)) < len(names):
+        names = [f"{nm} (#{i + 1})" for i, nm in enumerate(names)]
     joint = sca.joint.estimate_joint(
         np.array(M), depth=np.array(depth), distance=np.array(distance), sigma=np.array(sigma),
         setup=setups, water=resolve_water(water), uncertain=uncertain,
-        depth_sd=np.array(dsd) if uncertain else None,
-        distance_sd=np.array(rsd) if uncertain else None, names=names,
+        depth_sd=np.array(dsd) if uncertain and not given else None,
+        distance_sd=np.array(rsd) if uncertain and not given else None, names=names,
         path_models=path_models, patch_correlation=patch_correlation,
         start={k: np.array(v, float) for k, v in start.items()})
     carried = sorted({f for _, r in used for f in (r.get("estimate") or {}).get("flags", [])

@@ -120,3 +120,15 @@ def test_fit_joint_from_records_leaves_out_untrusted_photos():
     d = j.to_dict()
     for key in ("chl", "chl_ci", "cdom", "cdom_ci", "reliable", "flags", "heterogeneity"):
         assert key in d
+
+
+def test_fit_joint_refuses_mixed_budgets_and_keeps_same_named_photos_apart():
+    M, sig = _dive(1.0, 0.1, seed=5)
+    recs = [_record(M[i], sig[i], DEPTHS[i], DISTANCES[i], "IMG_0.dng") for i in range(3)]
+    for i, r in enumerate(recs):
+        r["image"]["path"] = f"/dive{i}/IMG_0.dng"
+    j = fit_joint(recs, setup=SETUP)
+    assert len(j.photos) == 3
+    recs[1]["inputs"]["uncertain"] = {"depth": 0.5}
+    with pytest.raises(ValueError, match="records"):
+        fit_joint(recs, setup=SETUP)
