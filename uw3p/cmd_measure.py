@@ -199,6 +199,20 @@ def _measure_folder(args, src, out, err):
             out.write(f"wrote {path}\n")
     if args.joint and res.joint is None:
         out.write(f"joint: {res.joint_error}\n")
+    elif res.joint is not None:
+        import json
+
+        j = json.loads(Path(res.joint).read_text(encoding="utf-8"))
+
+        def end(v):
+            return "inf" if v in ("inf", None) else f"{float(v):.4g}"
+        out.write(f"joint: C {j['chl']:.4g} mg m^-3 [{end(j['chl_ci'][0])}, {end(j['chl_ci'][1])}], "
+                  f"a_CDOM(440) {j['cdom']:.4g} m^-1 [{end(j['cdom_ci'][0])}, "
+                  f"{end(j['cdom_ci'][1])}], reliable {j['reliable']}"
+                  + (f" (flags: {' '.join(j['flags'])})" if j["flags"] else "")
+                  + ("" if j["heterogeneity"]["one_water"] else
+                     "; not one water: " + (", ".join(j["heterogeneity"]["disagree"]) or "?"))
+                  + "\n")
     if res.interrupted:
         err.write(f"uw3p measure: interrupted; {res.summary} lists what was done (a rerun "
                   "completes the rest)\n")
