@@ -42,11 +42,33 @@ ROTATIONS = (0.0, 90.0, 180.0, -30.0, 20.0, 270.0, 45.0, -10.0)
 SEED = 20261118
 
 
+#: The card stays this far inside the frame, fraction of the frame's shorter side.
+FRAME_MARGIN = 0.03
+
+
+def _in_frame(corners, size):
+    h, w = size
+    m = FRAME_MARGIN * min(h, w)
+    return bool(np.all((corners[:, 0] > m) & (corners[:, 0] < w - m)
+                       & (corners[:, 1] > m) & (corners[:, 1] < h - m)))
+
+
 def _frame(rgb, i, size, rng, chart=True):
-    corners = scene.card_corners(size, width_fraction=WIDTHS[i % len(WIDTHS)],
-                                 rotation_deg=ROTATIONS[i % len(ROTATIONS)],
-                                 perspective=(rng.uniform(-0.25, 0.25), rng.uniform(-0.2, 0.2)),
-                                 centre=(rng.uniform(0.4, 0.6), rng.uniform(0.4, 0.6)))
+    """One frame: the chart anywhere in it but whole (a rotated wide card that would leave
+    the frame is centred, then made smaller)."""
+    width = WIDTHS[i % len(WIDTHS)]
+    persp = (rng.uniform(-0.25, 0.25), rng.uniform(-0.2, 0.2))
+    centre = (rng.uniform(0.4, 0.6), rng.uniform(0.4, 0.6))
+    while True:
+        corners = scene.card_corners(size, width_fraction=width,
+                                     rotation_deg=ROTATIONS[i % len(ROTATIONS)],
+                                     perspective=persp, centre=centre)
+        if _in_frame(corners, size) or width < 0.1:
+            break
+        if centre != (0.5, 0.5):
+            centre = (0.5, 0.5)
+        else:
+            width *= 0.9
     return scene.render_scene(rgb, corners, size=size, seed=int(rng.integers(2 ** 31)),
                               glints=3, cast="blue", exposure=rng.uniform(0.35, 0.7),
                               vignetting=0.1, chart=chart)
