@@ -364,9 +364,12 @@ def _solve(data, lay, theta0, hold=None):
     def jac(x):
         return _residuals(full(x), data, lay, jac=True)[1][:, keep]
 
-    res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo[keep], hi[keep]), method="trf",
-                                 x_scale="jac", ftol=JOINT_TOL, xtol=JOINT_TOL, gtol=JOINT_TOL,
-                                 max_nfev=JOINT_MAX_NFEV)
+    # far along a profile (C or a_CDOM held near its cap) the trust region's arithmetic can
+    # overflow; such a solve ends unconverged and is handled as such (_profile_end)
+    with np.errstate(over="ignore", invalid="ignore"):
+        res = optimize.least_squares(fun, x0, jac=jac, bounds=(lo[keep], hi[keep]),
+                                     method="trf", x_scale="jac", ftol=JOINT_TOL, xtol=JOINT_TOL,
+                                     gtol=JOINT_TOL, max_nfev=JOINT_MAX_NFEV)
     return full(res.x), 2.0 * float(res.cost), bool(res.status > 0)
 
 
