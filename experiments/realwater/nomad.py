@@ -546,6 +546,20 @@ def _fmt(x, nd=2):
     return "–" if x is None or not np.isfinite(x) else f"{x:.{nd}f}"
 
 
+def _group_table(table, groups, model, with_n):
+    """Markdown rows of the median [16-84 %] ratio of ``model`` per water type and band."""
+    rows = ["| group | " + " | ".join(f"{b} nm" for b in REPORT_BANDS) + " |",
+            "|---|" + "---|" * len(REPORT_BANDS)]
+    for g in groups:
+        cells = []
+        for b in REPORT_BANDS:
+            v = table.get((g, model, b))
+            n = f" (n {v[0]})" if v and with_n else ""
+            cells.append(f"{_fmt(v[1])} [{_fmt(v[2])}–{_fmt(v[3])}]{n}" if v else "–")
+        rows.append(f"| {g} | " + " | ".join(cells) + " |")
+    return rows
+
+
 def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
     """The NOMAD experiments: figures and CSVs in ``outdir``, and the report's section.
 
@@ -639,23 +653,9 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
     md += ["", ("Model K_d by water type (chlorophyll classes over all stations, CDOM set to 0 "
            "where not measured; Case-1-like / CDOM-rich: a_CDOM(443) below / above the model's "
            "particle absorption a_φ + a_NAP at 443 nm):\n"),
-           "| group | " + " | ".join(f"{b} nm" for b in REPORT_BANDS) + " |",
-           "|---|" + "---|" * len(REPORT_BANDS)]
-    for g in groups:
-        cells = []
-        for b in REPORT_BANDS:
-            v = table.get((g, "kd_model", b))
-            cells.append(f"{_fmt(v[1])} [{_fmt(v[2])}–{_fmt(v[3])}] (n {v[0]})" if v else "–")
-        md.append(f"| {g} | " + " | ".join(cells) + " |")
+           *_group_table(table, groups, "kd_model", with_n=True)]
     md += ["", "Morel 1988 by water type, for comparison:\n",
-           "| group | " + " | ".join(f"{b} nm" for b in REPORT_BANDS) + " |",
-           "|---|" + "---|" * len(REPORT_BANDS)]
-    for g in groups:
-        cells = []
-        for b in REPORT_BANDS:
-            v = table.get((g, "morel1988", b))
-            cells.append(f"{_fmt(v[1])} [{_fmt(v[2])}–{_fmt(v[3])}]" if v else "–")
-        md.append(f"| {g} | " + " | ".join(cells) + " |")
+           *_group_table(table, groups, "morel1988", with_n=False)]
     s = stats["chl"]
     c = stats["cdom"]
     md += ["", "### Inverse: C and a_CDOM fitted to each K_d spectrum\n",
