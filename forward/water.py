@@ -1286,8 +1286,8 @@ def _stack_pieces(pieces, derivative_pieces, lead):
 
     def weights(plist):
         out = np.zeros(lead + (len(spectra),))
-        for w, sh in plist:
-            out[..., index[id(sh)]] += np.broadcast_to(w, lead + (1,))[..., 0]
+        for w, sh in plist:  # w: a scalar or S + (1,)
+            out[..., index[id(sh)]] += w[..., 0] if np.ndim(w) else w
         return out
     return (weights(pieces), np.array(spectra, float).reshape(len(spectra), -1),
             {name: weights(p) for name, p in derivative_pieces.items()})

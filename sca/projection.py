@@ -33,51 +33,71 @@ from .compiled import KERNEL_LOCK, njit, prange
 __all__ = ["SERIAL_BELOW", "grid_best", "linear_part_stats", "project", "project_pieces"]
 
 
+#: Rows of the work matrix of :func:`_active_set` and :func:`_project_one`: per channel the
+#: weighted sums sw, sM, sG, sGG, sGM, the active flags, sum w r and sum w G r; then per column
+#: of theta sum w x, sum w x G, sum w x r, and one row of the columns' projection factors.
+SW, SM, SG, SGG, SGM, ACT, SWR, SGR, SX = 0, 1, 2, 3, 4, 5, 6, 7, 8
+
+
 @njit(cache=True)
-def _active_set(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, s_out, act):  # pragma: no cover
-    """gain and s (into ``s_out``; ``act`` 1 where s is free and positive) of one chart from its
-    channel sums; returns the gain."""
-    m = sw.shape[0]
+def _active_set(wk, m, fs, frow, has_fs, free_gain, s, i):  # pragma: no cover
+    """gain and s (into ``s[i]``; row ACT of ``wk`` 1 where s is free and positive) of one
+    chart from its channel sums (rows SW..SGM of ``wk``; ``fs[frow]`` where s is held); returns
+    the gain. Arrays are indexed, never sliced (a view costs a reference count)."""
     for ch in range(m):
-        act[ch] = 0.0 if has_fs else 1.0
+        wk[ACT, ch] = 0.0 if has_fs else 1.0
     if not free_gain:
         for ch in range(m):
             if has_fs:
-                s_out[ch] = fs[ch]
+                s[i, ch] = fs[frow, ch]
             else:
-                sc = (sM[ch] - sG[ch]) / sw[ch]
+                sc = (wk[SM, ch] - wk[SG, ch]) / wk[SW, ch]
                 if sc > 0.0:
-                    s_out[ch] = sc
+                    s[i, ch] = sc
                 else:
-                    s_out[ch] = 0.0
-                    act[ch] = 0.0
+                    s[i, ch] = 0.0
+                    wk[ACT, ch] = 0.0
         return 1.0
     gain = 0.0
     for _ in range(m + 1):
         num = 0.0
         den = 0.0
         for ch in range(m):
-            if act[ch] > 0.0:
-                num += sGM[ch] - sG[ch] * sM[ch] / sw[ch]
-                den += sGG[ch] - sG[ch] * sG[ch] / sw[ch]
+            sw, sM, sG = wk[SW, ch], wk[SM, ch], wk[SG, ch]
+            if wk[ACT, ch] > 0.0:
+                num += wk[SGM, ch] - sG * sM / sw
+                den += wk[SGG, ch] - sG * sG / sw
             else:
-                sc = fs[ch] if has_fs else 0.0
-                num += sGM[ch] - sc * sG[ch]
-                den += sGG[ch]
+                sc = fs[frow, ch] if has_fs else 0.0
+                num += wk[SGM, ch] - sc * sG
+                den += wk[SGG, ch]
         gain = num / den if (den > 0.0 and num > 0.0) else 0.0
         again = False
         for ch in range(m):
-            if act[ch] > 0.0:
-                sc = (sM[ch] - gain * sG[ch]) / sw[ch]
+            if wk[ACT, ch] > 0.0:
+                sc = (wk[SM, ch] - gain * wk[SG, ch]) / wk[SW, ch]
                 if sc <= 0.0:
-                    act[ch] = 0.0
+                    wk[ACT, ch] = 0.0
                     sc = 0.0
                     again = True
-                s_out[ch] = sc
+                s[i, ch] = sc
             else:
-                s_out[ch] = fs[ch] if has_fs else 0.0
+                s[i, ch] = fs[frow, ch] if has_fs else 0.0
         if not again:
             break
+    return gain
+
+
+@njit(cache=True)
+def _linear_one(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, i, wk, s, act):  # pragma: no cover
+    """Chart i of :func:`linear_part_stats`."""
+    m = sw.shape[1]
+    for ch in range(m):
+        wk[SW, ch], wk[SM, ch], wk[SG, ch] = sw[i, ch], sM[i, ch], sG[i, ch]
+        wk[SGG, ch], wk[SGM, ch] = sGG[i, ch], sGM[i, ch]
+    gain = _active_set(wk, m, fs, i, has_fs, free_gain, s, i)
+    for ch in range(m):
+        act[i, ch] = wk[ACT, ch]
     return gain
 
 
@@ -88,8 +108,8 @@ def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cov
     s = np.empty((K, m))
     act = np.empty((K, m))
     for i in prange(K):
-        gain[i] = _active_set(sw[i], sM[i], sG[i], sGG[i], sGM[i], fs[i], has_fs, free_gain,
-                              s[i], act[i])
+        wk = np.empty((SX, m))
+        gain[i] = _linear_one(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, i, wk, s, act)
     return gain, s, act
 
 
@@ -101,9 +121,9 @@ def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no c
     gain = np.empty(K)
     s = np.empty((K, m))
     act = np.empty((K, m))
+    wk = np.empty((SX, m))
     for i in range(K):
-        gain[i] = _active_set(sw[i], sM[i], sG[i], sGG[i], sGM[i], fs[i], has_fs, free_gain,
-                              s[i], act[i])
+        gain[i] = _linear_one(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, i, wk, s, act)
     return gain, s, act
 
 
@@ -155,107 +175,136 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
 
 
 @njit(cache=True)
-def _scratch(m, n, p):  # pragma: no cover
-    """Work arrays of :func:`_project_one` (allocated once per block of charts, not per
-    chart)."""
-    return (np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m), np.empty(m),
-            np.empty(m * n), np.empty((p, m * n)), np.empty(m * n))
+def _scratch(m, p):  # pragma: no cover
+    """The work matrix of :func:`_project_one` (rows SW.. of every channel, then 3 p + 1 rows
+    of the columns), allocated once per block of charts."""
+    return np.zeros((SX + 3 * p + 1, max(m, p, 1)))
 
 
-@njit(cache=True)
-def _project_one(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad, s, g, H,
-                 work):  # pragma: no cover
-    """One chart of :func:`project` (its rows G (m n,), JR (p, m n), CS (p,), M, W2, fs; ``s``
-    (m,), ``g`` (p,), ``H`` (p, p) written; ``work``: :func:`_scratch`): (f, ssr, gain)."""
-    p = JR.shape[0]
-    sw, sM, sG, sGG, sGM, act, r, X, Gc = work
-    sw[:] = 0.0
-    sM[:] = 0.0
-    sG[:] = 0.0
-    sGG[:] = 0.0
-    sGM[:] = 0.0
+@njit(cache=True, fastmath=FAST)
+def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s, g, H, i,
+                 wk):  # pragma: no cover
+    """One chart of :func:`project`: its unit-gain signal G is row ``o`` of ``GJ`` and its
+    p columns dG/dtheta rows o + 1 .. o + p; it reads row ``row`` of ``M``, ``W2`` and ``fs``
+    and row i of ``CS``, and writes row i of ``s``, ``g`` and ``H`` (``wk``: :func:`_scratch`).
+    Returns (f, ssr, gain).
+
+    The residual r is formed explicitly (f, and g = -J^T r, stay accurate at an exact fit);
+    the centring of the columns over an active channel and their projection off the centred G
+    are applied to their weighted sums (rank-one corrections), so no column is stored. Arrays
+    are indexed, never sliced: numba counts the references of every view."""
+    XS, XG, XR, CV = SX, SX + p, SX + 2 * p, SX + 3 * p
     for ch in range(m):
+        a0 = a1 = a2 = a3 = a4 = 0.0
         for j in range(ch * n, ch * n + n):
-            w = W2[j]
-            x = G[j]
-            sw[ch] += w
-            sM[ch] += w * M[j]
-            sG[ch] += w * x
-            sGG[ch] += w * x * x
-            sGM[ch] += w * x * M[j]
-    gi = _active_set(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, s, act)
+            w = W2[row, j]
+            x = GJ[o, j]
+            y = M[row, j]
+            a0 += w
+            a1 += w * y
+            a2 += w * x
+            a3 += w * x * x
+            a4 += w * x * y
+        wk[SW, ch], wk[SM, ch], wk[SG, ch], wk[SGG, ch], wk[SGM, ch] = a0, a1, a2, a3, a4
+    gi = _active_set(wk, m, fs, row, has_fs, free_gain, s, i)
     fi = 0.0
     si = 0.0
     for ch in range(m):
+        a0 = a1 = 0.0
+        sc = s[i, ch]
         for j in range(ch * n, ch * n + n):
-            rj = M[j] - gi * G[j] - s[ch]
-            r[j] = rj
-            fi += W2[j] * rj * rj
+            rj = M[row, j] - gi * GJ[o, j] - sc
+            wr = W2[row, j] * rj
+            fi += wr * rj
             si += rj * rj
+            a0 += wr
+            a1 += wr * GJ[o, j]
+        wk[SWR, ch], wk[SGR, ch] = a0, a1
     if not grad:
         return fi, si, gi
     for a in range(p):
+        oa = o + 1 + a
         for ch in range(m):
-            mean = 0.0
+            a0 = a1 = a2 = 0.0
+            sc = s[i, ch]
             for j in range(ch * n, ch * n + n):
-                X[a, j] = gi * CS[a] * JR[a, j]
-                mean += W2[j] * X[a, j]
-            if act[ch] > 0.0:
-                mean /= sw[ch]
-                for j in range(ch * n, ch * n + n):
-                    X[a, j] -= mean
-    if free_gain:  # project the columns off the centred G (the gain's column)
-        gg = 0.0
-        for ch in range(m):
-            mean = sG[ch] / sw[ch] if act[ch] > 0.0 else 0.0
-            for j in range(ch * n, ch * n + n):
-                Gc[j] = G[j] - mean
-                gg += W2[j] * Gc[j] * Gc[j]
-        if gi > 0.0 and gg > 0.0:
-            for a in range(p):
-                dot = 0.0
-                for j in range(m * n):
-                    dot += W2[j] * Gc[j] * X[a, j]
-                c = dot / gg
-                for j in range(m * n):
-                    X[a, j] -= c * Gc[j]
-    for a in range(p):
-        acc = 0.0
-        for j in range(m * n):
-            acc += W2[j] * X[a, j] * r[j]
-        g[a] = -acc
+                wj = W2[row, j] * GJ[oa, j]
+                a0 += wj
+                a1 += wj * GJ[o, j]
+                a2 += wj * (M[row, j] - gi * GJ[o, j] - sc)
+            wk[XS + a, ch], wk[XG + a, ch], wk[XR + a, ch] = a0, a1, a2
         for b in range(a + 1):
+            ob = o + 1 + b
             acc = 0.0
             for j in range(m * n):
-                acc += W2[j] * X[a, j] * X[b, j]
-            H[a, b] = acc
-            H[b, a] = acc
+                acc += W2[row, j] * GJ[oa, j] * GJ[ob, j]
+            H[i, a, b] = acc
+    # the columns x_a = gain CS_a dG_a, centred over the active channels
+    for a in range(p):
+        fa = gi * CS[i, a]
+        ga = 0.0
+        for ch in range(m):
+            ga += wk[XR + a, ch]
+            if wk[ACT, ch] > 0.0:
+                ga -= wk[XS + a, ch] / wk[SW, ch] * wk[SWR, ch]
+        g[i, a] = -fa * ga
+        for b in range(a + 1):
+            hab = H[i, a, b]
+            for ch in range(m):
+                if wk[ACT, ch] > 0.0:
+                    hab -= wk[XS + a, ch] * wk[XS + b, ch] / wk[SW, ch]
+            hab *= fa * gi * CS[i, b]
+            H[i, a, b] = hab
+            H[i, b, a] = hab
+    if free_gain and gi > 0.0:  # project the columns off the centred G (the gain's column)
+        gg = 0.0
+        gcr = 0.0
+        for ch in range(m):
+            gg += wk[SGG, ch]
+            gcr += wk[SGR, ch]
+            if wk[ACT, ch] > 0.0:
+                gg -= wk[SG, ch] * wk[SG, ch] / wk[SW, ch]
+                gcr -= wk[SG, ch] / wk[SW, ch] * wk[SWR, ch]
+        if gg > 0.0:
+            for a in range(p):
+                acc = 0.0
+                for ch in range(m):
+                    acc += wk[XG + a, ch]
+                    if wk[ACT, ch] > 0.0:
+                        acc -= wk[SG, ch] * wk[XS + a, ch] / wk[SW, ch]
+                wk[CV, a] = gi * CS[i, a] * acc / gg
+            for a in range(p):
+                g[i, a] += wk[CV, a] * gcr
+                for b in range(a + 1):
+                    hab = H[i, a, b] - wk[CV, a] * wk[CV, b] * gg
+                    H[i, a, b] = hab
+                    H[i, b, a] = hab
     return fi, si, gi
 
 
 @njit(parallel=True, cache=True)
-def _project(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
-    N, p = JR.shape[0], JR.shape[1]
+def _project(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+    N, p = M.shape[0], nr - 1
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
     blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
     for b in prange(blocks):
-        work = _scratch(m, n, p)
+        wk = _scratch(m, p)
         for i in range(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK)):
-            f[i], ssr[i], gain[i] = _project_one(G[i], JR[i], CS[i], M[i], W2[i], fs[i], has_fs,
-                                                 free_gain, m, n, grad, s[i], g[i], H[i], work)
+            f[i], ssr[i], gain[i] = _project_one(GJ, i * nr, CS, M, W2, fs, i, has_fs,
+                                                 free_gain, m, n, grad, p, s, g, H, i, wk)
     return f, g, H, gain, s, ssr
 
 
 @njit(cache=True)
-def _project_serial(G, JR, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
-    N, p = JR.shape[0], JR.shape[1]
+def _project_serial(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+    N, p = M.shape[0], nr - 1
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
-    work = _scratch(m, n, p)
+    wk = _scratch(m, p)
     for i in range(N):
-        f[i], ssr[i], gain[i] = _project_one(G[i], JR[i], CS[i], M[i], W2[i], fs[i], has_fs,
-                                             free_gain, m, n, grad, s[i], g[i], H[i], work)
+        f[i], ssr[i], gain[i] = _project_one(GJ, i * nr, CS, M, W2, fs, i, has_fs, free_gain,
+                                             m, n, grad, p, s, g, H, i, wk)
     return f, g, H, gain, s, ssr
 
 
@@ -292,7 +341,9 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
     fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((N, m))
     p = JR.shape[1]
     CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
-    args = (np.ascontiguousarray(G, float), np.asarray(JR, float), CS,
+    # each chart's G and its p rows dG/dtheta, one after another
+    GJ = np.concatenate([np.asarray(G, float)[:, None, :], np.asarray(JR, float)], axis=1)
+    args = (np.ascontiguousarray(GJ.reshape(N * (p + 1), -1)), p + 1, CS,
             np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
             bool(free_gain), int(m), int(n), bool(grad))
     if N < SERIAL_BELOW:
@@ -302,54 +353,49 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
 
 
 @njit(cache=True, fastmath=FAST)
-def _columns_one(weights, dweights, spectra, Bt, inv_scale, grad, tau, KD, GJ):  # pragma: no cover
-    """One chart's k = exp(-weights @ spectra) (row 0 of ``KD``, times ``inv_scale``) and
-    dk_a = -k (dweights_a @ spectra) (rows 1..p, unit scale), projected: GJ = KD @ Bt, i.e.
-    G = B k inv_scale and the rows B dk_a. Sums of products and an exponential: no physics."""
+def _columns_one(weights, dweights, i, spectra, inv_scale, grad, tau, KD,
+                 o):  # pragma: no cover
+    """Chart i's k = exp(-weights[i] @ spectra) (row ``o`` of ``KD``, times ``inv_scale``; k
+    itself left in row 0 of ``tau``) and dk_a = -k (dweights[i, a] @ spectra) (rows o + 1 ..
+    o + p, unit scale). Sums of products and an exponential: no physics."""
     P, q = spectra.shape
-    rows = dweights.shape[0] + 1 if grad else 1
-    mn = Bt.shape[1]
+    rows = dweights.shape[1] + 1 if grad else 1
     for a in range(rows):
         for l in range(q):
             tau[a, l] = 0.0
         for t in range(P):
-            w = weights[t] if a == 0 else dweights[a - 1, t]
+            w = weights[i, t] if a == 0 else dweights[i, a - 1, t]
             if w != 0.0:
                 for l in range(q):
                     tau[a, l] += w * spectra[t, l]
     for l in range(q):
         kl = np.exp(-tau[0, l])
         tau[0, l] = kl
-        KD[0, l] = kl * inv_scale
+        KD[o, l] = kl * inv_scale
         for a in range(1, rows):
-            KD[a, l] = -kl * tau[a, l]
-    for a in range(rows):
-        for j in range(mn):
-            GJ[a, j] = 0.0
-    for l in range(q):
-        for a in range(rows):
-            c = KD[a, l]
-            for j in range(mn):
-                GJ[a, j] += c * Bt[l, j]
+            KD[o + a, l] = -kl * tau[a, l]
 
 
 @njit(cache=True)
 def _fused_block(lo, hi, rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs,
                  free_gain, m, n, grad, want_k, f, ssr, gain, g, H, s, kout):  # pragma: no cover
+    """Charts lo..hi-1 of :func:`_fused`: their k and dk rows, projected onto the chart by one
+    matrix product (BLAS) for the whole block, then each chart's variable projection."""
     p, q = dweights.shape[1], spectra.shape[1]
-    work = _scratch(m, n, p)
+    nr = p + 1 if grad else 1
     tau = np.empty((p + 1, q))
-    KD = np.empty((p + 1, q))
-    GJ = np.empty((p + 1, m * n))
+    KD = np.empty(((hi - lo) * nr, q))
     for i in range(lo, hi):
-        row = rows[i]
-        _columns_one(weights[i], dweights[i], spectra, Bt, inv_scale[row], grad, tau, KD, GJ)
+        o = (i - lo) * nr
+        _columns_one(weights, dweights, i, spectra, inv_scale[rows[i]], grad, tau, KD, o)
         if want_k:
             for l in range(q):
                 kout[i, l] = tau[0, l]
-        f[i], ssr[i], gain[i] = _project_one(GJ[0], GJ[1:], CS[i], M[row], W2[row], fs[row],
-                                             has_fs, free_gain, m, n, grad, s[i], g[i], H[i],
-                                             work)
+    GJ = np.dot(KD, Bt)  # (rows of every chart) x (m n): G = B k inv_scale and B dk_a
+    wk = _scratch(m, p)
+    for i in range(lo, hi):
+        f[i], ssr[i], gain[i] = _project_one(GJ, (i - lo) * nr, CS, M, W2, fs, rows[i], has_fs,
+                                             free_gain, m, n, grad, p, s, g, H, i, wk)
 
 
 @njit(parallel=True, cache=True)
@@ -439,24 +485,23 @@ def _grid(sw, sM, sMM, sumG, sumGG, MG, w, inv, fs, has_fs, free_gain):  # pragm
     R, P, m = MG.shape
     best = np.empty(R, dtype=np.int64)
     for r in prange(R):
-        sG = np.empty(m)
-        sGG = np.empty(m)
-        sGM = np.empty(m)
-        s = np.empty(m)
-        act = np.empty(m)
+        wk = np.empty((SX, m))
+        s = np.empty((1, m))
         f_best = np.inf
         j_best = 0
+        for ch in range(m):
+            wk[SW, ch], wk[SM, ch] = sw[r, ch], sM[r, ch]
         for p in range(P):
             for ch in range(m):
-                sG[ch] = w[r, ch] * sumG[p, ch] * inv[r]
-                sGG[ch] = w[r, ch] * sumGG[p, ch] * inv[r] * inv[r]
-                sGM[ch] = w[r, ch] * MG[r, p, ch] * inv[r]
-            g = _active_set(sw[r], sM[r], sG, sGG, sGM, fs[r], has_fs, free_gain, s, act)
+                wk[SG, ch] = w[r, ch] * sumG[p, ch] * inv[r]
+                wk[SGG, ch] = w[r, ch] * sumGG[p, ch] * inv[r] * inv[r]
+                wk[SGM, ch] = w[r, ch] * MG[r, p, ch] * inv[r]
+            g = _active_set(wk, m, fs, r, has_fs, free_gain, s, 0)
             f = 0.0
             for ch in range(m):
-                sc = s[ch]
-                f += (sMM[r, ch] - 2.0 * g * sGM[ch] - 2.0 * sc * sM[r, ch] + g * g * sGG[ch]
-                      + 2.0 * g * sc * sG[ch] + sc * sc * sw[r, ch])
+                sc = s[0, ch]
+                f += (sMM[r, ch] - 2.0 * g * wk[SGM, ch] - 2.0 * sc * sM[r, ch]
+                      + g * g * wk[SGG, ch] + 2.0 * g * sc * wk[SG, ch] + sc * sc * sw[r, ch])
             if f < f_best:
                 f_best = f
                 j_best = p
