@@ -55,7 +55,11 @@ STATUS = {
     4: "damping grew without decrease (not stationary)",
 }
 
-#: Levenberg-Marquardt damping: start, divisor after a success, factor after a failure.
+#: Levenberg-Marquardt damping: start, the largest divisor after a success, factor after a
+#: failure. After a success the damping is multiplied by max(1 / LM_DOWN, 1 - (2 rho - 1)^3),
+#: rho = actual / predicted decrease (Nielsen's rule): a step the Gauss-Newton model predicted
+#: well (rho near 1) divides it by LM_DOWN, one that overshot (rho < 1/2: the model's minimum lies
+#: short of the step) raises it, so that a fit does not zigzag across a narrow valley.
 LM_MU0, LM_DOWN, LM_UP = 1e-4, 10.0, 10.0
 #: Damping floor, and the damping above which a chart that cannot decrease stops (code 4).
 LM_MU_MIN, LM_MU_MAX = 1e-12, 1e12
@@ -416,7 +420,9 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     ----------
     D. W. Marquardt, "An algorithm for least-squares estimation of nonlinear parameters",
     J. SIAM 11 (1963) 431-441; J. Nocedal & S. J. Wright, Numerical Optimization, 2nd ed.,
-    Springer (2006), ch. 10; L. Kaufman, BIT 15 (1975) 49-57 (variable projection).
+    Springer (2006), ch. 10; L. Kaufman, BIT 15 (1975) 49-57 (variable projection);
+    H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05, Technical
+    University of Denmark (1999) (the damping update).
     """
     N, p = theta0.shape
     theta = np.array(theta0, float)
@@ -453,7 +459,11 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         ok = trial & (fn < fa)
         acc = active[ok]
         theta[acc], f[acc] = tn[ok], fn[ok]
-        mu[acc] = np.maximum(mu[acc] / LM_DOWN, LM_MU_MIN)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rho = (fa[ok] - fn[ok]) / pred[ok]
+        factor = np.maximum(1.0 / LM_DOWN, 1.0 - (2.0 * np.clip(rho, 0.0, 1.0) - 1.0) ** 3)
+        mu[acc] = np.maximum(mu[acc] * np.where(np.isfinite(rho), factor, 1.0 / LM_DOWN),
+                             LM_MU_MIN)
         mu[active[trial & ~ok]] *= LM_UP
         decrease = np.where(ok, fa - fn, 0.0)
         conv_dec = ok & (decrease <= tol * fa)
