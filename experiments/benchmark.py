@@ -36,10 +36,14 @@ from .benchmark_report import write_outputs
 from .sweep import rrmse_bands
 
 __all__ = ["chart_set", "run_single", "run_batch", "coverage", "equal_optimum", "machine",
-           "photo_bench", "main", "RESOLUTIONS_NM", "METHODS", "COVERAGE_LUX", "BATCH_N",
-           "BATCH_REPEATS", "BUDGET_BATCH_N", "BUDGET_REPEATS", "SEED", "PHOTO_SIZE"]
+           "main", "RESOLUTIONS_NM", "METHODS", "COVERAGE_LUX", "BATCH_N",
+           "BATCH_REPEATS", "BUDGET_BATCH_N", "BUDGET_REPEATS", "SEED",
+           "SINGLE_RESOLUTIONS_NM", "WAIT_COMMANDS", "loop_optimum", "peak_memory_mb", "process_age_s"]
 
 RESOLUTIONS_NM = (10.0, 5.0, 2.0, 1.0)
+#: The one-chart-at-a-time methods run at these resolutions only (the batch rows at all of
+#: RESOLUTIONS_NM): the default grid and the coarsest (``make bench`` within 2 minutes)
+SINGLE_RESOLUTIONS_NM = (10.0, 1.0)
 CHLS = (1e-3, 0.05, 1.0, 20.0, 100.0)
 CDOMS = (0.0, 0.05, 0.5, 2.0)
 DEPTHS = (1.0, 10.0, 30.0)
@@ -56,15 +60,15 @@ def _uncertain(method):
 #: light levels of the coverage study (lx): the default sensor's daylight and a dim scene
 COVERAGE_LUX = (20000.0, 200.0)
 #: Charts in the batch throughput stack (the chart set tiled); QUICK_BATCH_N with --quick
-BATCH_N = 20000
+BATCH_N = 6000
 QUICK_BATCH_N = 2000
 #: Charts of the untimed warm-up batch call before the timed ones (numba compilation, caches)
-WARMUP_N = 2000
+WARMUP_N = 600
 #: Timed batch runs (0.1-1 s each): their median is the batch rows' speed
-BATCH_REPEATS = 5
+BATCH_REPEATS = 3
 #: The ``batch_budget`` rows: charts timed and runs (the default budget fits every chart under
 #: three path models with ten nuisance parameters: about 100x the exact model's work).
-BUDGET_BATCH_N, BUDGET_REPEATS = 600, 1
+BUDGET_BATCH_N, BUDGET_REPEATS = 120, 1
 #: Noise seeds of the chart set: SEED * 1000 + the chart's index
 SEED = 7
 #: Every GRID_STRIDE-th case of the chart grid is used (QUICK_GRID_STRIDE with --quick)
@@ -76,11 +80,11 @@ REL_ERR_FLOOR = 1e-3
 #: chart with --quick; sca.estimate's verdict compared with the batch's on every AGREE_STRIDE-th
 COVERAGE_SEED = 90000
 QUICK_COVERAGE_STRIDE = 6
-AGREE_STRIDE = 10
+AGREE_STRIDE = 30
 #: A fit misfits when its chi^2 p-value is below this (as sca.assess.MISFIT_P)
 MISFIT_P = 1e-3
 #: Equal-optimum study: random charts per noise setting (QUICK_EQUAL_OPTIMUM_N with --quick)
-EQUAL_OPTIMUM_N = 600
+EQUAL_OPTIMUM_N = 150
 QUICK_EQUAL_OPTIMUM_N = 100
 #: ... and its criteria (BENCHMARKS.md states them: keep experiments.benchmark_report in step):
 #: noise-free, C and a_CDOM within EQUAL_RTOL relative + EQUAL_ATOL absolute; noisy, the batch's
@@ -88,6 +92,8 @@ QUICK_EQUAL_OPTIMUM_N = 100
 EQUAL_RTOL = 1e-6
 EQUAL_ATOL = 1e-9
 OBJECTIVE_RTOL = 1e-9
+#: An objective below this fraction of sum (M / sigma)^2 is an exact fit (rounding level)
+EXACT_OBJECTIVE = 1e-12
 #: Cases listed per noise setting where the two differ
 MAX_CASES_LISTED = 10
 
@@ -298,6 +304,67 @@ def equal_optimum(n=EQUAL_OPTIMUM_N, seed=11):
     return out
 
 
+def loop_optimum(conds, rgbs, sigmas, step_nm=1.0):
+    """Issue 21's target 4 on the benchmark's own charts: the batch (no intervals, the paper's
+    model) against the DPP ``sca`` loop, both weighted by the sensor's noise, on the grid of
+    ``step_nm``. Where the loop converges the batch must converge too, to an objective within
+    OBJECTIVE_RTOL of the loop's or lower (an exact fit, objective at rounding level: C and
+    a_CDOM within EQUAL_RTOL + EQUAL_ATOL).
+
+    Returns
+    -------
+    dict
+        ``n``, ``loop_converged``, ``batch_converged``, ``at_optimum`` (charts where the loop
+        converged and the batch met the criterion) and ``misses`` (their conditions and
+        numbers).
+    """
+    setup = forward.chart_setup(wavelengths=np.arange(400.0, 700.0 + step_nm / 2, step_nm))
+    depth = np.array([c["depth"] for c in conds])
+    dist = np.array([c["distance"] for c in conds])
+    b = sca.estimate_batch(rgbs, depth=depth, distance=dist, sigma=sigmas, setup=setup,
+                           intervals=False, uncertain=PAPER_MODEL)
+    loop_ok = at = 0
+    misses = []
+    for i, cond in enumerate(conds):
+        e = sca.estimate(rgbs[i], depth=depth[i], distance=dist[i], sigma=sigmas[i], setup=setup,
+                         uncertain=PAPER_MODEL)
+        if not e.converged:
+            continue
+        loop_ok += 1
+        if e.objective > EXACT_OBJECTIVE * float(np.sum((rgbs[i] / sigmas[i]) ** 2)):
+            same = b.objective[i] <= e.objective * (1 + OBJECTIVE_RTOL)
+        else:
+            same = (abs(b.chl[i] - e.chl) <= EQUAL_RTOL * e.chl + EQUAL_ATOL
+                    and abs(b.cdom[i] - e.cdom) <= EQUAL_RTOL * e.cdom + EQUAL_ATOL)
+        if b.converged[i] and same:
+            at += 1
+        else:
+            misses.append(dict(cond, batch_status=str(b.status[i]),
+                               batch_objective=float(b.objective[i]),
+                               sca_objective=float(e.objective)))
+    return dict(n=len(conds), step_nm=step_nm, loop_converged=loop_ok,
+                batch_converged=int(b.converged.sum()), at_optimum=at, misses=misses)
+
+
+def process_age_s():
+    """Seconds since this process started (imports included; Linux's /proc), or None."""
+    try:
+        start = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19])
+        uptime = float(Path("/proc/uptime").read_text().split()[0])
+        return uptime - start / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def peak_memory_mb() -> dict:
+    """Peak resident memory (MB) of this process and of the largest child it waited for
+    (``resource.getrusage``; Linux reports kilobytes)."""
+    import resource
+
+    return {"self": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+            "children": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0}
+
+
 def machine():
     """The machine and library versions of the run (CPU, cores, Python, numpy, cvxpy, ...)."""
     import clarabel
@@ -318,67 +385,12 @@ def machine():
 
 
 # --------------------------------------------------------------------------- photographs
-#: The photo benchmark: a 24-megapixel (6000 x 4000) synthetic DNG; QUICK_PHOTO_SIZE with --quick
-PHOTO_SIZE = (6000, 4000)
-QUICK_PHOTO_SIZE = (1500, 1000)
-#: The photographed camera's true channel balance (unlike its published curves' 1, 1, 1)
-PHOTO_CHANNEL_GAINS = (0.55, 1.0, 0.7)
-#: The water of the underwater photo (C mg m^-3, a_CDOM(440) m^-1, depth and distance m)
-PHOTO_WATER = dict(chl=2.0, cdom=0.1, depth=5.0, distance=1.5)
-#: Exposure gains (DN per model unit) of the underwater photo and of the calibration photo in air
-PHOTO_GAIN_DN = 30000
-AIR_GAIN_DN = 9000
-
-
-def photo_bench(quick=False, repeats=3):
-    """``uw3p measure``'s work on a 24-megapixel DNG against rawpy's own decode of the same file,
-    in the same run: rawpy.imread + unpack (what ``measure`` itself calls) and rawpy's
-    postprocess (LibRaw's demosaic to an RGB image, default settings). Medians of ``repeats``."""
-    import tempfile
-
-    import rawpy
-
-    import measure
-
-    from .synthetic_photo import Scene, default_corners, render_mosaic, write_dng
-
-    W, H = QUICK_PHOTO_SIZE if quick else PHOTO_SIZE
-    setup = forward.chart_setup(channel_gains=PHOTO_CHANNEL_GAINS)
-    corners = default_corners(W, H)
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        scene = Scene(**PHOTO_WATER, gain=PHOTO_GAIN_DN, width=W, height=H)
-        path = write_dng(render_mosaic(scene, corners, setup=setup), tmp / "uw.dng")
-        air = write_dng(render_mosaic(Scene(chl=0, cdom=0, depth=0, distance=0, gain=AIR_GAIN_DN,
-                                            width=W, height=H), corners, setup=setup),
-                        tmp / "air.dng")
-        prof = measure.calibrate(measure.sample_patches(measure.read_image(air), corners))
-        t_unpack, t_post, t_read, t_total = [], [], [], []
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            with rawpy.imread(path) as raw:
-                raw.raw_image_visible.copy()
-            t_unpack.append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            with rawpy.imread(path) as raw:
-                raw.postprocess()
-            t_post.append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            photo = measure.read_image(path)
-            t1 = time.perf_counter()
-            m = measure.measure(photo, corners=corners, depth=PHOTO_WATER["depth"],
-                                distance=PHOTO_WATER["distance"], profile=prof)
-            measure.write_outputs(m, tmp / "out")
-            t2 = time.perf_counter()
-            t_read.append(t1 - t0)
-            t_total.append(t2 - t0)
-        med = lambda v: float(np.median(v))  # noqa: E731
-        return dict(width=W, height=H, megapixels=W * H / 1e6, repeats=repeats,
-                    rawpy_unpack_s=med(t_unpack), rawpy_postprocess_s=med(t_post),
-                    measure_read_s=med(t_read), measure_total_s=med(t_total),
-                    measure_own_s=med(np.array(t_total) - np.array(t_read)),
-                    chl=m.estimate.chl, chl_ci=list(m.estimate.chl_ci), reliable=m.reliable,
-                    file_mb=Path(path).stat().st_size / 1e6)
+#: Whole-process waits (:mod:`experiments.wait_bench`) in ``make bench``: its commands run here
+#: (issue 21's targets 1 and 2), rounds (each keeps its best), and the --quick frame (h, w; the
+#: full run uses wait_bench's 24 MP)
+WAIT_COMMANDS = ("decode", "measure", "estimate", "help", "measure --help", "bad input")
+WAIT_REPEATS = 2
+QUICK_PHOTO_FRAME = (1000, 1500)
 
 
 def main(argv=None):
@@ -396,6 +408,8 @@ def main(argv=None):
     for res_nm in RESOLUTIONS_NM:
         grid = np.arange(400.0, 700.0 + res_nm / 2, res_nm)
         for method in METHODS:
+            if not method.startswith("batch") and res_nm not in SINGLE_RESOLUTIONS_NM:
+                continue
             t0 = time.perf_counter()
             if method.startswith("batch"):
                 budget = method.endswith("_budget")
@@ -418,15 +432,25 @@ def main(argv=None):
               f"{c['coverage_cdom']:.3f} over {c['n']} charts", flush=True)
     eq = equal_optimum(QUICK_EQUAL_OPTIMUM_N if args.quick else EQUAL_OPTIMUM_N)
     print("equal optimum:", {k: v["same_fraction"] for k, v in eq.items()}, flush=True)
-    photo = photo_bench(args.quick)
-    print(f"measure on a {photo['megapixels']:.0f} MP DNG: own work {photo['measure_own_s']:.2f} s "
-          f"(+ read {photo['measure_read_s']:.2f} s); rawpy unpack {photo['rawpy_unpack_s']:.2f} s, "
-          f"postprocess {photo['rawpy_postprocess_s']:.2f} s", flush=True)
+    sixty = loop_optimum(conds, rgbs, sigmas)
+    print(f"the benchmark's charts: the batch at the loop's optimum on {sixty['at_optimum']} of "
+          f"{sixty['loop_converged']} where the loop converged", flush=True)
+    from . import wait_bench
+
+    waits = wait_bench.run(repeats=WAIT_REPEATS, names=WAIT_COMMANDS,
+                           frame=QUICK_PHOTO_FRAME if args.quick else wait_bench.FRAME)
+    print(wait_bench.table(waits), flush=True)
     out = dict(machine=machine(), command="make bench  (python -m experiments.benchmark)",
                quick=args.quick, charts=dict(n=len(conds), chl=CHLS, cdom=CDOMS, depth=DEPTHS,
                                              distance=DISTANCES, truth_grid_nm=1.0),
-               records=records, coverage=cov, equal_optimum=eq, photo=photo,
-               elapsed_s=time.perf_counter() - t_start)
+               records=records, coverage=cov, equal_optimum=eq, loop_optimum=sixty,
+               waits=waits, sizes=dict(batch_n=BATCH_N, batch_repeats=BATCH_REPEATS,
+                                       budget_batch_n=BUDGET_BATCH_N,
+                                       single_resolutions_nm=list(SINGLE_RESOLUTIONS_NM),
+                                       equal_optimum_n=EQUAL_OPTIMUM_N,
+                                       agree_stride=AGREE_STRIDE),
+               elapsed_s=time.perf_counter() - t_start, process_s=process_age_s(),
+               peak_memory_mb=peak_memory_mb())
     write_outputs(out, args.out, args.report, args.figure)
     print(f"wrote {args.out}, {args.report}, {args.figure} in {out['elapsed_s']:.0f} s")
 

@@ -81,13 +81,15 @@ def _uw3p() -> list:
     return [str(script)] if script.exists() else [sys.executable, "-m", "uw3p"]
 
 
-def fixture(folder) -> dict:
+def fixture(folder, frame=FRAME) -> dict:
     """Write the 24 MP DNG and one chart's patch file into ``folder``.
 
     Parameters
     ----------
     folder : str or os.PathLike
         An existing folder (e.g. a temporary one).
+    frame : tuple of int, optional
+        The photo's (height, width), pixels (default :data:`FRAME`, 24 MP).
 
     Returns
     -------
@@ -102,7 +104,7 @@ def fixture(folder) -> dict:
     chl, cdom, depth, distance = WATER
     rgb = render_chart(chl, cdom, depth, distance, noise=False,
                        backscatter="single_scatter")["expected"]
-    scene = render_scene(rgb, card_corners(FRAME, width_fraction=CARD_WIDTH), size=FRAME,
+    scene = render_scene(rgb, card_corners(frame, width_fraction=CARD_WIDTH), size=frame,
                          seed=1, exposure=0.5, glints=3)
     dng = write_dng(folder / "uw.dng", scene["image"])
     corners = " ".join(f"{x:.1f},{y:.1f}" for x, y in scene["grid_corners"])
@@ -159,7 +161,7 @@ def _time(argv) -> tuple:
     return seconds, proc.returncode, last
 
 
-def run(repeats=REPEATS, folder=None) -> dict:
+def run(repeats=REPEATS, folder=None, names=None, frame=FRAME) -> dict:
     """Write the fixture and time every command, in turn, ``repeats`` rounds.
 
     Parameters
@@ -168,6 +170,11 @@ def run(repeats=REPEATS, folder=None) -> dict:
         Rounds (default :data:`REPEATS`); each command keeps its best time.
     folder : str or os.PathLike, optional
         Where to write the fixture and outputs (default a temporary folder, removed after).
+    names : sequence of str, optional
+        The commands (names of :func:`commands`) to time, in that order (default all; a
+        command's target reference is timed too).
+    frame : tuple of int, optional
+        The photo's (height, width), pixels (default :data:`FRAME`).
 
     Returns
     -------
@@ -186,9 +193,16 @@ def run(repeats=REPEATS, folder=None) -> dict:
     with tempfile.TemporaryDirectory(prefix="uw3p_wait_") as tmp:
         folder = Path(tmp if folder is None else folder)
         t0 = time.perf_counter()
-        fx = fixture(folder)
+        fx = fixture(folder, frame)
         fixture_seconds = time.perf_counter() - t0
         cmds = commands(fx, folder)
+        if names is not None:
+            unknown = set(names) - set(cmds)
+            if unknown:
+                raise ValueError(f"names: unknown commands {sorted(unknown)}; choose from "
+                                 f"{list(cmds)}")
+            wanted = set(names) | {TARGETS[n][0] for n in names if TARGETS.get(n, (None,))[0]}
+            cmds = {n: argv for n, argv in cmds.items() if n in wanted}
         res = {name: {"argv": argv, "seconds": [], "exit": [], "stderr": ""}
                for name, argv in cmds.items()}
         for _ in range(int(repeats)):
@@ -200,7 +214,7 @@ def run(repeats=REPEATS, folder=None) -> dict:
     for r in res.values():
         r["best"] = min(r["seconds"])
     return {"commands": res, "fixture_seconds": fixture_seconds, "repeats": int(repeats),
-            "frame": list(FRAME),
+            "frame": list(frame),
             "machine": {"platform": platform.platform(), "python": platform.python_version(),
                         "cores": os.cpu_count()}}
 
