@@ -3,15 +3,16 @@ images out (read -> sample -> calibrate -> measure -> correct).
 
 Above :mod:`forward` and :mod:`sca`; the ``uw3p calibrate`` and ``uw3p measure`` commands are
 thin wrappers of these functions.
+
+The public names are loaded on first use (PEP 562 module ``__getattr__``, as :mod:`sca`): one
+photo's measurement does not import the dive's machinery (Dask, the joint fit and scipy's
+optimisers and statistics) it does not use (DECISIONS.md, "Start-up").
 """
 
-from .camera import Profile, calibrate, camera_setup, load_profile
-from .chart import LAYOUTS, ChartLayout, PatchSample, orientations, parse_corners, sample_patches
-from .detect import ChartNotFound, Detection, find_chart
-from .dive import DiveResult, measure_dive, read_metadata
-from .image import Photo, demosaic, read_image
-from .measurement import MEASURE_BLOCKING, Measurement, correction, measure
-from .output import corrected_image, srgb_preview, write_outputs
+from __future__ import annotations
+
+import importlib
+import importlib.util
 
 __all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSample",
            "parse_corners", "sample_patches", "orientations", "find_chart", "Detection",
@@ -19,3 +20,35 @@ __all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSa
            "camera_setup", "load_profile", "Measurement", "measure", "correction",
            "MEASURE_BLOCKING", "write_outputs", "corrected_image", "srgb_preview",
            "measure_dive", "read_metadata", "DiveResult"]
+
+#: Where each public name lives (submodule of ``measure``).
+_HOME = {
+    "Profile": "camera", "calibrate": "camera", "camera_setup": "camera",
+    "load_profile": "camera",
+    "LAYOUTS": "chart", "ChartLayout": "chart", "PatchSample": "chart",
+    "orientations": "chart", "parse_corners": "chart", "sample_patches": "chart",
+    "ChartNotFound": "detect", "Detection": "detect", "find_chart": "detect",
+    "DiveResult": "dive", "measure_dive": "dive", "read_metadata": "dive",
+    "Photo": "image", "demosaic": "image", "read_image": "image",
+    "MEASURE_BLOCKING": "measurement", "Measurement": "measurement",
+    "correction": "measurement", "measure": "measurement",
+    "corrected_image": "output", "srgb_preview": "output", "write_outputs": "output",
+}
+
+
+def __getattr__(name):
+    """Load a public name from its submodule, or a submodule (``measure.dive``), on first use
+    (PEP 562)."""
+    home = _HOME.get(name)
+    if home is None:
+        if name.startswith("_") or importlib.util.find_spec(f"{__name__}.{name}") is None:
+            raise AttributeError(f"module 'measure' has no attribute {name!r}")
+        return importlib.import_module(f".{name}", __name__)  # binds measure.<name> itself
+    value = getattr(importlib.import_module(f".{home}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    """The module's names, the public ones not yet loaded included."""
+    return sorted(set(globals()) | set(__all__))

@@ -22,7 +22,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy import optimize
 
 import forward
 from forward.imaging import ChartSetup
@@ -242,6 +241,8 @@ def patch_systematic(residuals, sigma, values, dof: int) -> float:
         return 0.0
     if excess(1.0) > 0:
         return 1.0
+    from scipy import optimize  # only a calibration needs it (start-up, DECISIONS.md)
+
     return float(optimize.brentq(excess, 0.0, 1.0, xtol=1e-6))
 
 

@@ -180,7 +180,7 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
     L. Kaufman, "A variable projection method for solving separable nonlinear least squares
     problems", BIT 15 (1975) 49-57 (the Gauss-Newton step of the field on the profile).
     """
-    from scipy import stats
+    from scipy import special
 
     basis = field_basis()
     # the budget's per-patch term weighs the residuals; its nuisances are left at their
@@ -199,7 +199,7 @@ def fit_light_field(M, sigma, setup, depth, distance, water=None, alpha=LIGHT_FI
         p = None
         if prev is not None:
             dk = k - FIELDS[prev]
-            p = float(stats.chi2.sf(max(fits[prev]["chi2"] - chi2, 0.0), dk))
+            p = float(special.chdtrc(dk, max(fits[prev]["chi2"] - chi2, 0.0)))
         fits[name] = {"theta": theta, "chi2": chi2, "p_value": p}
         prev = name
     chosen = models[0]

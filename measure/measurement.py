@@ -177,11 +177,18 @@ def _data(sample: PatchSample):
     return M, np.where(ok, sample.sigma, out)
 
 
-def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None):
+#: The engine of the fits (``sca.estimate``'s ``mode``): 'lm', the batch's variable projection
+#: and Levenberg-Marquardt on the one chart (the DPP loop's optimum wherever the loop converges,
+#: issue 21's target 4; no cvxpy), or 'safeguarded' / 'paper', the cvxpy loop
+FIT_MODE = "lm"
+
+
+def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
+         mode=FIT_MODE):
     """sca.estimate with a free gain on the sample."""
     M, sig = _data(sample)
     return sca.estimate(M, depth=depth, distance=distance, sigma=sig, gain="free", setup=setup,
-                        water=water, uncertain=uncertain)
+                        water=water, uncertain=uncertain, mode=mode)
 
 
 def budget_for(uncertain, profile) -> dict:
@@ -214,7 +221,8 @@ def budget_for(uncertain, profile) -> dict:
     return out
 
 
-def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncertain=None):
+def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncertain=None,
+                        mode=FIT_MODE):
     """(name, corners, sample, estimate, flags, notes) of the orientation to use."""
     passing = [name for name, (_, _, ok) in cands.items() if ok]
     full = {name: sample_patches(photo, cands[name][0], lay) for name in (passing or ["as given"])}
@@ -226,9 +234,10 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncert
             f"the corners were given in the wrong order; the chart was found {name} with respect "
             "to them and sampled in its true orientation"]
         flags = [] if name == "as given" else ["orientation-corrected"]
-        return name, c, s, _fit(s, setup, depth, distance, water, uncertain), flags, notes
+        return name, c, s, _fit(s, setup, depth, distance, water, uncertain, mode), flags, notes
     pool = passing or list(cands)
-    fits = {name: _fit(cands[name][1], setup, depth, distance, water, uncertain) for name in pool}
+    fits = {name: _fit(cands[name][1], setup, depth, distance, water, uncertain, mode)
+            for name in pool}
     order = sorted(fits, key=lambda k: fits[k].objective)
     best = order[0]
     c, s, _ = cands[best]
@@ -242,7 +251,8 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncert
     why = ("no orientation of the corners shows the grey row (patches 19-24) falling from white "
            "to black in every channel" if not passing else
            "several orientations fit about equally well")
-    return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water, uncertain), \
+    return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water,
+                                                          uncertain, mode), \
         ["orientation-unverified"], [f"orientation not verified: {why}; check --corners"]
 
 
@@ -302,7 +312,8 @@ def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
 def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
-            white_level=None, light_field: str = "auto", uncertain=None) -> Measurement:
+            white_level=None, light_field: str = "auto", uncertain=None,
+            mode: str = FIT_MODE) -> Measurement:
     """Measure the water from a photograph of a ColorChecker Classic underwater.
 
     Samples the chart in every corner order and keeps the one whose grey row falls from white
@@ -342,6 +353,9 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         The uncertainty budget (:mod:`sca.budget`). Default: :data:`sca.budget.DEFAULT_UNCERTAIN`
         with the profile's per-patch systematic error and gain standard errors
         (:func:`budget_for`); ``{}``: the paper's exact model.
+    mode : {'lm', 'safeguarded', 'paper'}, optional
+        The fits' engine (:func:`sca.estimate`'s ``mode``; default :data:`FIT_MODE`, 'lm': the
+        batch's Levenberg-Marquardt on the chart, without cvxpy).
 
     Returns
     -------
@@ -382,8 +396,10 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     else:
         chart = {"corners": parse_corners(corners).tolist(), "detected": False}
     cands = orientations(photo, corners, lay)
+    if mode not in sca.MODES:
+        raise ValueError(f"mode: must be one of {sca.MODES}, got {mode!r}")
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
-                                                             distance, water, budget)
+                                                             distance, water, budget, mode)
     fit_setup, field_report = setup, {"model": "none"}
     if light_field != "none":
         M, sig = _data(sample)
@@ -397,7 +413,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
                         "mean)], chart coordinates in [-1, 1]"}
         if chosen != "none":
             fit_setup = lf["setup"]
-            est = _fit(sample, fit_setup, depth, distance, water, budget)
+            est = _fit(sample, fit_setup, depth, distance, water, budget, mode)
             flags.append("light-field")
             notes.append(f"uneven light over the chart modelled ({chosen}: the field ranges "
                          f"{lf['field'].min():.3f}-{lf['field'].max():.3f}; likelihood-ratio "

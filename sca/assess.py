@@ -20,7 +20,7 @@ One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (DECISI
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special  # chdtri, fdtri, ndtri, chdtrc: scipy.stats's own, without its import cost
 
 from forward.spectra import WHITE_PATCH
 
@@ -89,8 +89,8 @@ def profile_delta(noise_known: bool, f_min, dof, f_data=None):
     f_min = np.asarray(f_min, float)
     dof = np.maximum(np.asarray(dof), 1)
     if noise_known:
-        return np.full(f_min.shape, stats.chi2.ppf(CONFIDENCE, 1))
-    delta = stats.f.ppf(CONFIDENCE, 1, dof) * f_min / dof
+        return np.full(f_min.shape, special.chdtri(1, 1.0 - CONFIDENCE))
+    delta = special.fdtri(1, dof, CONFIDENCE) * f_min / dof
     if f_data is not None:
         delta = np.where(f_min <= 1e-20 * np.asarray(f_data, float), 0.0, delta)
     return delta
@@ -123,7 +123,7 @@ def gain_wald(gain, var, f_min, dof, noise_known: bool):
     gain = np.asarray(gain, float)
     var = np.asarray(var, float) * (1.0 if noise_known else np.asarray(f_min, float)
                                     / np.maximum(np.asarray(dof), 1))
-    half = stats.norm.ppf(0.5 + CONFIDENCE / 2) * np.sqrt(var)
+    half = special.ndtri(0.5 + CONFIDENCE / 2) * np.sqrt(var)
     return np.column_stack([np.maximum(gain - half, 0.0), gain + half])
 
 
@@ -151,7 +151,7 @@ def goodness(chi2, dof, noise_known: bool):
     if not noise_known:
         nan = np.full(chi2.shape, np.nan)
         return nan, nan
-    return chi2 / dof, stats.chi2.sf(chi2, dof)
+    return chi2 / dof, special.chdtrc(dof, chi2)
 
 
 def input_flag_table(M, sigma=None, saturation=None) -> dict:

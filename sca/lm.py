@@ -38,6 +38,7 @@ __all__ = [
     "LM_MU0",
     "LM_MU_MAX",
     "LM_MU_MIN",
+    "LM_TOL",
     "LM_UP",
     "SINGULAR_PIVOT",
     "STATUS",
@@ -70,6 +71,10 @@ LM_MU_MIN, LM_MU_MAX = 1e-12, 1e12
 #: fixed threshold as p grows, and the diagonal fallback then crawls along the valley and stops
 #: short of the optimum (DECISIONS.md, "The defaults after real water").
 SINGULAR_PIVOT = 1e-12
+#: The relative decrease (and predicted decrease) at which a fit stops (the batch's default
+#: ``tol`` and the one-chart 'lm' mode's; 1e-10 left one flat, almost black chart 1e-9 above the
+#: DPP loop's objective, DECISIONS.md).
+LM_TOL = 1e-12
 
 
 @dataclass

@@ -33,7 +33,6 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
-import cvxpy as cp
 import numpy as np
 
 from forward import validate
@@ -47,7 +46,6 @@ from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, linear_part, lower_bound
 from .results import Estimate
-from .subproblem import compiled_subproblem, equality_step, polish
 from .trust_region import (
     CONVERGED_PRED_FACTOR,
     TR_COLLAPSE,
@@ -55,13 +53,13 @@ from .trust_region import (
     TR_SHRINK,
     update_radius,
 )
-from .verdict import assess
+from .verdict import assess, fit_lm
 
 __all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
            "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",
            "INIT_CDOM", "GRADIENT_VANISHES"]
 
-MODES = ("paper", "safeguarded")
+MODES = ("paper", "safeguarded", "lm")
 #: Clarabel settings of the subproblem: its defaults (1e-8 tolerances on a subproblem that
 #: is normalised to O(1) every iteration), followed by an active-set polish
 #: (:func:`sca.subproblem.polish`) that makes the step exact where bounds are active.
@@ -346,7 +344,10 @@ class Estimator:
         if saturation is not None:
             saturation = validate.scalar("saturation", saturation, positive=True)
         st = self.prepare(rgb, sigma)
-        it = self._loop(st, mode, int(max_iter), tol, x0)
+        if mode == "lm":
+            it = fit_lm(self, st, int(max_iter), x0)
+        else:
+            it = self._loop(st, mode, int(max_iter), tol, x0)
         if trace is not None:
             trace.update(solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel,
                          n_solves=st.n_solves, polish_rescues=st.rescues)
@@ -356,6 +357,8 @@ class Estimator:
         """Linearise, solve the QP, judge the step with the true objective, repeat."""
         safeguarded = mode == "safeguarded"
         mdl = st.mdl
+        from .subproblem import compiled_subproblem  # cvxpy: imported by the loop that uses it
+
         sub = compiled_subproblem(self.n_free, self.n_pos, None if self.w_bound else self.w_slice,
                                   mdl.wavelengths.size, mdl.m if self.free_s else 0, safeguarded,
                                   self.free_w)
@@ -456,6 +459,8 @@ class Estimator:
         # they are capped at BOUND_CAP times the least-squares step that respects the
         # linearised eq 17 (without it, C and w are nearly collinear and the unconstrained
         # step is meaningless).
+        from .subproblem import equality_step
+
         v_ls = equality_step(lin.R, lin.b / unit, eq_row, eq_rhs / unit)
         cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
         if self.free_s:
@@ -487,6 +492,7 @@ class Estimator:
     def _solve_step(self, sub, lin, st, safeguarded):
         """Solve the QP (with the fallbacks and the active-set polish): the step in data units
         and '' or the reasons it failed."""
+        from .subproblem import polish
         self._set_subproblem(sub, lin, st, safeguarded)
         t0 = time.perf_counter()
         problem, v_var = self.qp_problem(sub, lin)
@@ -634,6 +640,7 @@ def _solve(problem) -> str:
 
     Returns '' on success, else the reasons of every attempt.
     """
+    import cvxpy as cp
     reasons = []
     for settings in CLARABEL_FALLBACKS:
         try:

@@ -30,7 +30,7 @@ import numpy as np
 
 from .compiled import KERNEL_LOCK, njit, prange
 
-__all__ = ["SERIAL_BELOW", "grid_best", "linear_part_stats", "project", "project_pieces"]
+__all__ = ["LINEAR_SERIAL_BELOW", "SERIAL_BELOW", "grid_best", "linear_part_stats", "project", "project_pieces"]
 
 
 #: Rows of the work matrix of :func:`_active_set` and :func:`_project_one`: per channel the
@@ -133,6 +133,10 @@ FAST = {"reassoc", "contract", "nsz", "arcp"}
 #: Below this many charts the kernels run in the calling thread (a parallel launch costs more
 #: than the work).
 SERIAL_BELOW = 64
+#: Below this many charts the closed-form (gain, s) of :func:`linear_part_stats` runs in the
+#: calling thread: about 50 ns a chart, so a parallel launch (and, in a fresh process, loading
+#: the parallel kernel, ~0.7 s) pays only for far bigger stacks
+LINEAR_SERIAL_BELOW = 1 << 16
 #: Charts per block of the parallel projection (its work arrays are allocated once per block).
 PROJECT_BLOCK = 256
 
@@ -166,7 +170,7 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
     if not has_fs:
         fs = np.broadcast_to(fs, flat[0].shape)
     args = (*flat, np.ascontiguousarray(fs), has_fs, bool(free_gain))
-    if flat[0].shape[0] < SERIAL_BELOW:
+    if flat[0].shape[0] < LINEAR_SERIAL_BELOW:
         gain, s, act = _linear_serial(*args)
     else:
         with KERNEL_LOCK:

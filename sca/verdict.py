@@ -11,13 +11,13 @@ agree; for z > 1 basis functions Wald intervals from :func:`sca.model.profiled_c
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
     profile_delta
 from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
-from .lm import STATUS, Problem, evaluate, levenberg_marquardt
+from .lm import LM_TOL, STATUS, Problem, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .results import Estimate
 
@@ -76,10 +76,11 @@ def _covariance(est, st, dof):
     return cov
 
 
-def _problem(est, st) -> Problem:
+def _problem(est, st, priors: bool = True) -> Problem:
     """The fit as a one-chart :class:`sca.lm.Problem` (the model already in the data's units),
-    with the budget's nuisances after the free names and their Gaussian priors."""
-    priors = _priors(est, st)
+    with the budget's nuisances after the free names and their Gaussian priors (``priors``
+    False: the paper's model, the free names alone)."""
+    priors = _priors(est, st) if priors else {}
     names = tuple(est.spec.names) + tuple(
         n for n in priors for _ in range(st.mdl.m if n in CAMERA else 1))
     mean = weight = None
@@ -113,6 +114,53 @@ def _theta(est, st, prob) -> np.ndarray:
             else:
                 row.append(np.asarray(st.nuisance[n], float).reshape(-1)[k])
     return np.array([row], float)
+
+
+def fit_lm(est, st, max_iter: int, x0=None) -> int:
+    """The batch's engine on one chart (:mod:`sca.lm`: variable projection and
+    Levenberg-Marquardt, no cvxpy) from the loop's start point, the paper's model (the
+    budget's nuisances are released afterwards by :func:`assess`, as after the loop); ``st``
+    is updated (x, f, initial, history, status). Returns the iterations.
+
+    Parameters
+    ----------
+    est : sca.Estimator
+        The estimator (one basis function).
+    st : sca.loop._FitState
+        The prepared fit.
+    max_iter : int
+        Iteration limit.
+    x0 : dict, optional
+        Start values (as :meth:`sca.Estimator.initial_point`).
+
+    Returns
+    -------
+    int
+        Levenberg-Marquardt iterations.
+    """
+    if st.mdl.z != 1:
+        raise ValueError("mode: 'lm' supports one basis function (z = 1); use 'safeguarded'")
+    prob = _problem(est, st, priors=False)
+    st.x = est.initial_point(st, x0)
+    st.initial = {"chl": st.x["chl"], "cdom": st.x["cdom"]}
+    st.f = est.objective(st, st.x)
+    st.history.append(st.f)
+    theta0 = np.array([[u_from_chl(st.x["chl"], st.mdl.e0) if n == "chl" else st.x[n]
+                        for n in prob.names]], float)
+    theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=LM_TOL,
+                                             f_exact=np.array([st.f_exact]))
+    _, _, _, gain, s, _, _ = evaluate(prob, np.arange(1), theta, False)
+    values = prob.params(np.arange(1), theta)
+    x = dict(st.x)
+    for n in est.spec.names:
+        x[n] = float(values[n][0])
+    x["w"] = st.mdl.feasible_w(x["chl"])
+    x["gain"] = float(gain[0]) if est.free_gain else x["gain"]
+    x["s"] = np.array(s[0], float) if est.free_s else x["s"]
+    st.x, st.f = x, float(f[0])
+    st.history.append(st.f)
+    st.stop(f"lm: {STATUS[int(code[0])]}", bool(code[0] <= 2))
+    return int(it[0])
 
 
 def _refine(est, st):
@@ -238,7 +286,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     elif mdl.z == 1:
         intervals, codes = _profile(est, st, dof)
     else:  # Wald intervals (z > 1)
-        z95 = stats.norm.ppf(0.5 + CONFIDENCE / 2)
+        z95 = special.ndtri(0.5 + CONFIDENCE / 2)
         intervals = {n: (max(x[n] - z95 * se_of[n], 0.0) if n in ("chl", "cdom") else
                          x[n] - z95 * se_of[n], x[n] + z95 * se_of[n]) for n in names}
         codes = None

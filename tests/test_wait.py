@@ -155,3 +155,37 @@ def test_even_light_keeps_no_field():
     assert res["model"] == "none" and res["coefficients"] == []
     assert res["tests"]["plane"]["p_value"] > lightfield.LIGHT_FIELD_ALPHA
     assert res["tests"]["plane"]["chi2"] <= res["tests"]["none"]["chi2"]
+
+
+def test_one_chart_and_one_photo_need_no_cvxpy_nor_scipy_stats():
+    """The command line's default engine ('lm') fits one chart without cvxpy, and a photo's
+    measurement does not load the dive's machinery (scipy.stats, scipy.optimize, Dask)."""
+    fit = ("import numpy as np, forward, sca\n"
+           "s = forward.simulate_chart(1.0, 0.1, 5.0, 1.5, seed=1)\n"
+           "sca.estimate(s.rgb, depth=5.0, distance=1.5, sigma=s.rgb_sigma, mode='lm')\n"
+           "import sys; assert not any(m.split('.')[0] in ('cvxpy', 'dask') or "
+           "m.startswith(('scipy.stats', 'scipy.optimize')) for m in sys.modules), "
+           "sorted(m for m in sys.modules if m.startswith(('cvxpy', 'scipy.stats', "
+           "'scipy.optimize', 'dask')))[:5]")
+    subprocess.run([sys.executable, "-c", fit], check=True, capture_output=True)
+    assert "cvxpy" not in _loaded("import measure; measure.measure; measure.write_outputs")
+
+
+def test_lm_mode_is_the_loops_optimum():
+    """sca.estimate(mode='lm') (the batch's engine on one chart) and the DPP loop agree: C and
+    a_CDOM, their intervals and the verdict, with and without the budget."""
+    import sca
+
+    for c, a, d, r, unc in ((1.0, 0.1, 5.0, 1.5, None), (20.0, 0.5, 10.0, 5.0, {}),
+                            (0.05, 2.0, 1.0, 0.5, None)):
+        sim = forward.simulate_chart(c, a, d, r, seed=3)
+        loop = sca.estimate(sim.rgb, depth=d, distance=r, sigma=sim.rgb_sigma, uncertain=unc)
+        lm = sca.estimate(sim.rgb, depth=d, distance=r, sigma=sim.rgb_sigma, uncertain=unc,
+                          mode="lm")
+        assert loop.converged and lm.converged and lm.mode == "lm"
+        assert lm.objective <= loop.objective * (1 + 1e-9)
+        assert lm.chl == pytest.approx(loop.chl, rel=1e-5)
+        assert lm.cdom == pytest.approx(loop.cdom, rel=1e-5, abs=1e-9)
+        np.testing.assert_allclose(lm.chl_ci, loop.chl_ci, rtol=1e-4)
+        np.testing.assert_allclose(lm.cdom_ci, loop.cdom_ci, rtol=1e-4, atol=1e-9)
+        assert lm.reliable == loop.reliable and lm.flags == loop.flags

@@ -1,10 +1,10 @@
 """``uw3p estimate``: the water (C, CDOM, attenuation) from a chart's 24 patch values.
 
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--mode paper]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--mode safeguarded]
                   [--saturation S] [--gain free] [--fix-backscatter S] [--fix-cdom A]
     uw3p estimate --batch charts.csv [--depth D] [--distance R] [--json] [--attenuation k.csv]
 
-One chart is fitted by ``sca.estimate``, a batch (``--batch``) by ``sca.estimate_batch`` (in
+One chart is fitted by ``sca.estimate`` (``mode='lm'`` unless ``--mode`` says otherwise), a batch (``--batch``) by ``sca.estimate_batch`` (in
 blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
 :mod:`uw3p.patchfile`. The default output is the result and its uncertainty budget; the
 attenuation spectrum k(lambda) is in ``--json`` and in the ``--attenuation`` file. Exit status
@@ -70,8 +70,10 @@ def add_parser(sub):
     p.add_argument("--distance", type=float, default=None,
                    help="camera-to-chart distance, m (a batch: unless the file has a distance_m "
                         "column)")
-    p.add_argument("--mode", default=None, choices=["safeguarded", "paper"],
-                   help="single chart only (default safeguarded)")
+    p.add_argument("--mode", default=None, choices=["lm", "safeguarded", "paper"],
+                   help="single chart only: lm (default), the batch's Levenberg-Marquardt on the "
+                        "chart, which reaches the DPP loop's optimum; safeguarded or paper, the "
+                        "paper's convex loop in cvxpy")
     p.add_argument("--max-iter", type=int, default=100)
     p.add_argument("--fix-backscatter", type=float, default=None, help="hold s fixed (e.g. 0)")
     p.add_argument("--fix-cdom", type=float, default=None, help="hold a_CDOM(440) fixed, m^-1")
@@ -334,7 +336,7 @@ def run(args, out, err) -> int:
     err.write(camera_note(args.camera, setup["wavelengths"]))
     try:
         res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
-                       saturation=args.saturation, mode=args.mode or "safeguarded",
+                       saturation=args.saturation, mode=args.mode or "lm",
                        fix=fix or None, max_iter=args.max_iter, gain=args.gain,
                        uncertain=uncertain_from_args(args), **setup)
     except ValueError as exc:
