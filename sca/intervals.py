@@ -6,7 +6,9 @@ z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear m
 from the Gauss-Newton curvature, secant extrapolation until the target sqrt(delta) is
 bracketed, then the Illinois method to 1e-3 of sqrt(delta). Every profile point P(theta_j) is
 the Levenberg-Marquardt of :mod:`sca.lm` with theta_j held (the same engine and model function
-as the fit, so every estimator's intervals agree). C is searched in u = C^e0.
+as the fit, so every estimator's intervals agree), started from the previous point moved along
+the profile's Gauss-Newton slope at the optimum (:func:`profile_slopes`). C is searched in
+u = C^e0.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from .lm import Problem, levenberg_marquardt
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
-           "ROOT_TOL", "profile_intervals", "effective_curvature"]
+           "ROOT_TOL", "profile_intervals", "profile_slopes", "effective_curvature"]
 
 #: Result codes of a profile end: found, at the lower bound (e.g. 0), open (beyond the cap),
 #: failed.
@@ -68,11 +70,51 @@ def effective_curvature(H, j):
     return out
 
 
-def _point(prob, idx, col, t, psi, atol):
+def profile_slopes(H, col):
+    """d theta / d theta_col along the profile of each row's parameter ``col[r]``, from the
+    Gauss-Newton matrices ``H`` (R, p, p): 1 for the parameter itself, -H_oo^-1 H_o,col for the
+    others (o), which minimise the quadratic model with theta_col held; zeros where H_oo is
+    singular or the result is not finite.
+
+    Parameters
+    ----------
+    H : ndarray, (R, p, p)
+        Gauss-Newton matrices (LM coordinates).
+    col : ndarray of int, (R,)
+        The profiled parameter of each row.
+
+    Returns
+    -------
+    ndarray, (R, p)
+    """
+    R, p = H.shape[0], H.shape[1]
+    out = np.zeros((R, p))
+    out[np.arange(R), col] = 1.0
+    if p == 1:
+        return out
+    for j in np.unique(col):
+        rows = np.flatnonzero(col == j)
+        others = [k for k in range(p) if k != j]
+        Hoo = H[np.ix_(rows, others, others)]
+        Hoj = H[rows][:, others, j]
+        with np.errstate(all="ignore"):
+            det = np.linalg.det(Hoo)
+            ok = np.isfinite(det) & (np.abs(det) > 0)
+            if ok.any():
+                sl = -np.linalg.solve(Hoo[ok], Hoj[ok][..., None])[..., 0]
+                good = np.all(np.isfinite(sl), axis=1)
+                out[np.ix_(rows[ok][good], others)] = sl[good]
+    return out
+
+
+def _point(prob, idx, col, t, psi, atol, slope=None):
     """P(theta_col = t) for rows idx (chart idx[r], parameter col[r]), minimising the others
-    from ``psi``: (f, theta)."""
+    from ``psi`` (moved along ``slope``, :func:`profile_slopes`, to the new ``t``; kept within
+    the bounds): (f, theta)."""
     theta = np.array(psi, float)
     rows = np.arange(theta.shape[0])
+    if slope is not None:
+        theta = np.maximum(theta + slope * (t - theta[rows, col])[:, None], prob.lower)
     theta[rows, col] = t
     hold = np.zeros(theta.shape, bool)
     hold[rows, col] = True
@@ -82,7 +124,8 @@ def _point(prob, idx, col, t, psi, atol):
     return f, theta
 
 
-def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, limit_code):
+def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, limit_code,
+                  slope=None):
     """Interval ends searched together, one per row: chart ``chart[r]``, parameter ``col[r]``,
     ``side[r]`` -1 (lower) or +1 (upper); the search stops at ``limit[r]`` with
     ``limit_code[r]``. ``theta_hat``, ``f_hat``, ``delta`` and ``heff`` are per row."""
@@ -112,7 +155,8 @@ def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, 
             break
         lim = limit[ia]
         t = np.where(down[ia], np.maximum(t1[ia], lim), np.minimum(t1[ia], lim))
-        f1, psi1 = _point(prob, chart[ia], col[ia], t, psi[ia], atol[ia])
+        f1, psi1 = _point(prob, chart[ia], col[ia], t, psi[ia], atol[ia],
+                          None if slope is None else slope[ia])
         failed = ~(f1 < F_OVERFLOW)
         z1 = np.sqrt(np.maximum(f1 - f_hat[ia], 0.0))
         hit = ~failed & (z1 >= zt[ia])
@@ -149,7 +193,8 @@ def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, 
         if ia.size == 0:
             break
         c = b[ia] - fb[ia] * (b[ia] - a[ia]) / (fb[ia] - fa[ia])
-        fc_, psi_new = _point(prob, chart[ia], col[ia], c, psi[ia], atol[ia])
+        fc_, psi_new = _point(prob, chart[ia], col[ia], c, psi[ia], atol[ia],
+                              None if slope is None else slope[ia])
         psi[ia] = psi_new
         failed = ~(fc_ < F_OVERFLOW)
         res[ia[failed]], code[ia[failed]] = np.nan, BOUND_FAILED
@@ -216,7 +261,8 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     limit = np.where(down, lower[cols], np.asarray(caps, float)[cols])
     limit_code = np.where(down & ~lower_open[cols], BOUND_ZERO, BOUND_OPEN)
     res, code = _profile_ends(prob, charts, cols, sides, theta_hat[charts], f_hat[charts],
-                              delta[charts], heff[charts, cols], limit, limit_code)
+                              delta[charts], heff[charts, cols], limit, limit_code,
+                              profile_slopes(np.asarray(H, float)[charts], cols))
     k = (sides > 0).astype(int)
     ends[charts, cols, k] = res
     codes[charts, cols, k] = code
