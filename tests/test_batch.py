@@ -119,3 +119,22 @@ def test_bad_input():
         sca.estimate_batch(M, depth=1, distance=1, fix={"cdom"}, uncertain={})
     with pytest.raises(ValueError, match="^depth:"):
         sca.estimate_batch(np.repeat(M, 3, axis=0), depth=[1.0, 2.0], distance=1, uncertain={})
+
+
+def test_profile_slopes_minimise_the_quadratic_model():
+    """Along the profile of theta_j the others follow -H_oo^-1 H_oj (the minimiser of the
+    Gauss-Newton model with theta_j held); a singular H_oo gives no move."""
+    from sca.intervals import profile_slopes
+
+    H = np.array([[[2.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 1.0]]] * 3)
+    H[2, 1:, 1:] = 0.0  # singular H_oo for the profile of theta_0
+    sl = profile_slopes(H, np.array([0, 2, 0]))
+    for r, j in ((0, 0), (1, 2)):
+        others = [k for k in range(3) if k != j]
+        x = np.zeros(3)
+        x[j] = 1.0
+        x[others] = -np.linalg.solve(H[r][np.ix_(others, others)], H[r][others, j])
+        np.testing.assert_allclose(sl[r], x)
+        grad = H[r] @ sl[r]  # the model's gradient in the other coordinates vanishes
+        np.testing.assert_allclose(grad[others], 0.0, atol=1e-12)
+    np.testing.assert_array_equal(sl[2], [1.0, 0.0, 0.0])
