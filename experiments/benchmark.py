@@ -44,6 +44,10 @@ RESOLUTIONS_NM = (10.0, 5.0, 2.0, 1.0)
 #: The one-chart-at-a-time methods run at these resolutions only (the batch rows at all of
 #: RESOLUTIONS_NM): the default grid and the coarsest (``make bench`` within 2 minutes)
 SINGLE_RESOLUTIONS_NM = (10.0, 1.0)
+#: cvx_rebuild (the DPP comparison: same iterates as sca_paper) runs at this resolution only
+REBUILD_RESOLUTION_NM = 10.0
+#: ... and the default budget's rows (sca_budget, batch_budget) at the default grid only
+BUDGET_RESOLUTION_NM = 1.0
 CHLS = (1e-3, 0.05, 1.0, 20.0, 100.0)
 CDOMS = (0.0, 0.05, 0.5, 2.0)
 DEPTHS = (1.0, 10.0, 30.0)
@@ -84,7 +88,7 @@ AGREE_STRIDE = 30
 #: A fit misfits when its chi^2 p-value is below this (as sca.assess.MISFIT_P)
 MISFIT_P = 1e-3
 #: Equal-optimum study: random charts per noise setting (QUICK_EQUAL_OPTIMUM_N with --quick)
-EQUAL_OPTIMUM_N = 150
+EQUAL_OPTIMUM_N = 100
 QUICK_EQUAL_OPTIMUM_N = 100
 #: ... and its criteria (BENCHMARKS.md states them: keep experiments.benchmark_report in step):
 #: noise-free, C and a_CDOM within EQUAL_RTOL relative + EQUAL_ATOL absolute; noisy, the batch's
@@ -408,7 +412,11 @@ def main(argv=None):
     for res_nm in RESOLUTIONS_NM:
         grid = np.arange(400.0, 700.0 + res_nm / 2, res_nm)
         for method in METHODS:
-            if not method.startswith("batch") and res_nm not in SINGLE_RESOLUTIONS_NM:
+            if res_nm not in SINGLE_RESOLUTIONS_NM and method not in ("batch", "batch_no_intervals"):
+                continue  # the resolution sweep of the exact model's batch only
+            if method.endswith("_budget") and res_nm != BUDGET_RESOLUTION_NM:
+                continue
+            if method == "cvx_rebuild" and res_nm != REBUILD_RESOLUTION_NM:
                 continue
             t0 = time.perf_counter()
             if method.startswith("batch"):
@@ -426,15 +434,21 @@ def main(argv=None):
             print(f"{method:20s} {res_nm:4g} nm: {rec['fits_per_s']:10.1f} fits/s, median RRMSE "
                   f"{rec['rrmse_k_median']:.2e}, failures {rec['failures']} "
                   f"({time.perf_counter() - t0:.1f} s)", flush=True)
+    t_sec = time.perf_counter()
     cov = coverage(args.quick)
     for c in cov:
         print(f"coverage at {c['illuminance_lux']:g} lx: C {c['coverage_chl']:.3f}, CDOM "
               f"{c['coverage_cdom']:.3f} over {c['n']} charts", flush=True)
+    print(f"(coverage {time.perf_counter() - t_sec:.1f} s)", flush=True)
+    t_sec = time.perf_counter()
     eq = equal_optimum(QUICK_EQUAL_OPTIMUM_N if args.quick else EQUAL_OPTIMUM_N)
     print("equal optimum:", {k: v["same_fraction"] for k, v in eq.items()}, flush=True)
+    print(f"(equal optimum {time.perf_counter() - t_sec:.1f} s)", flush=True)
+    t_sec = time.perf_counter()
     sixty = loop_optimum(conds, rgbs, sigmas)
     print(f"the benchmark's charts: the batch at the loop's optimum on {sixty['at_optimum']} of "
           f"{sixty['loop_converged']} where the loop converged", flush=True)
+    print(f"(the benchmark's charts {time.perf_counter() - t_sec:.1f} s)", flush=True)
     from . import wait_bench
 
     waits = wait_bench.run(repeats=WAIT_REPEATS, names=WAIT_COMMANDS,

@@ -50,6 +50,11 @@ READ_NOISE_E = 4.0
 CASTS = {"blue": (0.12, 0.55, 1.0), "green": (0.25, 1.0, 0.55), "turbid": (0.45, 1.0, 0.7)}
 #: Optical blur of the lens, pixels (Gaussian sigma)
 LENS_BLUR_PX = 0.7
+#: A glint's Gaussian is added within this many radii of its centre: beyond 14.4 radii its
+#: float32 value is below the smallest subnormal, so the image is the same
+GLINT_REACH = 16.0
+#: Rows per block of the noise draws (bounds the render's memory at 24 MP)
+NOISE_ROWS = 256
 
 
 def _homography(src, dst):
@@ -153,8 +158,11 @@ def _background(rng, shape, cast, level):
         layer[m > 0] = rng.uniform(0.1, 1.0, 3) * level * 2
         mask[m > 0] = 1
     fine = np.exp(0.3 * _smooth_noise(rng, shape, 2.0))[..., None]
-    img = np.where(mask[..., None] > 0, layer * light[..., None] * fine, img * fine)
-    return img.astype(np.float32)
+    layer *= light[..., None]  # in place, in the order of layer * light * fine
+    layer *= fine
+    img *= fine
+    np.copyto(img, layer, where=mask[..., None] > 0)
+    return img.astype(np.float32, copy=False)
 
 
 def _card_texture(patch_rgb, px_per_pitch):
@@ -257,18 +265,35 @@ def render_scene(patch_rgb, corners, *, size=(600, 900), background="reef", seed
                                      borderMode=cv2.BORDER_CONSTANT)
         alpha = cv2.warpPerspective(np.ones(tex.shape[:2], np.float32), M, (W, H),
                                     flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-        img = img * (1 - alpha[..., None]) + warped
-    yy, xx = np.mgrid[0:H, 0:W].astype(np.float32)
+        img *= (1 - alpha)[..., None]  # in place: the same float32 products and sums
+        img += warped
+        del warped, alpha
+    yy = np.arange(H, dtype=np.float32)[:, None]  # the pixel grid, broadcast (not stored)
+    xx = np.arange(W, dtype=np.float32)[None, :]
     r2 = ((xx - W / 2) ** 2 + (yy - H / 2) ** 2) / ((W / 2) ** 2 + (H / 2) ** 2)
-    img = img * (1 - vignetting * r2)[..., None]
+    img *= (1 - vignetting * r2)[..., None]
+    del r2
     for _ in range(int(glints)):
         cx, cy = rng.uniform([0, 0], [W, H])
         rad = rng.uniform(0.7, 3.0)
-        img += (3.0 * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * rad ** 2)))[..., None]
-    img = cv2.GaussianBlur(img.astype(np.float32), (0, 0), LENS_BLUR_PX)
-    electrons = rng.poisson(np.clip(img, 0, 2) * ELECTRONS_FULL_SCALE).astype(np.float32)
-    electrons += rng.normal(0, READ_NOISE_E, electrons.shape).astype(np.float32)
-    image = np.clip(electrons / ELECTRONS_FULL_SCALE, 0, 1).astype(np.float32)
+        # beyond GLINT_REACH radii the float32 Gaussian adds nothing to a pixel
+        x0, x1 = (int(np.clip(v, 0, W)) for v in (cx - GLINT_REACH * rad, cx + GLINT_REACH * rad + 1))
+        y0, y1 = (int(np.clip(v, 0, H)) for v in (cy - GLINT_REACH * rad, cy + GLINT_REACH * rad + 1))
+        img[y0:y1, x0:x1] += (3.0 * np.exp(-((xx[:, x0:x1] - cx) ** 2 + (yy[y0:y1] - cy) ** 2)
+                                           / (2 * rad ** 2)))[..., None]
+    img = cv2.GaussianBlur(img.astype(np.float32, copy=False), (0, 0), LENS_BLUR_PX)
+    # photon then read noise, drawn block by block of rows in the order of one whole-image draw
+    # each (the same numbers, without the whole image's int64 and float64 temporaries)
+    electrons = np.empty(img.shape, np.float32)
+    for lo in range(0, H, NOISE_ROWS):
+        electrons[lo:lo + NOISE_ROWS] = rng.poisson(
+            np.clip(img[lo:lo + NOISE_ROWS], 0, 2) * ELECTRONS_FULL_SCALE)
+    del img
+    for lo in range(0, H, NOISE_ROWS):
+        electrons[lo:lo + NOISE_ROWS] += rng.normal(
+            0, READ_NOISE_E, electrons[lo:lo + NOISE_ROWS].shape).astype(np.float32)
+    electrons /= ELECTRONS_FULL_SCALE
+    image = np.clip(electrons, 0, 1, out=electrons)
     return {"image": image, "grid_corners": grid, "card_corners": corners, "centres": centres,
             "pitch": pitch, "chart": bool(chart)}
 
@@ -319,11 +344,13 @@ def write_dng(path, rgb_linear, *, black=(512, 510, 514, 516), white=2 ** 14 - 1
     """
     from .synthetic_photo import write_dng as _write
 
-    rgb = np.clip(np.asarray(rgb_linear, float), 0, 1)
+    rgb = np.asarray(rgb_linear)
     H, W = rgb.shape[:2]
     H, W = H - H % 2, W - W % 2
-    cfa = np.tile(np.array([[0, 1], [1, 2]]), (H // 2, W // 2))
-    value = np.take_along_axis(rgb[:H, :W], cfa[..., None], axis=-1)[..., 0]
+    value = np.empty((H, W))  # each pixel's CFA channel (R G / G B), then clipped to 0-1
+    for dy, dx, ch in ((0, 0, 0), (0, 1, 1), (1, 0, 1), (1, 1, 2)):
+        value[dy:H:2, dx:W:2] = rgb[dy:H:2, dx:W:2, ch]
+    np.clip(value, 0, 1, out=value)
     blk = np.tile(np.asarray(black, float).reshape(2, 2), (H // 2, W // 2))
     mosaic = np.clip(np.rint(blk + value * (white - blk)), 0, white).astype(np.uint16)
     return _write(mosaic, path, black=black, white=white)

@@ -116,6 +116,19 @@ def fixture(folder, frame=FRAME) -> dict:
     return {"dng": str(dng), "patches": str(patches), "corners": corners}
 
 
+def _fixture_in_child(folder, frame) -> dict:
+    """:func:`fixture` in a child process (its ~2 GB of 24 MP render is freed when it ends, not
+    kept by the caller's heap)."""
+    code = ("import json, sys\nfrom experiments.wait_bench import fixture\n"
+            "print(json.dumps(fixture(sys.argv[1], (int(sys.argv[2]), int(sys.argv[3])))))")
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        [str(root)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    proc = subprocess.run([sys.executable, "-c", code, str(folder), str(frame[0]), str(frame[1])],
+                          check=True, capture_output=True, text=True, cwd=root, env=env)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
 def commands(fx: dict, folder) -> dict:
     """The benchmarked commands: name -> argv (fresh processes).
 
@@ -193,7 +206,7 @@ def run(repeats=REPEATS, folder=None, names=None, frame=FRAME) -> dict:
     with tempfile.TemporaryDirectory(prefix="uw3p_wait_") as tmp:
         folder = Path(tmp if folder is None else folder)
         t0 = time.perf_counter()
-        fx = fixture(folder, frame)
+        fx = _fixture_in_child(folder, frame)
         fixture_seconds = time.perf_counter() - t0
         cmds = commands(fx, folder)
         if names is not None:
