@@ -33,12 +33,13 @@ PNG_OPTIONS = {"compress_level": 1}
 #: ``tiff=`` of :func:`write_outputs`: corrected.tiff deflate-compressed (default), uncompressed,
 #: or not written (the sRGB preview corrected.png is always written)
 TIFF_MODES = ("compressed", "full", "none")
-#: tifffile's options for a compressed corrected.tiff: deflate (zlib, in Python's standard
-#: library, so no imagecodecs is needed) with the horizontal-differencing predictor (TIFF 6.0
-#: section 14), lossless; zlib level 1 and the strips compressed on every core (zlib releases
-#: the GIL). Measured on a 24 MP photo (2 cores): level 6 on tifffile's default one worker
-#: 11.5 s, level 1 on two 2.6-4.3 s, the file 3 % larger (114 against 111 MB; 144 MB
-#: uncompressed: a photo's noise leaves deflate little to find)
+#: tifffile's options for a compressed corrected.tiff: Adobe deflate with the
+#: horizontal-differencing predictor (TIFF 6.0 section 14), lossless, any TIFF reader; zlib
+#: level 1 and the strips compressed on every core. tifffile encodes it with imagecodecs (a
+#: dependency: its zlib-ng, the same format) where Python's zlib took 2.6-4.3 s on a 24 MP photo
+#: (2 cores); `uw3p measure` of that photo went from 9.8 to 6.9 s (issue 21). Level 6 on one
+#: worker had taken 11.5 s for a file 3 % smaller (111 against 114 MB; 144 MB uncompressed: a
+#: photo's noise leaves deflate little to find)
 TIFF_COMPRESSION = {"compression": "zlib", "compressionargs": {"level": 1}, "predictor": True,
                     "maxworkers": os.cpu_count() or 1}
 #: The file written last into a photo's folder: its presence says the folder is complete; it
