@@ -149,6 +149,16 @@ def fit_lm(est, st, max_iter: int, x0=None) -> int:
                         for n in prob.names]], float)
     theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=LM_TOL,
                                              f_exact=np.array([st.f_exact]))
+    _take_point(est, st, prob, theta, f)
+    st.history.append(st.f)
+    st.stop(f"lm: {STATUS[int(code[0])]}", bool(code[0] <= 2))
+    return int(it[0])
+
+
+def _take_point(est, st, prob, theta, f) -> dict:
+    """Set ``st``'s point to LM coordinates ``theta`` (1, p) of ``prob`` with objective ``f``
+    (1,): the free names, w on eq 17, the closed-form gain and backscatter. Returns the
+    model's parameters there (name -> (1,) values, nuisances included)."""
     _, _, _, gain, s, _, _ = evaluate(prob, np.arange(1), theta, False)
     values = prob.params(np.arange(1), theta)
     x = dict(st.x)
@@ -158,9 +168,7 @@ def fit_lm(est, st, max_iter: int, x0=None) -> int:
     x["gain"] = float(gain[0]) if est.free_gain else x["gain"]
     x["s"] = np.array(s[0], float) if est.free_s else x["s"]
     st.x, st.f = x, float(f[0])
-    st.history.append(st.f)
-    st.stop(f"lm: {STATUS[int(code[0])]}", bool(code[0] <= 2))
-    return int(it[0])
+    return values
 
 
 def _refine(est, st):
@@ -172,15 +180,7 @@ def _refine(est, st):
         return
     theta, f, _, code = levenberg_marquardt(prob, _theta(est, st, prob), max_iter=REFINE_MAX_ITER,
                                             tol=REFINE_TOL, f_exact=np.array([st.f_exact]))
-    _, _, _, gain, s, _, _ = evaluate(prob, np.arange(1), theta, False)
-    values = prob.params(np.arange(1), theta)
-    x = dict(st.x)
-    for n in est.spec.names:
-        x[n] = float(values[n][0])
-    x["w"] = st.mdl.feasible_w(x["chl"])
-    x["gain"] = float(gain[0]) if est.free_gain else x["gain"]
-    x["s"] = np.array(s[0], float) if est.free_s else x["s"]
-    st.x, st.f = x, float(f[0])
+    values = _take_point(est, st, prob, theta, f)
     st.nuisance = {n: (np.array(values[n][0], float) if n in CAMERA else float(values[n][0]))
                    for n in prob.free if n not in est.spec.names}
     if code[0] > 2:
