@@ -685,12 +685,16 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         it two values tied at the maximum count as clipped.
     camera, illuminant, reflectances, wavelengths, basis, setup :
         As :func:`forward.simulate_chart`; must describe the same camera and chart as the data.
-    mode : {'safeguarded', 'paper'}
-        The safeguarded loop (default) or the paper's literal loop.
+    mode : {'safeguarded', 'paper', 'lm'}
+        The safeguarded loop (default), the paper's literal loop, or 'lm': the batch's engine
+        on this chart (variable projection and Levenberg-Marquardt, :mod:`sca.lm`; no cvxpy),
+        which reaches the loop's optimum wherever the loop converges (DECISIONS.md,
+        "Start-up"); the verdict, intervals and budget are the same ``assess``'s.
     max_iter : int
-        Maximum number of convex subproblems.
+        Maximum number of convex subproblems (Levenberg-Marquardt iterations with 'lm').
     tol : float
-        Relative objective decrease at which the loop stops.
+        Relative objective decrease at which the loop stops ('lm' stops at
+        :data:`sca.lm.LM_TOL`).
     fix : dict, optional
         Held parameters, e.g. ``{'backscatter': 0}`` (chart a few cm away), ``{'cdom': 0.1}``
         or a forward.Water coefficient ``{'cdom_slope': 0.016}``.
