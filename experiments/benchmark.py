@@ -458,10 +458,12 @@ def main(argv=None):
                quick=args.quick, charts=dict(n=len(conds), chl=CHLS, cdom=CDOMS, depth=DEPTHS,
                                              distance=DISTANCES, truth_grid_nm=1.0),
                records=records, coverage=cov, equal_optimum=eq, loop_optimum=sixty,
-               waits=waits, sizes=dict(batch_n=BATCH_N, batch_repeats=BATCH_REPEATS,
-                                       budget_batch_n=BUDGET_BATCH_N,
+               waits=waits, sizes=dict(batch_n=QUICK_BATCH_N if args.quick else BATCH_N,
+                                       batch_repeats=BATCH_REPEATS,
+                                       budget_batch_n=len(conds) if args.quick else BUDGET_BATCH_N,
                                        single_resolutions_nm=list(SINGLE_RESOLUTIONS_NM),
-                                       equal_optimum_n=EQUAL_OPTIMUM_N,
+                                       equal_optimum_n=(QUICK_EQUAL_OPTIMUM_N if args.quick
+                                                        else EQUAL_OPTIMUM_N),
                                        agree_stride=AGREE_STRIDE),
                elapsed_s=time.perf_counter() - t_start, process_s=process_age_s(),
                peak_memory_mb=peak_memory_mb())

@@ -50,8 +50,9 @@ READ_NOISE_E = 4.0
 CASTS = {"blue": (0.12, 0.55, 1.0), "green": (0.25, 1.0, 0.55), "turbid": (0.45, 1.0, 0.7)}
 #: Optical blur of the lens, pixels (Gaussian sigma)
 LENS_BLUR_PX = 0.7
-#: A glint's Gaussian is added within this many radii of its centre: beyond 14.4 radii its
-#: float32 value is below the smallest subnormal, so the image is the same
+#: A glint's Gaussian is added within this many radii of its centre: beyond about 14.5 radii
+#: its value (3 exp(-d^2 / 2 r^2)) is far below half a float32 step of any pixel it is added to
+#: (and below the smallest float32 subnormal), so the image is the same
 GLINT_REACH = 16.0
 #: Rows per block of the noise draws (bounds the render's memory at 24 MP)
 NOISE_ROWS = 256

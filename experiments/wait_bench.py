@@ -184,7 +184,7 @@ def run(repeats=REPEATS, folder=None, names=None, frame=FRAME) -> dict:
     folder : str or os.PathLike, optional
         Where to write the fixture and outputs (default a temporary folder, removed after).
     names : sequence of str, optional
-        The commands (names of :func:`commands`) to time, in that order (default all; a
+        The commands (names of :func:`commands`) to time, in :func:`commands`' order (default all; a
         command's target reference is timed too).
     frame : tuple of int, optional
         The photo's (height, width), pixels (default :data:`FRAME`).

@@ -367,7 +367,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     ------
     ValueError
         Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
-        ``light_field``, ...) when it is wrong; :class:`measure.ChartNotFound` (``no chart
+        ``light_field``, ``mode``, ...) when it is wrong; :class:`measure.ChartNotFound` (``no chart
         found``, with the reason) when ``corners`` is None and the photo shows no chart.
 
     References
@@ -375,6 +375,8 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
     Electronic Imaging 2016, eqs 15-18 (the estimator), Fig 11 (the correction).
     """
+    if mode not in sca.MODES:  # before any work
+        raise ValueError(f"mode: must be one of {sca.MODES}, got {mode!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
     if isinstance(profile, (str, bytes)) or hasattr(profile, "__fspath__"):
@@ -396,8 +398,6 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     else:
         chart = {"corners": parse_corners(corners).tolist(), "detected": False}
     cands = orientations(photo, corners, lay)
-    if mode not in sca.MODES:
-        raise ValueError(f"mode: must be one of {sca.MODES}, got {mode!r}")
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
                                                              distance, water, budget, mode)
     fit_setup, field_report = setup, {"model": "none"}

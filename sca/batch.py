@@ -43,7 +43,7 @@ from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .limits import EXACT_FIT, MAX_RGB
-from .lm import STATUS, Problem, evaluate, levenberg_marquardt
+from .lm import LM_TOL, STATUS, Problem, evaluate, levenberg_marquardt
 from .model import (
     CAMERA,
     CHL_DERIVATIVE_FLOOR,
@@ -248,7 +248,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    camera=DEFAULT_CAMERA, illuminant=None, reflectances=None, wavelengths=None,
                    basis=None, water: Water | None = None, path_model: str | None = None,
                    cdom_slope: float | None = None, fix=None, free=(), intervals: bool = True,
-                   max_iter: int = 100, tol: float = 1e-12, setup: ChartSetup | None = None,
+                   max_iter: int = 100, tol: float = LM_TOL, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE, gain: str = "known",
                    uncertain=None, path_models=None) -> BatchEstimate:
     """Estimate the water of a stack of charts ``rgb_stack`` (N, m, n).

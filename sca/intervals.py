@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lm import Problem, levenberg_marquardt
+from .lm import SINGULAR_PIVOT, Problem, levenberg_marquardt
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
@@ -73,8 +73,9 @@ def effective_curvature(H, j):
 def profile_slopes(H, col):
     """d theta / d theta_col along the profile of each row's parameter ``col[r]``, from the
     Gauss-Newton matrices ``H`` (R, p, p): 1 for the parameter itself, -H_oo^-1 H_o,col for the
-    others (o), which minimise the quadratic model with theta_col held; zeros where H_oo is
-    singular or the result is not finite.
+    others (o), which minimise the quadratic model with theta_col held; zeros where H_oo,
+    scaled to unit diagonal, has an eigenvalue below :data:`sca.lm.SINGULAR_PIVOT` (nearly
+    collinear columns: the move would be huge) or the result is not finite.
 
     Parameters
     ----------
@@ -98,8 +99,12 @@ def profile_slopes(H, col):
         Hoo = H[np.ix_(rows, others, others)]
         Hoj = H[rows][:, others, j]
         with np.errstate(all="ignore"):
-            det = np.linalg.det(Hoo)
-            ok = np.isfinite(det) & (np.abs(det) > 0)
+            # well conditioned only: the smallest eigenvalue of H_oo scaled to unit diagonal
+            # above SINGULAR_PIVOT (as the LM step's test); else the point starts where it was
+            d = np.sqrt(np.abs(np.diagonal(Hoo, axis1=1, axis2=2)))
+            scaled = Hoo / (d[:, :, None] * d[:, None, :])
+            ok = np.all(np.isfinite(scaled), axis=(1, 2)) & np.all(d > 0, axis=1)
+            ok[ok] = np.linalg.eigvalsh(scaled[ok])[:, 0] > SINGULAR_PIVOT
             if ok.any():
                 sl = -np.linalg.solve(Hoo[ok], Hoj[ok][..., None])[..., 0]
                 good = np.all(np.isfinite(sl), axis=1)

@@ -464,8 +464,11 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         ok = trial & (fn < fa)
         acc = active[ok]
         theta[acc], f[acc] = tn[ok], fn[ok]
+        # the gain ratio of the step taken (clipped at the bounds): actual / predicted decrease
+        dc = (tn - th)[ok]
+        pred_c = -2.0 * np.einsum("ip,ip->i", g[ok], dc) - np.einsum("ip,ipq,iq->i", dc, H[ok], dc)
         with np.errstate(divide="ignore", invalid="ignore"):
-            rho = (fa[ok] - fn[ok]) / pred[ok]
+            rho = (fa[ok] - fn[ok]) / pred_c
         factor = np.maximum(1.0 / LM_DOWN, 1.0 - (2.0 * np.clip(rho, 0.0, 1.0) - 1.0) ** 3)
         mu[acc] = np.maximum(mu[acc] * np.where(np.isfinite(rho), factor, 1.0 / LM_DOWN),
                              LM_MU_MIN)

@@ -5,7 +5,7 @@ Taylor expansions around x_t (the Jacobian of :meth:`sca.model.ChartModel.predic
 resulting QP (:mod:`sca.subproblem`) is solved, and its solution becomes x_{t+1}; the loop
 repeats until the objective, evaluated with the true nonlinear k, no longer decreases.
 
-Two modes (DECISIONS.md):
+Three modes (DECISIONS.md):
 
 * ``mode="paper"`` -- the literal loop: full Taylor steps, stop at the first step that does not
   decrease the objective (the previous point is returned).
@@ -14,6 +14,9 @@ Two modes (DECISIONS.md):
   the model predicts well; iterates are put back on eq 17 (w rescaled) and s (and a free gain)
   are re-fitted in closed form; stops when the relative decrease of the objective falls below
   ``tol`` or the model predicts none.
+* ``mode="lm"`` -- not the loop: the batch's variable projection and Levenberg-Marquardt
+  (:mod:`sca.lm`) on the one chart, from the loop's start point (:func:`sca.verdict.fit_lm`);
+  the same optimum where the loop converges, without cvxpy.
 
 ``converged`` is True only where the returned point is stationary (the subproblem predicts a
 relative decrease below ``tol``) or fits the data to rounding error; every other end is

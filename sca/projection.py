@@ -35,7 +35,8 @@ __all__ = ["LINEAR_SERIAL_BELOW", "SERIAL_BELOW", "grid_best", "linear_part_stat
 
 #: Rows of the work matrix of :func:`_active_set` and :func:`_project_one`: per channel the
 #: weighted sums sw, sM, sG, sGG, sGM, the active flags, sum w r and sum w G r; then per column
-#: of theta sum w x, sum w x G, sum w x r, and one row of the columns' projection factors.
+#: a of theta sum w dG_a, sum w dG_a G, sum w dG_a r (the unit-gain, unscaled rows; the factor
+#: gain CS_a is applied after the sums), and one row of the columns' projection factors.
 SW, SM, SG, SGG, SGM, ACT, SWR, SGR, SX = 0, 1, 2, 3, 4, 5, 6, 7, 8
 
 
@@ -195,8 +196,11 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
 
     The residual r is formed explicitly (f, and g = -J^T r, stay accurate at an exact fit);
     the centring of the columns over an active channel and their projection off the centred G
-    are applied to their weighted sums (rank-one corrections), so no column is stored. Arrays
-    are indexed, never sliced: numba counts the references of every view."""
+    are applied to their weighted sums (rank-one corrections), so no column is stored. The
+    corrections lose about eps (mean / spread)^2 of a column within a channel relative to
+    centring it first (1e-12 at a ratio of 10): a chart's patches, black to white, keep that
+    ratio near 1. Arrays are indexed, never sliced: numba counts the references of every
+    view."""
     XS, XG, XR, CV = SX, SX + p, SX + 2 * p, SX + 3 * p
     for ch in range(m):
         a0 = a1 = a2 = a3 = a4 = 0.0
@@ -347,7 +351,7 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
     CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
     # each chart's G and its p rows dG/dtheta, one after another
     GJ = np.concatenate([np.asarray(G, float)[:, None, :], np.asarray(JR, float)], axis=1)
-    args = (np.ascontiguousarray(GJ.reshape(N * (p + 1), -1)), p + 1, CS,
+    args = (np.ascontiguousarray(GJ.reshape(N * (p + 1), GJ.shape[2])), p + 1, CS,
             np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
             bool(free_gain), int(m), int(n), bool(grad))
     if N < SERIAL_BELOW:

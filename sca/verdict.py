@@ -1,4 +1,5 @@
-"""The assessment of one finished fit (the cvxpy loop or the scipy path): goodness of fit,
+"""The assessment of one finished fit (the cvxpy loop, the scipy path or the one-chart 'lm'
+engine, :func:`fit_lm`): goodness of fit,
 standard errors, intervals of every free parameter, flags and the verdict, as an
 :class:`sca.Estimate`.
 
@@ -256,7 +257,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         The finished fit: its point ``st.x``, objective ``st.f``, status, history and the
         data in scaled units.
     mode : str
-        Recorded as ``Estimate.mode`` ('paper', 'safeguarded', 'scipy_least_squares').
+        Recorded as ``Estimate.mode`` ('paper', 'safeguarded', 'lm', 'scipy_least_squares').
     it : int
         Recorded as ``Estimate.iterations``.
     saturation : float, optional

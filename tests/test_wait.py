@@ -189,3 +189,17 @@ def test_lm_mode_is_the_loops_optimum():
         np.testing.assert_allclose(lm.chl_ci, loop.chl_ci, rtol=1e-4)
         np.testing.assert_allclose(lm.cdom_ci, loop.cdom_ci, rtol=1e-4, atol=1e-9)
         assert lm.reliable == loop.reliable and lm.flags == loop.flags
+
+
+def test_lm_mode_refuses_what_it_cannot_fit():
+    """'lm' needs one basis function; measure.measure names a bad mode before any work."""
+    import measure
+    import sca
+
+    T1, _ = forward.phytoplankton_basis()
+    T = np.column_stack([T1[:, 0], np.linspace(1.0, 0.2, 301)])  # as tests/test_sca.py
+    sim = forward.simulate_chart(2.0, 0.2, 5.0, 1.0, basis=T, weights=[1.0, 0.5], seed=4)
+    with pytest.raises(ValueError, match="mode: 'lm' supports one basis function"):
+        sca.estimate(sim.rgb, depth=5.0, distance=1.0, sigma=sim.rgb_sigma, basis=T, mode="lm")
+    with pytest.raises(ValueError, match="mode: must be one of"):
+        measure.measure("missing.dng", depth=5.0, distance=1.5, mode="fast")
