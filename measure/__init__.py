@@ -11,8 +11,7 @@ optimisers and statistics) it does not use (DECISIONS.md, "Start-up").
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
+from sca.lazy import lazy_exports
 
 __all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSample",
            "parse_corners", "sample_patches", "orientations", "find_chart", "Detection",
@@ -36,19 +35,4 @@ _HOME = {
 }
 
 
-def __getattr__(name):
-    """Load a public name from its submodule, or a submodule (``measure.dive``), on first use
-    (PEP 562)."""
-    home = _HOME.get(name)
-    if home is None:
-        if name.startswith("_") or importlib.util.find_spec(f"{__name__}.{name}") is None:
-            raise AttributeError(f"module 'measure' has no attribute {name!r}")
-        return importlib.import_module(f".{name}", __name__)  # binds measure.<name> itself
-    value = getattr(importlib.import_module(f".{home}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    """The module's names, the public ones not yet loaded included."""
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _HOME, __all__)

@@ -11,8 +11,7 @@ Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
+from .lazy import lazy_exports
 
 __all__ = ["BatchEstimate", "estimate_batch", "MODES", "Estimate", "Estimator", "estimate",
            "estimate_least_squares", "rrmse", "rrmse_bands", "RRMSE_BANDS_NM", "ChartModel",
@@ -37,19 +36,4 @@ _HOME = {
 }
 
 
-def __getattr__(name):
-    """Load a public name from its submodule, or a submodule (``sca.budget``), on first use
-    (PEP 562)."""
-    home = _HOME.get(name)
-    if home is None:
-        if name.startswith("_") or importlib.util.find_spec(f"{__name__}.{name}") is None:
-            raise AttributeError(f"module 'sca' has no attribute {name!r}")
-        return importlib.import_module(f".{name}", __name__)  # binds sca.<name> itself
-    value = getattr(importlib.import_module(f".{home}", __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    """The module's names, the public ones not yet loaded included."""
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _HOME, __all__)
