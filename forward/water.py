@@ -53,6 +53,11 @@ from .spectra import (
 
 __all__ = [
     "BASIS_TABLE",
+    "LEG_LENGTHS",
+    "PieceTable",
+    "TABLE_NAMES",
+    "piece_slopes",
+    "piece_weights",
     "CDOM_SLOPE",
     "CHL_TERMS",
     "COEFFICIENT_PARAMS",
@@ -156,10 +161,8 @@ def chl_weight(c, p, e, g, h):
     ----------
     Blasinski & Farrell, eqs 8, 10 and 12 (Bricaud et al. 1998; Brewin et al. 2012).
     """
-    if _is_zero(g):  # (the same numbers, without the work of a zero term)
-        return p * c ** e
-    if _is_zero(p):
-        return g * -np.expm1(-h * c)
+    # one expression for every row (a zero p or g adds an exact 0): numba compiles this same
+    # function for the batch's engine (sca.fusedlm)
     return p * c ** e + g * -np.expm1(-h * c)
 
 
@@ -185,16 +188,9 @@ def chl_weight_derivative(c, p, e, g, h):
     ----------
     Blasinski & Farrell, eqs 8, 10 and 12 (derivatives of).
     """
-    if _is_zero(g):
-        return p * e * c ** (e - 1.0)
-    if _is_zero(p):
-        return g * h * np.exp(-h * c)
+    # one expression for every row (numba compiles this same function, sca.fusedlm); a row
+    # with p = 0 has e = 1 (Water.chl_terms), so its first part is an exact 0 at C = 0 too
     return p * e * c ** (e - 1.0) + g * h * np.exp(-h * c)
-
-
-def _is_zero(v) -> bool:
-    """True for a plain number equal to zero (an array is never treated as zero)."""
-    return isinstance(v, (int, float)) and v == 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -891,9 +887,54 @@ class WaterTerms:
                     out[geo] = out[geo] + coef if geo in out else coef
         return tau, out
 
+    @functools.cached_property
+    def piece_table(self) -> "PieceTable":
+        """The optical depth's pieces as numbers (:class:`PieceTable`): every term of every leg
+        of the path model, run once in table mode (:class:`_TableInputs`), its weight's form
+        and its spectrum. tau = sum_j weight_j spectrum_j with the weights of
+        :func:`piece_weights`."""
+        x = _TableInputs(self)
+        rows, spectra = [], []
+        for terms, leg in PATH_LEGS[self.water.path_model]:
+            alpha, beta = LEG_LENGTHS[leg]
+            for term in terms:
+                for w, sh in term(x, ())[0]:
+                    form = w if isinstance(w, _Affine) else _Affine(const=float(w))
+                    rows.append((form.const, form.cdom, form.chl, *form.row, alpha, beta))
+                    spectra.append(sh)
+        cols = np.array(rows, float).T
+        return PieceTable(*(_readonly(c) for c in cols), _readonly(np.array(spectra, float)))
+
+    def _table_depth(self, chl, cdom, depth, distance, wrt, floor):
+        """:meth:`optical_depth` with ``stacked`` from :attr:`piece_table` (no ``values``, ``wrt``
+        among chl, cdom, depth, distance): the same numbers as the terms' own pieces."""
+        tb = self.piece_table
+        c = np.asarray(chl, float)[..., None]
+        phi = chl_weight(c, tb.p, tb.e, tb.g, tb.h)
+        weights, base = piece_weights(tb.const, tb.cdom, tb.chl, tb.depth, tb.distance, phi,
+                                      np.asarray(cdom, float)[..., None], depth, distance)
+        out = {}
+        if wrt:
+            dphi = 0.0
+            if "chl" in wrt:
+                guard = np.errstate(divide="ignore", invalid="ignore") if not floor > 0 else \
+                    contextlib.nullcontext()
+                with guard:
+                    dphi = chl_weight_derivative(np.maximum(c, floor), tb.p, tb.e, tb.g, tb.h)
+            slopes = piece_slopes(tb.cdom, tb.chl, tb.depth, tb.distance, base, dphi, depth,
+                                  distance)
+            out = {}
+            for name in wrt:
+                d = slopes[TABLE_NAMES.index(name)]
+                out[name] = d if d.shape == weights.shape else np.broadcast_to(d, weights.shape)
+        return weights, tb.spectra, out
+
     def _stacked_depth(self, chl, cdom, depth, distance, values, wrt, spectral, floor):
         """:meth:`optical_depth` with ``stacked``: each leg's pieces times its length, the
-        legs' spectra side by side."""
+        legs' spectra side by side (from :attr:`piece_table` where no constant is replaced and
+        ``wrt`` is among :data:`TABLE_NAMES`)."""
+        if not values and set(wrt) <= set(TABLE_NAMES):
+            return self._table_depth(chl, cdom, depth, distance, wrt, floor)
         weights, spectra, dweights = [], [], {name: [] for name in wrt}
         for terms, leg in PATH_LEGS[self.water.path_model]:
             wt, sp, dw = self.path_coefficient(chl, cdom, values=values, wrt=spectral,
@@ -1089,6 +1130,130 @@ COEFFICIENT_PARAMS = ("cdom_slope", "nap_slope", "nap_scale", "nap_exponent", "p
                       "water_scattering_exponent")
 
 
+#: The names :attr:`WaterTerms.piece_table` differentiates by, in the order of
+#: :func:`piece_slopes`' results.
+TABLE_NAMES = ("chl", "cdom", "depth", "distance")
+#: Each leg's length as (depth, distance) coefficients: length = alpha depth + beta distance.
+LEG_LENGTHS = {"path": (1.0, 1.0), "depth": (1.0, 0.0), "distance": (0.0, 1.0)}
+
+
+@dataclass(frozen=True, eq=False)
+class PieceTable:
+    """The optical depth's pieces as numbers (:attr:`WaterTerms.piece_table`).
+
+    Piece j has the weight (depth alpha_j + distance beta_j) (const_j + cdom_j a_CDOM +
+    chl_j phi(C; p_j, e_j, g_j, h_j)) (:func:`piece_weights`, :func:`chl_weight`) and the
+    spectrum ``spectra[j]``; tau = sum_j weight_j spectrum_j. Every array is read-only, (P,)
+    or (P, q).
+
+    Attributes
+    ----------
+    const, cdom, chl : ndarray, (P,)
+        The weight's constant, its factor of a_CDOM(440) and its factor of phi.
+    p, e, g, h : ndarray, (P,)
+        phi's row (:meth:`Water.chl_terms`' form; (0, 1, 0, 0), phi = 0, for no chlorophyll).
+    depth, distance : ndarray, (P,)
+        The piece's leg length in depth and distance (:data:`LEG_LENGTHS`).
+    spectra : ndarray, (P, q)
+        The pieces' spectra (m^-1 per unit weight).
+    """
+
+    const: np.ndarray
+    cdom: np.ndarray
+    chl: np.ndarray
+    p: np.ndarray
+    e: np.ndarray
+    g: np.ndarray
+    h: np.ndarray
+    depth: np.ndarray
+    distance: np.ndarray
+    spectra: np.ndarray
+
+
+# The two functions below are plain arithmetic of arrays and scalars: numpy broadcasts them
+# over charts here, and numba compiles them unchanged for the batch's engine (sca.fusedlm).
+def piece_weights(const, kcdom, kchl, alpha, beta, phi, cdom, depth, distance):
+    """The pieces' weights of tau and their brackets (:class:`PieceTable`).
+
+    Parameters
+    ----------
+    const, kcdom, kchl, alpha, beta : ndarray, (P,)
+        The table's ``const``, ``cdom``, ``chl``, ``depth`` and ``distance``.
+    phi : ndarray, S + (P,)
+        phi(C) of every piece's row (:func:`chl_weight`).
+    cdom, depth, distance : float or ndarray, S + (1,)
+        a_CDOM(440) (m^-1), the chart's depth and distance (m).
+
+    Returns
+    -------
+    weights : ndarray, S + (P,)
+        (depth alpha + distance beta) base (dimensionless: tau = weights @ spectra).
+    base : ndarray, S + (P,)
+        const + kcdom a_CDOM + kchl phi, m^-1 per unit spectrum.
+    """
+    base = const + kcdom * cdom + kchl * phi
+    return (alpha * depth + beta * distance) * base, base
+
+
+def piece_slopes(kcdom, kchl, alpha, beta, base, dphi, depth, distance):
+    """d weights / d (C, a_CDOM, depth, distance), in the order of :data:`TABLE_NAMES`.
+
+    Parameters
+    ----------
+    kcdom, kchl, alpha, beta : ndarray, (P,)
+        As :func:`piece_weights`.
+    base : ndarray, S + (P,)
+        :func:`piece_weights`' bracket.
+    dphi : float or ndarray, S + (P,)
+        d phi / dC (:func:`chl_weight_derivative`).
+    depth, distance : float or ndarray, S + (1,)
+        m.
+
+    Returns
+    -------
+    tuple of 4 ndarray, S + (P,)
+    """
+    length = alpha * depth + beta * distance
+    return length * (kchl * dphi), length * kcdom, alpha * base, beta * base
+
+
+class _Affine:
+    """A piece's weight as numbers, const + cdom a_CDOM + chl phi(C; row) (table mode): what
+    the terms return for a :class:`_TableInputs` point. Scaling it by a number (a leg's
+    factor, :func:`_scaled`) scales const, cdom and chl."""
+
+    __slots__ = ("const", "cdom", "chl", "row")
+
+    def __init__(self, const=0.0, cdom=0.0, chl=0.0, row=(0.0, 1.0, 0.0, 0.0)):
+        self.const, self.cdom, self.chl, self.row = const, cdom, chl, row
+
+    def __mul__(self, factor):
+        if not isinstance(factor, (int, float)):
+            return NotImplemented
+        return _Affine(self.const * factor, self.cdom * factor, self.chl * factor, self.row)
+
+    __rmul__ = __mul__
+
+
+class _TableInputs:
+    """The point of the terms in table mode (:attr:`WaterTerms.piece_table`): a_CDOM and every
+    chlorophyll weight are :class:`_Affine` forms, the constants the water's own."""
+
+    def __init__(self, terms):
+        self.terms, self.w, self.values = terms, None, {}
+        self.cdom = _Affine(cdom=1.0)
+        self.offset, self.ratio = terms.offset, terms.ratio
+
+    def given(self, name) -> bool:
+        return False
+
+    def get(self, name):
+        return getattr(self.terms.water, name)
+
+    def phi(self, p, e, g, h):
+        return _Affine(chl=1.0, row=(float(p), float(e), float(g), float(h)))
+
+
 class _TermInputs:
     """The point x at which the terms of c(x) are evaluated (C and a_CDOM with a trailing
     wavelength axis; replaced constants looked up by name)."""
@@ -1109,6 +1274,10 @@ class _TermInputs:
         if name in self.values:
             return np.asarray(self.values[name], float)[..., None]
         return getattr(self.terms.water, name)
+
+    def phi(self, p, e, g, h):
+        """The chlorophyll weight p C^e + g (1 - exp(-h C)) at this point (:func:`chl_weight`)."""
+        return chl_weight(self.chl, p, e, g, h)
 
     def log_chl(self):
         """ln C, 0 where C = 0 (the factor of a d/d exponent term, C^e ln C -> 0)."""
@@ -1183,7 +1352,7 @@ def _phytoplankton_term(x, wrt):
             out["w"] = t.T
         return [(1.0, x.w @ t.T.T)], out
     scale, exponent = x.get("phyto_scale"), x.get("phyto_exponent")
-    weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
+    weight = x.phi(scale, exponent, 0.0, 0.0)
     shape = t.phyto_shape
     if "chl" in wrt:
         with x.guard():
@@ -1200,7 +1369,7 @@ def _nap_term(x, wrt):
     t, out = x.terms, {}
     scale, exponent = x.get("nap_scale"), x.get("nap_exponent")
     shape = np.exp(-x.get("nap_slope") * x.offset) if x.given("nap_slope") else t.nap_shape
-    weight = chl_weight(x.chl, scale, exponent, 0.0, 0.0)
+    weight = x.phi(scale, exponent, 0.0, 0.0)
     if "chl" in wrt:
         with x.guard():
             out["chl"] = [(chl_weight_derivative(x.chl_floor, scale, exponent, 0.0, 0.0), shape)]
@@ -1223,8 +1392,8 @@ def _particle_term(x, wrt):
         large = x.get("b_p3_star") * x.ratio ** -x.get("gamma_3")
     else:
         small, large = t.particle_shapes
-    w_small = chl_weight(x.chl, 0.0, 1.0, c12, s12)
-    w_large = chl_weight(x.chl, 1.0, 1.0, -c12, s12)
+    w_small = x.phi(0.0, 1.0, c12, s12)
+    w_large = x.phi(1.0, 1.0, -c12, s12)
     if "chl" in wrt:
         out["chl"] = [(chl_weight_derivative(x.chl_floor, 0.0, 1.0, c12, s12), small),
                       (chl_weight_derivative(x.chl_floor, 1.0, 1.0, -c12, s12), large)]

@@ -30,7 +30,7 @@ import numpy as np
 
 from .compiled import njit
 from .model import TINY, ChartModel, chl_from_u, du_chain, lower_bound
-from .projection import project, project_pieces
+from .projection import SERIAL_BELOW, project, project_pieces
 
 __all__ = [
     "FUSED_NAMES",
@@ -338,6 +338,47 @@ def _lu_solve(A, b, x):  # pragma: no cover
 
 
 @njit(cache=True, error_model="numpy")
+def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, A, y, b, root,
+              free):  # pragma: no cover
+    """One chart's projected, Marquardt-scaled step into ``d`` (p,) from its gradient ``g``
+    (p,), Gauss-Newton matrix ``H`` (p, p), damping ``mu``, point ``theta`` and held
+    coordinates ``hold``; returns the decrease the Gauss-Newton model predicts. ``A``, ``y``,
+    ``b``, ``root`` and ``free`` are scratch."""
+    p = g.shape[0]
+    for a in range(p):
+        diag = H[a, a]
+        free[a] = (not (theta[a] <= lower[a] and g[a] > 0.0)) and diag > 0.0 and not hold[a]
+        dA = diag * (1.0 + mu) if free[a] else 1.0
+        root[a] = np.sqrt(dA)
+        b[a] = (-g[a] if free[a] else 0.0) / root[a]
+    # the Marquardt-scaled matrix (unit diagonal scaling): D^-1/2 A D^-1/2 y = D^-1/2 b
+    for a in range(p):
+        for c in range(p):
+            A[a, c] = H[a, c] / (root[a] * root[c]) if (free[a] and free[c]) else 0.0
+        A[a, a] = 1.0
+    rhs = b.copy()
+    if _lu_solve(A, b, y) > singular_pivot:
+        for a in range(p):
+            d[a] = y[a] / root[a]
+    else:
+        for a in range(p):
+            d[a] = rhs[a] / root[a]
+    return _predicted(g, H, d)
+
+
+@njit(cache=True)
+def _predicted(g, H, d):  # pragma: no cover
+    """The decrease -2 g.d - d.H.d the Gauss-Newton model predicts for the step d."""
+    p = g.shape[0]
+    acc = 0.0
+    for a in range(p):
+        acc -= 2.0 * g[a] * d[a]
+        for c in range(p):
+            acc -= d[a] * H[a, c] * d[c]
+    return acc
+
+
+@njit(cache=True, error_model="numpy")
 def _step_many(g, H, mu, theta, lower, hold, singular_pivot):  # pragma: no cover
     N, p = g.shape
     d = np.zeros((N, p))
@@ -348,32 +389,57 @@ def _step_many(g, H, mu, theta, lower, hold, singular_pivot):  # pragma: no cove
     root = np.empty(p)
     free = np.empty(p, dtype=np.bool_)
     for i in range(N):
-        for a in range(p):
-            diag = H[i, a, a]
-            free[a] = (not (theta[i, a] <= lower[a] and g[i, a] > 0.0)) and diag > 0.0 \
-                and not hold[i, a]
-            dA = diag * (1.0 + mu[i]) if free[a] else 1.0
-            root[a] = np.sqrt(dA)
-            b[a] = (-g[i, a] if free[a] else 0.0) / root[a]
-        # the Marquardt-scaled matrix (unit diagonal scaling): D^-1/2 A D^-1/2 y = D^-1/2 b
-        for a in range(p):
-            for c in range(p):
-                A[a, c] = H[i, a, c] / (root[a] * root[c]) if (free[a] and free[c]) else 0.0
-            A[a, a] = 1.0
-        rhs = b.copy()
-        if _lu_solve(A, b, y) > singular_pivot:
-            for a in range(p):
-                d[i, a] = y[a] / root[a]
-        else:
-            for a in range(p):
-                d[i, a] = rhs[a] / root[a]
-        acc = 0.0
-        for a in range(p):
-            acc -= 2.0 * g[i, a] * d[i, a]
-            for c in range(p):
-                acc -= d[i, a] * H[i, a, c] * d[i, c]
-        pred[i] = acc
+        pred[i] = _step_one(g[i], H[i], mu[i], theta[i], lower, hold[i], singular_pivot, d[i],
+                            A, y, b, root, free)
     return d, pred
+
+
+@njit(cache=True, error_model="numpy")
+def _judge_one(fa, fn, stat, g, H, th, tn, mu, tol, f_exact, dc):  # pragma: no cover
+    """Accept or reject one chart's trial point ``tn`` (objective ``fn``; inf where no trial
+    was made, ``stat``) from ``th`` (objective ``fa``, gradient ``g``, Gauss-Newton matrix
+    ``H``): returns (accepted, the new damping, the stop code or -1). The damping follows
+    the gain ratio of the step actually taken (clipped at the bounds; Nielsen's rule, see
+    :data:`LM_DOWN`). ``dc`` is scratch (p,)."""
+    trial = not stat
+    ok = trial and fn < fa
+    if ok:
+        for a in range(th.shape[0]):
+            dc[a] = tn[a] - th[a]
+        pred_c = _predicted(g, H, dc)
+        rho = (fa - fn) / pred_c
+        if np.isfinite(rho):
+            r = min(max(rho, 0.0), 1.0)
+            factor = max(1.0 / LM_DOWN, 1.0 - (2.0 * r - 1.0) ** 3)
+        else:
+            factor = 1.0 / LM_DOWN
+        mu = max(mu * factor, LM_MU_MIN)
+    elif trial:
+        mu *= LM_UP
+    fin = -1
+    if ok and fa - fn <= tol * fa:
+        fin = 0
+    if stat:
+        fin = 2
+    if (fn if ok else fa) <= f_exact:
+        fin = 1
+    if trial and not ok and mu > LM_MU_MAX:
+        fin = 4
+    return ok, mu, fin
+
+
+@njit(cache=True, error_model="numpy")
+def _judge_many(fa, fn, stat, g, H, th, tn, mu, tol, f_exact):  # pragma: no cover
+    """:func:`_judge_one` of every active chart: (accepted, new damping, stop code or -1)."""
+    K = fa.shape[0]
+    ok = np.zeros(K, dtype=np.bool_)
+    mu_new = np.empty(K)
+    fin = np.empty(K, dtype=np.int64)
+    dc = np.empty(th.shape[1])
+    for k in range(K):
+        ok[k], mu_new[k], fin[k] = _judge_one(fa[k], fn[k], stat[k], g[k], H[k], th[k], tn[k],
+                                              mu[k], tol, f_exact[k], dc)
+    return ok, mu_new, fin
 
 
 def _step(g, H, mu, theta, lower, hold):
@@ -390,7 +456,7 @@ def _step(g, H, mu, theta, lower, hold):
 
 
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
-                        atol=None, hold=None):
+                        atol=None, hold=None, compiled: bool | None = None):
     """Projected Levenberg-Marquardt of every chart from ``theta0`` (N, p), LM coordinates.
 
     Parameters
@@ -409,6 +475,14 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         Absolute predicted decrease at which a chart stops (profile points; default 0).
     hold : ndarray of bool, (N, p), optional
         Coordinates held where they are (profile points; default none).
+    compiled : bool or None, optional
+        True: fit :func:`sca.fusedlm.compiled_fit` problems chart by chart in compiled code
+        (:func:`sca.fusedlm.fit_fused`). False: the driver below, one iteration of every chart
+        at a time (any problem; on fine grids its projections of many charts at once by one
+        BLAS product are faster). Default None: compiled for fewer than
+        :data:`sca.projection.SERIAL_BELOW` charts or grids coarser than
+        :data:`sca.fusedlm.BLAS_FROM` wavelengths. Both drivers call the same step and
+        acceptance (:func:`_step_one`, :func:`_judge_one`); their results agree to rounding.
 
     Returns
     -------
@@ -429,6 +503,13 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05, Technical
     University of Denmark (1999) (the damping update).
     """
+    from .fusedlm import BLAS_FROM, compiled_fit, fit_fused  # (fusedlm imports this module)
+
+    if compiled is None:  # BLAS over many charts at once beats chart-by-chart on fine grids
+        compiled = prob.size < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM
+    if compiled and compiled_fit(prob):
+        return fit_fused(prob, theta0, max_iter=max_iter, tol=tol, f_exact=f_exact, atol=atol,
+                         hold=hold)
     N, p = theta0.shape
     theta = np.array(theta0, float)
     hold = np.zeros((N, p), bool) if hold is None else np.asarray(hold, bool)
@@ -461,26 +542,10 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         Hn = np.zeros_like(H)
         if ti.size:
             fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, ti, tn[trial], True, False)
-        ok = trial & (fn < fa)
+        ok, mu[active], fin = _judge_many(fa, fn, stat, g, H, th, tn, mu[active], float(tol),
+                                          np.asarray(f_exact, float)[active])
         acc = active[ok]
         theta[acc], f[acc] = tn[ok], fn[ok]
-        # the gain ratio of the step taken (clipped at the bounds): actual / predicted decrease
-        dc = (tn - th)[ok]
-        pred_c = -2.0 * np.einsum("ip,ip->i", g[ok], dc) - np.einsum("ip,ipq,iq->i", dc, H[ok], dc)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rho = (fa[ok] - fn[ok]) / pred_c
-        factor = np.maximum(1.0 / LM_DOWN, 1.0 - (2.0 * np.clip(rho, 0.0, 1.0) - 1.0) ** 3)
-        mu[acc] = np.maximum(mu[acc] * np.where(np.isfinite(rho), factor, 1.0 / LM_DOWN),
-                             LM_MU_MIN)
-        mu[active[trial & ~ok]] *= LM_UP
-        decrease = np.where(ok, fa - fn, 0.0)
-        conv_dec = ok & (decrease <= tol * fa)
-        exact = np.where(ok, fn, fa) <= f_exact[active]
-        fin = np.full(active.size, -1)
-        fin[conv_dec] = 0
-        fin[stat] = 2
-        fin[exact] = 1
-        fin[trial & ~ok & (mu[active] > LM_MU_MAX)] = 4
         stop = fin >= 0
         code[active[stop]] = fin[stop]
         fa[ok], g[ok], H[ok] = fn[ok], gn[ok], Hn[ok]

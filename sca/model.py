@@ -212,7 +212,7 @@ def chl_from_u(u, e0):
     ndarray
         C, mg m^-3, same shape as ``u``.
     """
-    u = np.asarray(u, float)
+    u = np.asarray(u, np.float64)  # (np.float64, not float: numba compiles this function too)
     return np.where(u > 0, np.maximum(u, 0.0) ** (1.0 / e0), 0.0)
 
 
@@ -233,7 +233,7 @@ def du_chain(chl, e0):
     ndarray
         dC/du, same shape as ``chl`` (units (mg m^-3)^(1 - e0)).
     """
-    cf = np.maximum(np.asarray(chl, float), TINY)
+    cf = np.maximum(np.asarray(chl, np.float64), TINY)
     return cf ** (1.0 - e0) / e0
 
 

@@ -9,6 +9,7 @@ model, with and without a free gain or a held backscatter.
 """
 
 import importlib
+import zlib
 
 import numpy as np
 import pytest
@@ -83,3 +84,106 @@ def test_camera_and_constants_use_the_model_function():
     rng = np.random.default_rng(0)
     prob = _problem("beam", ("chl", "cdom", "cdom_slope"), False, False, rng, N=4)
     assert not fused(prob)
+
+
+# ------------------------------------------------------------ forward's piece table
+@pytest.mark.parametrize("path_model", ["beam", "absorption", "split"])
+def test_piece_table_gives_the_terms_own_pieces(path_model, monkeypatch):
+    """optical_depth(stacked=True) from the piece table equals, bit for bit, the pieces the
+    terms return themselves (the generic stacking), values and derivatives, C = 0 included."""
+    import forward.water as water
+
+    terms = forward.Water(path_model=path_model).on_grid(np.arange(400.0, 701.0, 5.0))
+    rng = np.random.default_rng(11)
+    chl, cdom = np.r_[0.0, rng.uniform(0, 50, 9)], np.r_[rng.uniform(0, 2, 9), 0.0]
+    depth, distance = rng.uniform(0, 20, 10), rng.uniform(0, 5, 10)
+    for wrt in [(), ("chl", "cdom"), ("chl", "cdom", "depth", "distance"), ("distance",)]:
+        for floor in (0.0, TINY):
+            got = terms.optical_depth(chl, cdom, depth, distance, wrt=wrt, floor=floor,
+                                      stacked=True)
+            with monkeypatch.context() as mp:
+                mp.setattr(water, "TABLE_NAMES", ("none",))  # the generic stacking
+                ref = terms.optical_depth(chl, cdom, depth, distance, wrt=wrt, floor=floor,
+                                          stacked=True)
+            assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+            for name in wrt:
+                assert np.array_equal(got[2][name], np.broadcast_to(ref[2][name], got[0].shape),
+                                      equal_nan=True), (wrt, floor, name)
+
+
+def test_piece_table_is_read_only_numbers():
+    tb = forward.PAPER_WATER.on_grid(np.arange(400.0, 701.0, 10.0)).piece_table
+    P = tb.spectra.shape[0]
+    for name in ("const", "cdom", "chl", "p", "e", "g", "h", "depth", "distance"):
+        arr = getattr(tb, name)
+        assert arr.shape == (P,) and not arr.flags.writeable
+    # the paper's 'beam' path: a_w, CDOM, phytoplankton, NAP, b_w, b_k, two particle terms
+    assert P == 8 and tb.cdom.sum() == 1.0 and np.count_nonzero(tb.chl) == 4
+    np.testing.assert_array_equal(tb.depth, 1.0)
+
+
+# ------------------------------------------------------------ the compiled driver
+def _fit_problem(path_model, names, free_gain, held_s, rng, N, priors=False):
+    """N charts simulated by the model function itself (noisy), and a start near the truth
+    (LM coordinates: u = C^e0 for C)."""
+    mdl = ChartModel(SETUP, water=forward.Water(path_model=path_model))
+    truth = {"chl": rng.uniform(0.0, 20.0, N), "cdom": rng.uniform(0.0, 1.5, N),
+             "depth": rng.uniform(1.0, 20.0, N), "distance": rng.uniform(0.3, 5.0, N)}
+    G = mdl.predict(truth, jacobian=False).signal
+    s = rng.uniform(0.0, 0.02, (N, mdl.m))
+    gain = rng.uniform(0.5, 2.0, N) if free_gain else np.ones(N)
+    M = gain[:, None] * G + np.repeat(s, mdl.n, axis=1)
+    M = M + rng.normal(0.0, 0.002, M.shape)
+    scale = M.max(axis=1)
+    fixed = {k: v for k, v in truth.items() if k not in names}
+    prior_mean = prior_weight = None
+    start = np.stack([truth[n] * rng.uniform(0.5, 1.5, N) for n in names], axis=1)
+    if "chl" in names:
+        start[:, names.index("chl")] = start[:, names.index("chl")] ** mdl.e0
+    if priors:
+        prior_mean = start.copy()
+        prior_weight = np.full(start.shape, 10.0)
+    prob = Problem(mdl, M / scale[:, None], np.full(M.shape, 1.0), scale, names, fixed,
+                   free_gain, s / scale[:, None] if held_s else None, prior_mean, prior_weight)
+    return prob, start
+
+
+#: (free names, free gain, held backscatter, priors): identifiable problems (a free gain and a
+#: free distance together leave a valley the stopping rule ends anywhere along).
+DRIVER_CASES = [(("chl", "cdom"), False, False, False), (("chl", "cdom"), True, False, False),
+                (("chl", "cdom", "distance"), False, False, True), (("cdom",), False, True, False),
+                (("chl", "cdom", "depth"), False, True, True)]
+
+
+@pytest.mark.parametrize("path_model", ["beam", "split"])
+@pytest.mark.parametrize("names,free_gain,held_s,priors", DRIVER_CASES)
+def test_compiled_driver_equals_the_python_driver(path_model, names, free_gain, held_s, priors):
+    """sca.fusedlm.fit_fused (each chart's whole fit compiled) and the Python driver of
+    sca.lm.levenberg_marquardt (every chart one iteration at a time) reach the same points,
+    objectives, iteration counts and stop codes (to rounding), with priors, held coordinates
+    and absolute tolerances, in the serial and the parallel kernel."""
+    from sca.fusedlm import compiled_fit
+    from sca.lm import levenberg_marquardt
+
+    rng = np.random.default_rng(zlib.crc32(repr((path_model, names, free_gain)).encode()))
+    prob, start = _fit_problem(path_model, names, free_gain, held_s, rng, N=80, priors=priors)
+    assert compiled_fit(prob)
+    hold = np.zeros(start.shape, bool)
+    hold[::7, 0] = True
+    atol = np.where(np.arange(prob.size) % 5 == 0, 1e-6, 0.0)
+    kw = dict(max_iter=60, tol=1e-12, f_exact=np.full(prob.size, 1e-30), atol=atol, hold=hold)
+    for rows in (np.arange(prob.size), np.arange(10)):  # parallel kernel, then the serial one
+        sub = prob.subset(rows)
+        a = levenberg_marquardt(sub, start[rows], compiled=True, **kw | {
+            "f_exact": kw["f_exact"][rows], "atol": atol[rows], "hold": hold[rows]})
+        b = levenberg_marquardt(sub, start[rows], compiled=False, **kw | {
+            "f_exact": kw["f_exact"][rows], "atol": atol[rows], "hold": hold[rows]})
+        # converged (codes 0-2): the same optimum, within what the stopping rule leaves in
+        # the flat valleys of a free gain and a free distance (objective 1e-8 relative)
+        conv = b[3] <= 2
+        assert conv.mean() >= 0.9
+        np.testing.assert_allclose(a[1][conv], b[1][conv], rtol=1e-7)
+        np.testing.assert_allclose(a[0][conv], b[0][conv], rtol=1e-4, atol=1e-7)
+        same = (a[2] == b[2]) & (a[3] == b[3])
+        assert same.mean() >= 0.95, (a[2][~same], b[2][~same], a[3][~same], b[3][~same])
+        assert np.all(a[0][hold[rows]] == start[rows][hold[rows]])  # held where they are
