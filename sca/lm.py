@@ -18,6 +18,11 @@ in compiled code (Gaussian elimination of the unit-diagonal Marquardt matrix; a 
 :data:`SINGULAR_PIVOT` falls back to the diagonal); all charts advance together and
 converged charts leave the active set.
 
+Two drivers run this iteration with the same compiled step and acceptance (:func:`_step_one`,
+:func:`_judge_one`): :func:`levenberg_marquardt`'s loop below, every active chart one
+iteration at a time (any problem), and, for :func:`fused` problems, :mod:`sca.fusedlm`, each
+chart's whole fit in compiled code (the weights from forward's own functions, compiled).
+
 Codes (:data:`STATUS`): 0 relative decrease below tol, 1 exact fit, 2 no further decrease
 predicted, 3 iteration limit, 4 damping grew without decrease.
 """
