@@ -893,6 +893,7 @@ class WaterTerms:
         of the path model, run once in table mode (:class:`_TableInputs`), its weight's form
         and its spectrum. tau = sum_j weight_j spectrum_j with the weights of
         :func:`piece_weights`."""
+        self._check_shape(None)
         x = _TableInputs(self)
         rows, spectra = [], []
         for terms, leg in PATH_LEGS[self.water.path_model]:
@@ -908,6 +909,7 @@ class WaterTerms:
     def _table_depth(self, chl, cdom, depth, distance, wrt, floor):
         """:meth:`optical_depth` with ``stacked`` from :attr:`piece_table` (no ``values``, ``wrt``
         among chl, cdom, depth, distance): the same numbers as the terms' own pieces."""
+        self._check_shape(None)
         tb = self.piece_table
         c = np.asarray(chl, float)[..., None]
         phi = chl_weight(c, tb.p, tb.e, tb.g, tb.h)

@@ -187,3 +187,15 @@ def test_compiled_driver_equals_the_python_driver(path_model, names, free_gain, 
         same = (a[2] == b[2]) & (a[3] == b[3])
         assert same.mean() >= 0.95, (a[2][~same], b[2][~same], a[3][~same], b[3][~same])
         assert np.all(a[0][hold[rows]] == start[rows][hold[rows]])  # held where they are
+
+
+def test_piece_table_refuses_a_basis_without_weights():
+    wl = np.arange(400.0, 701.0, 10.0)
+    basis = np.stack([np.exp(-((wl - 440.0) / 40.0) ** 2), np.exp(-((wl - 670.0) / 20.0) ** 2)],
+                     axis=1)
+    terms = forward.PAPER_WATER.on_grid(wl, basis=basis)
+    assert terms.free_only
+    with pytest.raises(ValueError, match="weights"):
+        terms.optical_depth(1.0, 0.1, 5.0, 1.0, wrt=("chl",), stacked=True)
+    with pytest.raises(ValueError, match="weights"):
+        terms.piece_table  # noqa: B018
