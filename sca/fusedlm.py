@@ -29,7 +29,7 @@ from forward.water import TABLE_NAMES, chl_weight, chl_weight_derivative, piece_
     piece_weights
 
 from .compiled import KERNEL_LOCK, njit, prange
-from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one
+from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one, _step_scratch
 from .model import TINY, chl_from_u, du_chain
 from .projection import FAST, PROJECT_BLOCK, SERIAL_BELOW, _columns_one, _project_one, _scratch
 
@@ -133,11 +133,7 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
     tn = np.empty(p)
     d = np.empty(p)
     dc = np.empty(p)
-    A = np.empty((p, p))
-    y = np.empty(p)
-    b = np.empty(p)
-    root = np.empty(p)
-    free = np.empty(p, dtype=np.bool_)
+    step_scratch = _step_scratch(p)
     args = (cols, X0[i], tab, spectra, Bt, inv_scale[i], e0, M, W2, fs, i, has_fs, free_gain,
             m, n, PM, PW, has_prior)
     fa = _evaluate_one(th, *args, 0, sc)
@@ -149,8 +145,7 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
     mu = LM_MU0
     code = 3
     for it in range(1, max_iter + 1):
-        pred = _step_one(g[0], H[0], mu, th, lower, hold[i], SINGULAR_PIVOT, d, A, y, b, root,
-                         free)
+        pred = _step_one(g[0], H[0], mu, th, lower, hold[i], SINGULAR_PIVOT, d, step_scratch)
         it_out[i] = it
         # stationary: the model predicts (relatively) nothing more; stop without a trial
         stat = pred <= max(tol * fa, atol[i])

@@ -342,13 +342,19 @@ def _lu_solve(A, b, x):  # pragma: no cover
     return smallest
 
 
+@njit(cache=True)
+def _step_scratch(p):  # pragma: no cover
+    """The work arrays of :func:`_step_one` for p parameters."""
+    return (np.empty((p, p)), np.empty(p), np.empty(p), np.empty(p), np.empty(p, dtype=np.bool_))
+
+
 @njit(cache=True, error_model="numpy")
-def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, A, y, b, root,
-              free):  # pragma: no cover
+def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, scratch):  # pragma: no cover
     """One chart's projected, Marquardt-scaled step into ``d`` (p,) from its gradient ``g``
     (p,), Gauss-Newton matrix ``H`` (p, p), damping ``mu``, point ``theta`` and held
-    coordinates ``hold``; returns the decrease the Gauss-Newton model predicts. ``A``, ``y``,
-    ``b``, ``root`` and ``free`` are scratch."""
+    coordinates ``hold``; returns the decrease the Gauss-Newton model predicts.
+    ``scratch``: :func:`_step_scratch`."""
+    A, y, b, root, free = scratch
     p = g.shape[0]
     for a in range(p):
         diag = H[a, a]
@@ -388,14 +394,10 @@ def _step_many(g, H, mu, theta, lower, hold, singular_pivot):  # pragma: no cove
     N, p = g.shape
     d = np.zeros((N, p))
     pred = np.zeros(N)
-    A = np.empty((p, p))
-    y = np.empty(p)
-    b = np.empty(p)
-    root = np.empty(p)
-    free = np.empty(p, dtype=np.bool_)
+    scratch = _step_scratch(p)
     for i in range(N):
         pred[i] = _step_one(g[i], H[i], mu[i], theta[i], lower, hold[i], singular_pivot, d[i],
-                            A, y, b, root, free)
+                            scratch)
     return d, pred
 
 
