@@ -562,12 +562,16 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
         hold[:, len(spec.names):] = True
         theta0, _, it0, _ = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
                                                 f_exact=f_exact, hold=hold)
+    final = {}
     theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
-                                             f_exact=f_exact)
+                                             f_exact=f_exact, final=final)
     if prob.prior_mean is not None:
         it = it + it0
     idx = np.arange(N)
-    f, _g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
+    if final:  # the compiled driver kept its points' H, gain, s, ssr and k
+        H, gain, s, ssr, k = (final[n] for n in ("H", "gain", "s", "ssr", "k"))
+    else:
+        f, _g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
     res = {"s": s, "k": k, "f": f, "it": it, "code": code, "gain": gain}
     res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", prob.M, prob.M))
     n_s = np.zeros(N, dtype=int) if not spec.free_s else np.sum(s > 0, axis=1)

@@ -52,8 +52,9 @@ TAB_ROWS = ("const", "cdom", "chl", "p", "e", "g", "h", "depth", "distance")
 @njit(cache=True, error_model="numpy")
 def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row, has_fs,
                   free_gain, m, n, pm, pw, has_prior, slot, sc):  # pragma: no cover
-    """The objective of one chart at LM coordinates ``th``; its gradient and Gauss-Newton
-    matrix go to row ``slot`` of the scratch's g and H (``sc``: :func:`_chart_scratch`)."""
+    """(objective, unweighted sum of squares, gain) of one chart at LM coordinates ``th``; its
+    gradient, Gauss-Newton matrix and s go to row ``slot`` of the scratch's g, H and s, its k
+    to row 0 of tau (``sc``: :func:`_chart_scratch`)."""
     W1, DW, CS, s, g, H, tau, KD, wk, xv, GJ = sc
     p = th.shape[0]
     for k in range(4):
@@ -84,15 +85,15 @@ def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row,
         CS[slot, a] = inv_scale * du if cols[a] == 0 else inv_scale
     _columns_one(W1, DW, 0, spectra, inv_scale, True, tau, KD, 0)
     _product(KD, Bt, GJ)
-    f, _, _ = _project_one(GJ, 0, CS, M, W2, fs, row, has_fs, free_gain, m, n, True, p, s, g,
-                           H, slot, wk)
+    f, ssr, gain = _project_one(GJ, 0, CS, M, W2, fs, row, has_fs, free_gain, m, n, True, p, s,
+                                g, H, slot, wk)
     if has_prior:  # the budget's Gaussian priors: f + sum pw (theta - pm)^2
         for a in range(p):
             d = th[a] - pm[row, a]
             f += pw[row, a] * d * d
             g[slot, a] += pw[row, a] * d
             H[slot, a, a] += pw[row, a]
-    return f
+    return f, ssr, gain
 
 
 @njit(cache=True, fastmath=FAST)
@@ -122,11 +123,32 @@ def _chart_scratch(P, p, q, m, mn):  # pragma: no cover
             _scratch(m, p), np.zeros(4), np.zeros((p + 1, mn)))
 
 
+@njit(cache=True)
+def _keep(i, slot, ssr, gain, sc, out):  # pragma: no cover
+    """Chart i's point of row ``slot`` (just evaluated, now its current point): g, H, gain, s,
+    ssr and k into the result arrays ``out``."""
+    _, _, _, g_out, H_out, gain_out, s_out, ssr_out, k_out = out
+    g, H, s, tau = sc[4], sc[5], sc[3], sc[6]
+    p = g.shape[1]
+    for a in range(p):
+        g_out[i, a] = g[slot, a]
+        for c in range(p):
+            H_out[i, a, c] = H[slot, a, c]
+    for ch in range(s.shape[1]):
+        s_out[i, ch] = s[slot, ch]
+    for l in range(k_out.shape[1]):
+        k_out[i, l] = tau[0, l]
+    gain_out[i] = gain
+    ssr_out[i] = ssr
+
+
 @njit(cache=True, error_model="numpy")
 def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
-               f_out, it_out, code_out, sc):  # pragma: no cover
-    """The Levenberg-Marquardt of :func:`sca.lm.levenberg_marquardt` for chart i alone."""
+               out, sc):  # pragma: no cover
+    """The Levenberg-Marquardt of :func:`sca.lm.levenberg_marquardt` for chart i alone;
+    ``out``: :func:`fit_fused`'s result arrays, row i written."""
+    f_out, it_out, code_out = out[0], out[1], out[2]
     p = theta.shape[1]
     g, H = sc[4], sc[5]
     th = theta[i].copy()
@@ -136,7 +158,8 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
     step_scratch = _step_scratch(p)
     args = (cols, X0[i], tab, spectra, Bt, inv_scale[i], e0, M, W2, fs, i, has_fs, free_gain,
             m, n, PM, PW, has_prior)
-    fa = _evaluate_one(th, *args, 0, sc)
+    fa, ssr, gain = _evaluate_one(th, *args, 0, sc)
+    _keep(i, 0, ssr, gain, sc, out)
     f_out[i] = fa
     it_out[i] = 0
     if fa <= f_exact[i]:
@@ -152,11 +175,13 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
         for a in range(p):
             tn[a] = max(th[a] + d[a], lower[a])
         fn = np.inf
+        ssr = gain = 0.0
         if not stat:
-            fn = _evaluate_one(tn, *args, 1, sc)
+            fn, ssr, gain = _evaluate_one(tn, *args, 1, sc)
         ok, mu, fin = _judge_one(fa, fn, stat, g[0], H[0], th, tn, mu, tol, f_exact[i], dc)
         if ok:
             fa = fn
+            _keep(i, 1, ssr, gain, sc, out)
             for a in range(p):
                 th[a] = tn[a]
                 g[0, a] = g[1, a]
@@ -173,8 +198,8 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
 
 @njit(parallel=True, cache=True)
 def _fit_all(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain, m,
-             n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol, f_out, it_out,
-             code_out):  # pragma: no cover
+             n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
+             out):  # pragma: no cover
     N, p = theta.shape
     blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
     for blk in prange(blocks):
@@ -182,19 +207,19 @@ def _fit_all(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs
         for i in range(blk * PROJECT_BLOCK, min(N, (blk + 1) * PROJECT_BLOCK)):
             _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                        free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter,
-                       tol, f_out, it_out, code_out, sc)
+                       tol, out, sc)
 
 
 @njit(cache=True)
 def _fit_serial(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain,
-                m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol, f_out,
-                it_out, code_out):  # pragma: no cover
+                m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
+                out):  # pragma: no cover
     N, p = theta.shape
     sc = _chart_scratch(tab.shape[1], p, spectra.shape[1], m, Bt.shape[1])
     for i in range(N):
         _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                    free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter,
-                   tol, f_out, it_out, code_out, sc)
+                   tol, out, sc)
 
 
 def compiled_fit(prob) -> bool:
@@ -215,7 +240,8 @@ def compiled_fit(prob) -> bool:
     return fused(prob) and {"chl", "depth", "distance"} <= known
 
 
-def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, hold=None):
+def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, hold=None,
+              final: dict | None = None):
     """:func:`sca.lm.levenberg_marquardt` of a :func:`compiled_fit` problem, each chart's
     whole fit in compiled code (the same parameters and results).
 
@@ -225,8 +251,9 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
         The charts (:func:`compiled_fit`).
     theta0 : ndarray, (N, p)
         The start, LM coordinates.
-    max_iter, tol, f_exact, atol, hold :
-        As :func:`sca.lm.levenberg_marquardt` (keyword-only).
+    max_iter, tol, f_exact, atol, hold, final :
+        As :func:`sca.lm.levenberg_marquardt` (keyword-only); ``final`` receives 'g', 'H',
+        'gain', 's', 'ssr' and 'k' at the returned points (as :func:`sca.lm.evaluate`).
 
     Returns
     -------
@@ -261,10 +288,15 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
             has_fs, bool(prob.free_gain), int(mdl.m), int(mdl.n), PM, PW, has_prior,
             np.ascontiguousarray(prob.lower, float), hold, atol,
             np.ascontiguousarray(np.broadcast_to(np.asarray(f_exact, float), (N,))),
-            int(max_iter), float(tol), f, iters, code)
+            int(max_iter), float(tol))
+    m, q = mdl.m, tb.spectra.shape[1]
+    out = (f, iters, code, np.zeros((N, p)), np.zeros((N, p, p)), np.zeros(N), np.zeros((N, m)),
+           np.zeros(N), np.zeros((N, q)))
     if N < SERIAL_BELOW:
-        _fit_serial(*args)
+        _fit_serial(*args, out)
     else:
         with KERNEL_LOCK:
-            _fit_all(*args)
+            _fit_all(*args, out)
+    if final is not None:
+        final.update(zip(("g", "H", "gain", "s", "ssr", "k"), out[3:]))
     return theta, f, iters, code

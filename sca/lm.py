@@ -463,7 +463,8 @@ def _step(g, H, mu, theta, lower, hold):
 
 
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
-                        atol=None, hold=None, compiled: bool | None = None):
+                        atol=None, hold=None, compiled: bool | None = None,
+                        final: dict | None = None):
     """Projected Levenberg-Marquardt of every chart from ``theta0`` (N, p), LM coordinates.
 
     Parameters
@@ -490,6 +491,10 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         :data:`sca.projection.SERIAL_BELOW` charts or grids coarser than
         :data:`sca.fusedlm.BLAS_FROM` wavelengths. Both drivers call the same step and
         acceptance (:func:`_step_one`, :func:`_judge_one`); their results agree to rounding.
+    final : dict, optional
+        The compiled driver fills it with 'g', 'H', 'gain', 's', 'ssr' and 'k' at the returned
+        points (what :func:`evaluate` returns there, without evaluating them again); the
+        Python driver leaves it empty.
 
     Returns
     -------
@@ -516,7 +521,7 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         compiled = prob.size < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM
     if compiled and compiled_fit(prob):
         return fit_fused(prob, theta0, max_iter=max_iter, tol=tol, f_exact=f_exact, atol=atol,
-                         hold=hold)
+                         hold=hold, final=final)
     N, p = theta0.shape
     theta = np.array(theta0, float)
     hold = np.zeros((N, p), bool) if hold is None else np.asarray(hold, bool)

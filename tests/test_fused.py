@@ -199,3 +199,26 @@ def test_piece_table_refuses_a_basis_without_weights():
         terms.optical_depth(1.0, 0.1, 5.0, 1.0, wrt=("chl",), stacked=True)
     with pytest.raises(ValueError, match="weights"):
         terms.piece_table  # noqa: B018
+
+
+@pytest.mark.parametrize("free_gain,held_s,priors", [(False, False, False), (True, False, True),
+                                                     (False, True, False)])
+def test_compiled_driver_keeps_what_evaluate_gives(free_gain, held_s, priors):
+    """The compiled driver's ``final`` (g, H, gain, s, ssr, k at the returned points, kept
+    as it goes) equals sca.lm.evaluate there; the Python driver leaves ``final`` empty."""
+    from sca.lm import levenberg_marquardt
+
+    rng = np.random.default_rng(7)
+    prob, start = _fit_problem("split", ("chl", "cdom"), free_gain, held_s, rng, N=70,
+                               priors=priors)
+    kw = dict(max_iter=60, tol=1e-12, f_exact=np.full(prob.size, 1e-30))
+    final = {}
+    theta, f, *_ = levenberg_marquardt(prob, start, compiled=True, final=final, **kw)
+    ref = evaluate(prob, np.arange(prob.size), theta, True)
+    np.testing.assert_allclose(f, ref[0], rtol=1e-12)
+    for name, r in zip(("g", "H", "gain", "s", "ssr", "k"), ref[1:]):
+        scale = np.max(np.abs(r)) + TINY
+        assert np.max(np.abs(final[name] - r)) <= 1e-9 * scale, name
+    empty = {}
+    levenberg_marquardt(prob, start, compiled=False, final=empty, **kw)
+    assert empty == {}
