@@ -143,11 +143,12 @@ def _keep(i, slot, ssr, gain, sc, out):  # pragma: no cover
 
 
 @njit(cache=True, error_model="numpy")
-def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
+def _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
                out, sc):  # pragma: no cover
-    """The Levenberg-Marquardt of :func:`sca.lm.levenberg_marquardt` for chart i alone;
-    ``out``: :func:`fit_fused`'s result arrays, row i written."""
+    """The Levenberg-Marquardt of :func:`sca.lm.levenberg_marquardt` for row i of ``theta``
+    alone (the data's row ``rows[i]``); ``out``: :func:`fit_fused`'s result arrays, row i
+    written."""
     f_out, it_out, code_out = out[0], out[1], out[2]
     p = theta.shape[1]
     g, H = sc[4], sc[5]
@@ -156,7 +157,8 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
     d = np.empty(p)
     dc = np.empty(p)
     step_scratch = _step_scratch(p)
-    args = (cols, X0[i], tab, spectra, Bt, inv_scale[i], e0, M, W2, fs, i, has_fs, free_gain,
+    r = rows[i]  # the chart's row of the data
+    args = (cols, X0[r], tab, spectra, Bt, inv_scale[r], e0, M, W2, fs, r, has_fs, free_gain,
             m, n, PM, PW, has_prior)
     fa, ssr, gain = _evaluate_one(th, *args, 0, sc)
     _keep(i, 0, ssr, gain, sc, out)
@@ -197,7 +199,7 @@ def _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, h
 
 
 @njit(parallel=True, cache=True)
-def _fit_all(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain, m,
+def _fit_all(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain, m,
              n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
              out):  # pragma: no cover
     N, p = theta.shape
@@ -205,19 +207,19 @@ def _fit_all(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs
     for blk in prange(blocks):
         sc = _chart_scratch(tab.shape[1], p, spectra.shape[1], m, Bt.shape[1])
         for i in range(blk * PROJECT_BLOCK, min(N, (blk + 1) * PROJECT_BLOCK)):
-            _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
+            _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                        free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter,
                        tol, out, sc)
 
 
 @njit(cache=True)
-def _fit_serial(theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain,
+def _fit_serial(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain,
                 m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
                 out):  # pragma: no cover
     N, p = theta.shape
     sc = _chart_scratch(tab.shape[1], p, spectra.shape[1], m, Bt.shape[1])
     for i in range(N):
-        _fit_chart(i, theta, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
+        _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                    free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter,
                    tol, out, sc)
 
@@ -241,7 +243,7 @@ def compiled_fit(prob) -> bool:
 
 
 def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, hold=None,
-              final: dict | None = None):
+              final: dict | None = None, rows=None):
     """:func:`sca.lm.levenberg_marquardt` of a :func:`compiled_fit` problem, each chart's
     whole fit in compiled code (the same parameters and results).
 
@@ -251,7 +253,7 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
         The charts (:func:`compiled_fit`).
     theta0 : ndarray, (N, p)
         The start, LM coordinates.
-    max_iter, tol, f_exact, atol, hold, final :
+    max_iter, tol, f_exact, atol, hold, final, rows :
         As :func:`sca.lm.levenberg_marquardt` (keyword-only); ``final`` receives 'g', 'H',
         'gain', 's', 'ssr' and 'k' at the returned points (as :func:`sca.lm.evaluate`).
 
@@ -271,20 +273,22 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
     tb = mdl.terms.piece_table
     tab = np.ascontiguousarray(np.stack([getattr(tb, r) for r in TAB_ROWS]))
     cols = np.array([TABLE_NAMES.index(n) for n in prob.names], np.int64)
-    X0 = np.zeros((N, len(TABLE_NAMES)))
+    K = prob.size
+    rows = np.arange(N) if rows is None else np.ascontiguousarray(rows, np.int64)
+    X0 = np.zeros((K, len(TABLE_NAMES)))
     for k, name in enumerate(TABLE_NAMES):
         if name in prob.fixed:
-            X0[:, k] = np.broadcast_to(np.asarray(prob.fixed[name], float), (N,))
+            X0[:, k] = np.broadcast_to(np.asarray(prob.fixed[name], float), (K,))
     has_fs = prob.fixed_s is not None
     has_prior = prob.prior_mean is not None
-    PM = np.ascontiguousarray(prob.prior_mean, float) if has_prior else np.zeros((N, p))
-    PW = np.ascontiguousarray(prob.prior_weight, float) if has_prior else np.zeros((N, p))
+    PM = np.ascontiguousarray(prob.prior_mean, float) if has_prior else np.zeros((K, p))
+    PW = np.ascontiguousarray(prob.prior_weight, float) if has_prior else np.zeros((K, p))
     hold = np.zeros((N, p), bool) if hold is None else np.ascontiguousarray(hold, bool)
     atol = np.zeros(N) if atol is None else np.ascontiguousarray(atol, float)
-    args = (theta, cols, X0, tab, np.ascontiguousarray(tb.spectra), np.ascontiguousarray(mdl.Bt),
+    args = (theta, rows, cols, X0, tab, np.ascontiguousarray(tb.spectra), np.ascontiguousarray(mdl.Bt),
             np.ascontiguousarray(prob.inv_scale, float), float(mdl.e0),
             np.ascontiguousarray(prob.M, float), np.ascontiguousarray(prob.W2, float),
-            np.ascontiguousarray(prob.fixed_s, float) if has_fs else np.zeros((N, mdl.m)),
+            np.ascontiguousarray(prob.fixed_s, float) if has_fs else np.zeros((K, mdl.m)),
             has_fs, bool(prob.free_gain), int(mdl.m), int(mdl.n), PM, PW, has_prior,
             np.ascontiguousarray(prob.lower, float), hold, atol,
             np.ascontiguousarray(np.broadcast_to(np.asarray(f_exact, float), (N,))),

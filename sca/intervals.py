@@ -123,9 +123,9 @@ def _point(prob, idx, col, t, psi, atol, slope=None):
     theta[rows, col] = t
     hold = np.zeros(theta.shape, bool)
     hold[rows, col] = True
-    sub = prob.subset(idx)
-    theta, f, _, _ = levenberg_marquardt(sub, theta, max_iter=PROFILE_MAX_ITER, tol=0.0,
-                                         f_exact=np.zeros(idx.size), atol=atol, hold=hold)
+    theta, f, _, _ = levenberg_marquardt(prob, theta, max_iter=PROFILE_MAX_ITER, tol=0.0,
+                                         f_exact=np.zeros(idx.size), atol=atol, hold=hold,
+                                         rows=idx)
     return f, theta
 
 

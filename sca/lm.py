@@ -464,7 +464,7 @@ def _step(g, H, mu, theta, lower, hold):
 
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
                         atol=None, hold=None, compiled: bool | None = None,
-                        final: dict | None = None):
+                        final: dict | None = None, rows=None):
     """Projected Levenberg-Marquardt of every chart from ``theta0`` (N, p), LM coordinates.
 
     Parameters
@@ -495,6 +495,9 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         The compiled driver fills it with 'g', 'H', 'gain', 's', 'ssr' and 'k' at the returned
         points (what :func:`evaluate` returns there, without evaluating them again); the
         Python driver leaves it empty.
+    rows : array_like of int, (N,), optional
+        The charts of ``prob`` that the rows of ``theta0`` are (default 0..N-1): a subset
+        fitted without copying its data (the profile points).
 
     Returns
     -------
@@ -518,10 +521,10 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     from .fusedlm import BLAS_FROM, compiled_fit, fit_fused  # (fusedlm imports this module)
 
     if compiled is None:  # BLAS over many charts at once beats chart-by-chart on fine grids
-        compiled = prob.size < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM
+        compiled = len(theta0) < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM
     if compiled and compiled_fit(prob):
         return fit_fused(prob, theta0, max_iter=max_iter, tol=tol, f_exact=f_exact, atol=atol,
-                         hold=hold, final=final)
+                         hold=hold, final=final, rows=rows)
     N, p = theta0.shape
     theta = np.array(theta0, float)
     hold = np.zeros((N, p), bool) if hold is None else np.asarray(hold, bool)
@@ -532,7 +535,8 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     f = np.zeros(N)
     if N == 0:
         return theta, f, iters, code
-    fa, g, H, *_ = evaluate(prob, np.arange(N), theta, True, False)
+    rows = np.arange(N) if rows is None else np.asarray(rows, np.int64)
+    fa, g, H, *_ = evaluate(prob, rows, theta, True, False)
     f[:] = fa
     done = fa <= f_exact
     code[done] = 1
@@ -553,7 +557,8 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         gn = np.zeros_like(g)
         Hn = np.zeros_like(H)
         if ti.size:
-            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, ti, tn[trial], True, False)
+            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, rows[ti], tn[trial], True,
+                                                           False)
         ok, mu[active], fin = _judge_many(fa, fn, stat, g, H, th, tn, mu[active], float(tol),
                                           np.asarray(f_exact, float)[active])
         acc = active[ok]

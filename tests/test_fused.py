@@ -222,3 +222,19 @@ def test_compiled_driver_keeps_what_evaluate_gives(free_gain, held_s, priors):
     empty = {}
     levenberg_marquardt(prob, start, compiled=False, final=empty, **kw)
     assert empty == {}
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_rows_fit_a_subset_without_copying(compiled):
+    """levenberg_marquardt(prob, theta, rows=idx) equals the fit of prob.subset(idx), in both
+    drivers (the profile points fit their charts this way)."""
+    from sca.lm import levenberg_marquardt
+
+    rng = np.random.default_rng(8)
+    prob, start = _fit_problem("beam", ("chl", "cdom"), True, False, rng, N=90, priors=True)
+    idx = np.r_[3, 80, 7, 7, 41]  # any order, repeats allowed
+    kw = dict(max_iter=60, tol=1e-12, f_exact=np.full(idx.size, 1e-30), compiled=compiled)
+    a = levenberg_marquardt(prob, start[idx], rows=idx, **kw)
+    b = levenberg_marquardt(prob.subset(idx), start[idx], **kw)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
