@@ -29,7 +29,7 @@ from forward.water import TABLE_NAMES, chl_weight, chl_weight_derivative, piece_
     piece_weights
 
 from .compiled import KERNEL_LOCK, njit, prange
-from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one, _step_scratch
+from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one, _step_scratch, fused
 from .model import TINY, chl_from_u, du_chain
 from .projection import FAST, PROJECT_BLOCK, SERIAL_BELOW, _columns_one, _project_one, _scratch
 
@@ -236,8 +236,6 @@ def compiled_fit(prob) -> bool:
     -------
     bool
     """
-    from .lm import fused
-
     known = set(prob.names) | set(prob.fixed)
     return fused(prob) and {"chl", "depth", "distance"} <= known
 
