@@ -852,7 +852,8 @@ class WaterTerms:
         stacked : bool
             Return (weights, spectra, dweights) as :meth:`path_coefficient` does, for tau:
             tau = weights @ spectra, d tau / d name = dweights[name] @ spectra (each leg's
-            weights times its length; d tau / d depth and d distance are the legs' c).
+            weights times its length; d tau / d depth and d distance are the legs' c). The
+            spectra (and dweights broadcast to the weights' shape) may be read-only views.
 
         Returns
         -------
@@ -872,6 +873,8 @@ class WaterTerms:
         distance = np.asarray(distance, float)[..., None]
         spectral = tuple(n for n in wrt if n not in ("depth", "distance"))
         if stacked:
+            if w is not None:
+                raise ValueError("stacked: not available with free phytoplankton weights 'w'")
             return self._stacked_depth(chl, cdom, depth, distance, values, wrt, spectral, floor)
         tau, out = 0.0, {}
         for terms, leg in PATH_LEGS[self.water.path_model]:
@@ -935,7 +938,7 @@ class WaterTerms:
         """:meth:`optical_depth` with ``stacked``: each leg's pieces times its length, the
         legs' spectra side by side (from :attr:`piece_table` where no constant is replaced and
         ``wrt`` is among :data:`TABLE_NAMES`)."""
-        if not values and set(wrt) <= set(TABLE_NAMES):
+        if _use_table(values, wrt):
             return self._table_depth(chl, cdom, depth, distance, wrt, floor)
         weights, spectra, dweights = [], [], {name: [] for name in wrt}
         for terms, leg in PATH_LEGS[self.water.path_model]:
@@ -1135,6 +1138,12 @@ COEFFICIENT_PARAMS = ("cdom_slope", "nap_slope", "nap_scale", "nap_exponent", "p
 #: The names :attr:`WaterTerms.piece_table` differentiates by, in the order of
 #: :func:`piece_slopes`' results.
 TABLE_NAMES = ("chl", "cdom", "depth", "distance")
+def _use_table(values, wrt) -> bool:
+    """:meth:`WaterTerms.optical_depth` (``stacked``) evaluates :attr:`WaterTerms.piece_table`
+    where no constant is replaced and ``wrt`` is among :data:`TABLE_NAMES`."""
+    return not values and set(wrt) <= set(TABLE_NAMES)
+
+
 #: Each leg's length as (depth, distance) coefficients: length = alpha depth + beta distance.
 LEG_LENGTHS = {"path": (1.0, 1.0), "depth": (1.0, 0.0), "distance": (0.0, 1.0)}
 

@@ -16,9 +16,12 @@ The rest is shared with the Python driver of :func:`sca.lm.levenberg_marquardt`:
 * the variable projection is :func:`sca.projection._project_one`;
 * the step is :func:`sca.lm._step_one` and the acceptance :func:`sca.lm._judge_one`.
 
-So this module writes no formula: it only puts them in order for one chart. It returns what
-:func:`sca.lm.levenberg_marquardt` returns; ``tests/test_fused.py`` checks both drivers against
-each other.
+So this module writes no formula of the water and no step of the iteration: it puts them in
+order for one chart. Two lines of bookkeeping are its own, in compiled form: the budget's
+Gaussian priors (:func:`sca.lm.evaluate`'s f + sum w (theta - mu)^2, g + w (theta - mu),
+H + diag w) and the columns' scale (1 / scale, times dC/du for C, as
+:meth:`sca.lm.Problem.column_scales`). It returns what :func:`sca.lm.levenberg_marquardt`
+returns; ``tests/test_fused.py`` checks both drivers against each other, priors included.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import numpy as np
 from forward.water import TABLE_NAMES, chl_weight, chl_weight_derivative, piece_slopes, \
     piece_weights
 
-from .compiled import KERNEL_LOCK, njit, prange
+from .compiled import DEPENDENT_CACHE, KERNEL_LOCK, njit, prange
 from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one, _step_scratch, fused
 from .model import TINY, chl_from_u, du_chain
 from .projection import FAST, PROJECT_BLOCK, SERIAL_BELOW, _columns_one, _project_one, _scratch
@@ -49,7 +52,7 @@ BLAS_FROM = 100
 TAB_ROWS = ("const", "cdom", "chl", "p", "e", "g", "h", "depth", "distance")
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=DEPENDENT_CACHE, error_model="numpy")
 def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row, has_fs,
                   free_gain, m, n, pm, pw, has_prior, slot, sc):  # pragma: no cover
     """(objective, unweighted sum of squares, gain) of one chart at LM coordinates ``th``; its
@@ -66,7 +69,7 @@ def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row,
             xv[cols[a]] = th[a]
     C, A, depth, distance = xv[0], xv[1], xv[2], xv[3]
     Cf = max(C, TINY)
-    # piece by piece, in scalars (no temporaries): forward's functions, compiled
+    # piece by piece, in scalars (no arrays per piece): forward's functions, compiled
     for t in range(tab.shape[1]):
         phi = 0.0
         dphi = 0.0
@@ -96,7 +99,7 @@ def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row,
     return f, ssr, gain
 
 
-@njit(cache=True, fastmath=FAST)
+@njit(cache=DEPENDENT_CACHE, fastmath=FAST)
 def _product(KD, Bt, GJ):  # pragma: no cover
     """GJ = KD @ Bt for one chart's few rows: BLAS on fine grids, a loop on coarse ones
     (below :data:`BLAS_FROM` wavelengths a BLAS call costs more than it saves)."""
@@ -114,7 +117,7 @@ def _product(KD, Bt, GJ):  # pragma: no cover
                 GJ[a, j] += kl * Bt[l, j]
 
 
-@njit(cache=True)
+@njit(cache=DEPENDENT_CACHE)
 def _chart_scratch(P, p, q, m, mn):  # pragma: no cover
     """Work arrays of one chart: (weights, dweights, column scales, s, g, H (current and
     trial rows), tau, KD, the projection's work matrix, the parameters, GJ)."""
@@ -123,7 +126,7 @@ def _chart_scratch(P, p, q, m, mn):  # pragma: no cover
             _scratch(m, p), np.zeros(4), np.zeros((p + 1, mn)))
 
 
-@njit(cache=True)
+@njit(cache=DEPENDENT_CACHE)
 def _keep(i, slot, ssr, gain, sc, out):  # pragma: no cover
     """Chart i's point of row ``slot`` (just evaluated, now its current point): g, H, gain, s,
     ssr and k into the result arrays ``out``."""
@@ -142,7 +145,7 @@ def _keep(i, slot, ssr, gain, sc, out):  # pragma: no cover
     ssr_out[i] = ssr
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=DEPENDENT_CACHE, error_model="numpy")
 def _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
                out, sc):  # pragma: no cover
@@ -198,7 +201,7 @@ def _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2,
     code_out[i] = code
 
 
-@njit(parallel=True, cache=True)
+@njit(parallel=True, cache=DEPENDENT_CACHE)
 def _fit_all(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain, m,
              n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
              out):  # pragma: no cover
@@ -212,7 +215,7 @@ def _fit_all(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, 
                        tol, out, sc)
 
 
-@njit(cache=True)
+@njit(cache=DEPENDENT_CACHE)
 def _fit_serial(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs, free_gain,
                 m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
                 out):  # pragma: no cover
@@ -261,6 +264,17 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
         As :func:`sca.lm.levenberg_marquardt`.
     """
     N, p = theta0.shape
+    K = prob.size
+    if p != len(prob.names):
+        raise ValueError(f"theta0: expected {len(prob.names)} columns, got {p}")
+    rows = np.arange(N) if rows is None else np.ascontiguousarray(rows, np.int64)
+    if rows.shape != (N,) or (N and (rows.min() < 0 or rows.max() >= K)):
+        raise ValueError(f"rows: expected {N} chart indices in 0..{K - 1}")
+    hold = np.zeros((N, p), bool) if hold is None else np.ascontiguousarray(hold, bool)
+    atol = np.zeros(N) if atol is None else np.ascontiguousarray(
+        np.broadcast_to(np.asarray(atol, float), (N,)))
+    if hold.shape != (N, p):
+        raise ValueError(f"hold: expected shape {(N, p)}, got {hold.shape}")
     theta = np.array(theta0, float)
     f = np.zeros(N)
     iters = np.zeros(N, dtype=np.int64)
@@ -271,8 +285,6 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
     tb = mdl.terms.piece_table
     tab = np.ascontiguousarray(np.stack([getattr(tb, r) for r in TAB_ROWS]))
     cols = np.array([TABLE_NAMES.index(n) for n in prob.names], np.int64)
-    K = prob.size
-    rows = np.arange(N) if rows is None else np.ascontiguousarray(rows, np.int64)
     X0 = np.zeros((K, len(TABLE_NAMES)))
     for k, name in enumerate(TABLE_NAMES):
         if name in prob.fixed:
@@ -281,8 +293,6 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
     has_prior = prob.prior_mean is not None
     PM = np.ascontiguousarray(prob.prior_mean, float) if has_prior else np.zeros((K, p))
     PW = np.ascontiguousarray(prob.prior_weight, float) if has_prior else np.zeros((K, p))
-    hold = np.zeros((N, p), bool) if hold is None else np.ascontiguousarray(hold, bool)
-    atol = np.zeros(N) if atol is None else np.ascontiguousarray(atol, float)
     args = (theta, rows, cols, X0, tab, np.ascontiguousarray(tb.spectra), np.ascontiguousarray(mdl.Bt),
             np.ascontiguousarray(prob.inv_scale, float), float(mdl.e0),
             np.ascontiguousarray(prob.M, float), np.ascontiguousarray(prob.W2, float),

@@ -15,8 +15,8 @@ The iteration variable of C is u = C^e0 (:func:`sca.model.du_chain`); every othe
 its own coordinate. A Levenberg-Marquardt step with Marquardt scaling (diag of H) and projected
 lower bounds (a variable at its bound whose gradient points outwards is held), solved per chart
 in compiled code (Gaussian elimination of the unit-diagonal Marquardt matrix; a pivot below
-:data:`SINGULAR_PIVOT` falls back to the diagonal); all charts advance together and
-converged charts leave the active set.
+:data:`SINGULAR_PIVOT` falls back to the diagonal); in the Python driver all charts advance
+together and converged charts leave the active set.
 
 Two drivers run this iteration with the same compiled step and acceptance (:func:`_step_one`,
 :func:`_judge_one`): :func:`levenberg_marquardt`'s loop below, every active chart one
@@ -490,7 +490,8 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         BLAS product are faster). Default None: compiled for fewer than
         :data:`sca.projection.SERIAL_BELOW` charts or grids coarser than
         :data:`sca.fusedlm.BLAS_FROM` wavelengths. Both drivers call the same step and
-        acceptance (:func:`_step_one`, :func:`_judge_one`); their results agree to rounding.
+        acceptance (:func:`_step_one`, :func:`_judge_one`) and reach the same optimum; their
+        rounding differs, which can move an acceptance or a stop by one iteration.
     final : dict, optional
         The compiled driver fills it with 'g', 'H', 'gain', 's', 'ssr' and 'k' at the returned
         points (what :func:`evaluate` returns there, without evaluating them again); the

@@ -102,7 +102,7 @@ def test_piece_table_gives_the_terms_own_pieces(path_model, monkeypatch):
             got = terms.optical_depth(chl, cdom, depth, distance, wrt=wrt, floor=floor,
                                       stacked=True)
             with monkeypatch.context() as mp:
-                mp.setattr(water, "TABLE_NAMES", ("none",))  # the generic stacking
+                mp.setattr(water, "_use_table", lambda *a: False)  # the generic stacking
                 ref = terms.optical_depth(chl, cdom, depth, distance, wrt=wrt, floor=floor,
                                           stacked=True)
             assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
@@ -123,10 +123,10 @@ def test_piece_table_is_read_only_numbers():
 
 
 # ------------------------------------------------------------ the compiled driver
-def _fit_problem(path_model, names, free_gain, held_s, rng, N, priors=False):
+def _fit_problem(path_model, names, free_gain, held_s, rng, N, priors=False, setup=SETUP):
     """N charts simulated by the model function itself (noisy), and a start near the truth
     (LM coordinates: u = C^e0 for C)."""
-    mdl = ChartModel(SETUP, water=forward.Water(path_model=path_model))
+    mdl = ChartModel(setup, water=forward.Water(path_model=path_model))
     truth = {"chl": rng.uniform(0.0, 20.0, N), "cdom": rng.uniform(0.0, 1.5, N),
              "depth": rng.uniform(1.0, 20.0, N), "distance": rng.uniform(0.3, 5.0, N)}
     G = mdl.predict(truth, jacobian=False).signal
@@ -158,6 +158,19 @@ DRIVER_CASES = [(("chl", "cdom"), False, False, False), (("chl", "cdom"), True, 
 @pytest.mark.parametrize("path_model", ["beam", "split"])
 @pytest.mark.parametrize("names,free_gain,held_s,priors", DRIVER_CASES)
 def test_compiled_driver_equals_the_python_driver(path_model, names, free_gain, held_s, priors):
+    _drivers_agree(path_model, names, free_gain, held_s, priors, SETUP)
+
+
+def test_compiled_driver_equals_the_python_driver_on_1nm():
+    """The same on the default 1 nm grid (one chart's columns projected by BLAS there)."""
+    from sca.fusedlm import BLAS_FROM
+
+    setup = forward.chart_setup(wavelengths=np.arange(400.0, 701.0, 1.0))
+    assert setup.wavelengths.size >= BLAS_FROM
+    _drivers_agree("beam", ("chl", "cdom"), True, False, False, setup)
+
+
+def _drivers_agree(path_model, names, free_gain, held_s, priors, setup):
     """sca.fusedlm.fit_fused (each chart's whole fit compiled) and the Python driver of
     sca.lm.levenberg_marquardt (every chart one iteration at a time) reach the same points,
     objectives, iteration counts and stop codes (to rounding), with priors, held coordinates
@@ -166,7 +179,8 @@ def test_compiled_driver_equals_the_python_driver(path_model, names, free_gain, 
     from sca.lm import levenberg_marquardt
 
     rng = np.random.default_rng(zlib.crc32(repr((path_model, names, free_gain)).encode()))
-    prob, start = _fit_problem(path_model, names, free_gain, held_s, rng, N=80, priors=priors)
+    prob, start = _fit_problem(path_model, names, free_gain, held_s, rng, N=80, priors=priors,
+                               setup=setup)
     assert compiled_fit(prob)
     hold = np.zeros(start.shape, bool)
     hold[::7, 0] = True
@@ -227,14 +241,54 @@ def test_compiled_driver_keeps_what_evaluate_gives(free_gain, held_s, priors):
 @pytest.mark.parametrize("compiled", [True, False])
 def test_rows_fit_a_subset_without_copying(compiled):
     """levenberg_marquardt(prob, theta, rows=idx) equals the fit of prob.subset(idx), in both
-    drivers (the profile points fit their charts this way)."""
+    drivers and both kernels (the profile points fit their charts this way); f_exact, atol and
+    hold are per row of theta, the data per chart."""
     from sca.lm import levenberg_marquardt
 
     rng = np.random.default_rng(8)
     prob, start = _fit_problem("beam", ("chl", "cdom"), True, False, rng, N=90, priors=True)
-    idx = np.r_[3, 80, 7, 7, 41]  # any order, repeats allowed
-    kw = dict(max_iter=60, tol=1e-12, f_exact=np.full(idx.size, 1e-30), compiled=compiled)
-    a = levenberg_marquardt(prob, start[idx], rows=idx, **kw)
-    b = levenberg_marquardt(prob.subset(idx), start[idx], **kw)
-    for x, y in zip(a, b):
-        np.testing.assert_array_equal(x, y)
+    for idx in (np.r_[3, 80, 7, 7, 41], rng.permutation(90)[:70]):  # serial, then parallel
+        hold = np.zeros((idx.size, 2), bool)
+        hold[::3, 1] = True
+        kw = dict(max_iter=60, tol=1e-12, f_exact=rng.uniform(0, 1e-6, idx.size), hold=hold,
+                  atol=np.where(np.arange(idx.size) % 2 == 0, 1e-5, 0.0), compiled=compiled)
+        a = levenberg_marquardt(prob, start[idx], rows=idx, **kw)
+        b = levenberg_marquardt(prob.subset(idx), start[idx], **kw)
+        for x, y in zip(a, b):
+            np.testing.assert_array_equal(x, y)
+
+
+def test_compiled_driver_checks_its_arguments():
+    from sca.lm import levenberg_marquardt
+
+    prob, start = _fit_problem("beam", ("chl", "cdom"), False, False, np.random.default_rng(9),
+                               N=5)
+    kw = dict(max_iter=5, tol=1e-12, f_exact=np.zeros(2), compiled=True)
+    with pytest.raises(ValueError, match="rows"):
+        levenberg_marquardt(prob, start[:2], rows=[0, 5], **kw)
+    with pytest.raises(ValueError, match="hold"):
+        levenberg_marquardt(prob, start[:2], rows=[0, 1], hold=np.zeros((2, 1), bool), **kw)
+
+
+def test_judge_one_is_nielsens_rule():
+    """The acceptance shared by both drivers, against hand-computed updates: a step whose
+    decrease the model predicted exactly (rho = 1) divides the damping by LM_DOWN, one that
+    achieved a quarter of it (rho = 1/4) multiplies it by 1 - (2/4 - 1)^3 = 1.125, a failed
+    trial multiplies it by LM_UP, and the stop codes."""
+    from sca.lm import LM_DOWN, LM_UP, _judge_one
+
+    g, H = np.array([-1.0]), np.array([[1.0]])  # predicted decrease of d: 2 d - d^2
+    th, dc = np.array([0.0]), np.empty(1)
+    for d, actual, factor in ((1.0, 1.0, 1.0 / LM_DOWN), (1.0, 0.25, 1.125)):
+        ok, mu, fin = _judge_one(10.0, 10.0 - actual, False, g, H, th, np.array([d]), 1e-3,
+                                 1e-12, 0.0, dc)
+        assert ok and fin == -1 and mu == pytest.approx(1e-3 * factor, rel=1e-12)
+    ok, mu, fin = _judge_one(10.0, 11.0, False, g, H, th, np.array([1.0]), 1e-3, 1e-12, 0.0, dc)
+    assert not ok and fin == -1 and mu == pytest.approx(1e-3 * LM_UP)
+    assert _judge_one(10.0, np.inf, True, g, H, th, th, 1e-3, 1e-12, 0.0, dc)[2] == 2
+    assert _judge_one(10.0, 10.0 - 1e-12, False, g, H, th, np.array([1.0]), 1e-3, 1e-12, 0.0,
+                      dc)[2] == 0
+    assert _judge_one(10.0, 1e-31, False, g, H, th, np.array([1.0]), 1e-3, 1e-12, 1e-30,
+                      dc)[2] == 1
+    assert _judge_one(10.0, 11.0, False, g, H, th, np.array([1.0]), 1e12, 1e-12, 0.0,
+                      dc)[2] == 4

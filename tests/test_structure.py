@@ -161,3 +161,38 @@ def test_every_module_declares_all_and_every_name_in_it_exists():
     problems = ([f"no __all__: {', '.join(no_all)}"] if no_all else []) + \
         ([f"in __all__ but not defined: {', '.join(missing)}"] if missing else [])
     assert not problems, "\n".join(problems)
+
+
+def test_compiled_caches_cover_every_file_they_contain():
+    """numba keys a cache entry on its function's own file, yet compiles the compiled functions
+    it calls into that entry: a module whose cached kernels call compiled functions of other
+    modules must have those files in sca.compiled.CACHE_DEPENDS (its entries stamped with
+    their content, so that editing a callee invalidates them)."""
+    import hashlib
+
+    from numba.core.registry import CPUDispatcher
+
+    from sca import compiled
+
+    assert compiled.DEPENDENT_CACHE
+    for pkg in ("sca", "measure"):
+        for info in pkgutil.iter_modules([str(ROOT / pkg)]):
+            mod = importlib.import_module(f"{pkg}.{info.name}")
+            own, foreign = [], set()
+            for value in vars(mod).values():
+                if isinstance(value, CPUDispatcher):
+                    src = Path(value.py_func.__code__.co_filename).resolve()
+                    if src == Path(mod.__file__).resolve():
+                        own.append(value)
+                    else:
+                        foreign.add(str(src))
+            cached = [d for d in own if d._cache.__class__.__name__ != "NullCache"]
+            if not (cached and foreign):
+                continue
+            depends = compiled.CACHE_DEPENDS.get(str(Path(mod.__file__).resolve()), ())
+            assert foreign <= set(depends), (mod.__name__, foreign - set(depends))
+            for d in cached:
+                locator = d._cache._impl.locator
+                assert isinstance(locator, compiled.DependentLocator), (mod.__name__, d)
+                digest = hashlib.sha256(b"".join(Path(p).read_bytes() for p in depends))
+                assert locator.get_source_stamp()[1] == digest.hexdigest()
