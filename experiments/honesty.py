@@ -75,6 +75,7 @@ __all__ = [
     "HONEST_GROUPS",
     "MIN_RELIABLE_CLEAN",
     "NOMINAL_JOINT",
+    "miss_p",
     "NOMINAL_SINGLE",
     "PIXELS_PER_PATCH",
     "SEED",
@@ -357,7 +358,7 @@ def _largest_share(est, keep):
     return float(np.median(S[ok].max(axis=1))), top
 
 
-def _miss_p(misses, n, nominal):
+def miss_p(misses, n, nominal):
     """One-sided binomial p-value of >= ``misses`` misses in ``n`` at the rate 1 - nominal."""
     return float(stats.binom.sf(misses - 1, n, 1.0 - nominal)) if n else None
 
@@ -400,7 +401,7 @@ def summarise(est, cond: dict, path=None) -> dict:
     nominal = {"chl": NOMINAL_SINGLE, "cdom": NOMINAL_SINGLE, "joint": NOMINAL_JOINT}
     coverage = {k: {"covered": h, "fraction": h / n_rel if n_rel else None,
                     "misses": n_rel - h, "nominal": nominal[k],
-                    "p_excess_misses": _miss_p(n_rel - h, n_rel, nominal[k]),
+                    "p_excess_misses": miss_p(n_rel - h, n_rel, nominal[k]),
                     "ci95": _clopper_pearson(h, n_rel)} for k, h in hits.items()}
     half = (est.chl_ci[:, 1] - est.chl_ci[:, 0]) / 2.0 / cond["chl"]
     share, source = _largest_share(est, rel)

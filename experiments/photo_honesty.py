@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .honesty import NOMINAL_JOINT, miss_p
+
 __all__ = ["BASE", "CASES", "SEED", "SIZE", "main", "run_case"]
 
 #: Frame (height, width), pixels
@@ -44,8 +46,6 @@ CASES = {
 
 def run_case(name, n, rng, folder, mode="lm") -> dict:
     """Render and measure ``n`` photos of case ``name``; the counts (see the module)."""
-    from scipy import stats
-
     import measure
 
     from . import independent_world as iw
@@ -85,7 +85,7 @@ def run_case(name, n, rng, folder, mode="lm") -> dict:
         else:
             for f in m.flags:
                 flags[f] = flags.get(f, 0) + 1
-    p = float(stats.binom.sf(wrong - 1, reliable, 0.10)) if reliable else float("nan")
+    p = miss_p(wrong, reliable, NOMINAL_JOINT) if reliable else float("nan")
     return {"n": n, "reliable": reliable, "confident_wrong": wrong, "p_value": p,
             "flags": dict(sorted(flags.items(), key=lambda kv: -kv[1])[:4])}
 

@@ -1246,25 +1246,6 @@ class _Affine:
     __rmul__ = __mul__
 
 
-class _TableInputs:
-    """The point of the terms in table mode (:attr:`WaterTerms.piece_table`): a_CDOM and every
-    chlorophyll weight are :class:`_Affine` forms, the constants the water's own."""
-
-    def __init__(self, terms):
-        self.terms, self.w, self.values = terms, None, {}
-        self.cdom = _Affine(cdom=1.0)
-        self.offset, self.ratio = terms.offset, terms.ratio
-
-    def given(self, name) -> bool:
-        return False
-
-    def get(self, name):
-        return getattr(self.terms.water, name)
-
-    def phi(self, p, e, g, h):
-        return _Affine(chl=1.0, row=(float(p), float(e), float(g), float(h)))
-
-
 class _TermInputs:
     """The point x at which the terms of c(x) are evaluated (C and a_CDOM with a trailing
     wavelength axis; replaced constants looked up by name)."""
@@ -1294,6 +1275,20 @@ class _TermInputs:
         """ln C, 0 where C = 0 (the factor of a d/d exponent term, C^e ln C -> 0)."""
         with np.errstate(divide="ignore"):
             return np.where(self.chl > 0, np.log(np.where(self.chl > 0, self.chl, 1.0)), 0.0)
+
+
+class _TableInputs(_TermInputs):
+    """The point of the terms in table mode (:attr:`WaterTerms.piece_table`): a_CDOM and every
+    chlorophyll weight are :class:`_Affine` forms, the constants the water's own (no
+    ``values``: :class:`_TermInputs`' ``given`` and ``get``)."""
+
+    def __init__(self, terms):
+        self.terms, self.w, self.values = terms, None, {}
+        self.cdom = _Affine(cdom=1.0)
+        self.offset, self.ratio = terms.offset, terms.ratio
+
+    def phi(self, p, e, g, h):
+        return _Affine(chl=1.0, row=(float(p), float(e), float(g), float(h)))
 
 
 # Each term returns its value and its derivatives as sums of (weight, spectrum) pieces: a

@@ -13,13 +13,6 @@ from __future__ import annotations
 
 from sca.lazy import lazy_exports
 
-__all__ = ["Photo", "read_image", "demosaic", "ChartLayout", "LAYOUTS", "PatchSample",
-           "parse_corners", "sample_patches", "orientations", "find_chart", "Detection",
-           "ChartNotFound", "Profile", "calibrate",
-           "camera_setup", "load_profile", "Measurement", "measure", "correction",
-           "MEASURE_BLOCKING", "write_outputs", "corrected_image", "srgb_preview",
-           "measure_dive", "read_metadata", "DiveResult"]
-
 #: Where each public name lives (submodule of ``measure``).
 _HOME = {
     "Profile": "camera", "calibrate": "camera", "camera_setup": "camera",
@@ -33,6 +26,7 @@ _HOME = {
     "correction": "measurement", "measure": "measurement",
     "corrected_image": "output", "srgb_preview": "output", "write_outputs": "output",
 }
-
+#: The public names: every name of :data:`_HOME`.
+__all__ = list(_HOME)
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _HOME, __all__)

@@ -13,12 +13,6 @@ from __future__ import annotations
 
 from .lazy import lazy_exports
 
-__all__ = ["BatchEstimate", "estimate_batch", "MODES", "Estimate", "Estimator", "estimate",
-           "estimate_least_squares", "rrmse", "rrmse_bands", "RRMSE_BANDS_NM", "ChartModel",
-           "Prediction", "PARAMS", "FREEABLE", "FIXABLE", "CHL_DERIVATIVE_FLOOR",
-           "build_subproblem", "compiled_subproblem", "Precision", "precision",
-           "DEFAULT_UNCERTAIN", "PATH_MODEL_DELTA"]
-
 #: Where each public name lives (submodule of ``sca``).
 _HOME = {
     "BatchEstimate": "batch", "estimate_batch": "batch",
@@ -34,6 +28,7 @@ _HOME = {
     "Estimate": "results",
     "build_subproblem": "subproblem", "compiled_subproblem": "subproblem",
 }
-
+#: The public names: every name of :data:`_HOME`.
+__all__ = list(_HOME)
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _HOME, __all__)

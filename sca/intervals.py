@@ -265,9 +265,10 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     down = sides < 0
     limit = np.where(down, lower[cols], np.asarray(caps, float)[cols])
     limit_code = np.where(down & ~lower_open[cols], BOUND_ZERO, BOUND_OPEN)
+    # the two sides of a (chart, parameter) are adjacent rows and share its slope
+    slopes = np.repeat(profile_slopes(np.asarray(H, float)[charts[::2]], cols[::2]), 2, axis=0)
     res, code = _profile_ends(prob, charts, cols, sides, theta_hat[charts], f_hat[charts],
-                              delta[charts], heff[charts, cols], limit, limit_code,
-                              profile_slopes(np.asarray(H, float)[charts], cols))
+                              delta[charts], heff[charts, cols], limit, limit_code, slopes)
     k = (sides > 0).astype(int)
     ends[charts, cols, k] = res
     codes[charts, cols, k] = code

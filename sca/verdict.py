@@ -146,10 +146,8 @@ def fit_lm(est, st, max_iter: int, x0=None) -> int:
     st.initial = {"chl": st.x["chl"], "cdom": st.x["cdom"]}
     st.f = est.objective(st, st.x)
     st.history.append(st.f)
-    theta0 = np.array([[u_from_chl(st.x["chl"], st.mdl.e0) if n == "chl" else st.x[n]
-                        for n in prob.names]], float)
-    theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=LM_TOL,
-                                             f_exact=np.array([st.f_exact]))
+    theta, f, it, code = levenberg_marquardt(prob, _theta(est, st, prob), max_iter=max_iter,
+                                             tol=LM_TOL, f_exact=np.array([st.f_exact]))
     _take_point(est, st, prob, theta, f)
     st.history.append(st.f)
     st.stop(f"lm: {STATUS[int(code[0])]}", bool(code[0] <= 2))
