@@ -311,7 +311,7 @@ def _with_priors(prob, idx, theta, f, g, H, grad):
     return f, g, H
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _lu_solve(A, b, x):  # pragma: no cover
     """Gaussian elimination with partial pivoting of A x = b (A and b overwritten): returns
     the smallest |pivot| (x unset where a pivot is 0 or not finite)."""
@@ -342,19 +342,20 @@ def _lu_solve(A, b, x):  # pragma: no cover
     return smallest
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _step_scratch(p):  # pragma: no cover
     """The work arrays of :func:`_step_one` for p parameters."""
-    return (np.empty((p, p)), np.empty(p), np.empty(p), np.empty(p), np.empty(p, dtype=np.bool_))
+    return (np.empty((p, p)), np.empty(p), np.empty(p), np.empty(p), np.empty(p, dtype=np.bool_),
+            np.empty(p))
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, scratch):  # pragma: no cover
     """One chart's projected, Marquardt-scaled step into ``d`` (p,) from its gradient ``g``
     (p,), Gauss-Newton matrix ``H`` (p, p), damping ``mu``, point ``theta`` and held
     coordinates ``hold``; returns the decrease the Gauss-Newton model predicts.
     ``scratch``: :func:`_step_scratch`."""
-    A, y, b, root, free = scratch
+    A, y, b, root, free, rhs = scratch
     p = g.shape[0]
     for a in range(p):
         diag = H[a, a]
@@ -367,7 +368,8 @@ def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, scratch):  # prag
         for c in range(p):
             A[a, c] = H[a, c] / (root[a] * root[c]) if (free[a] and free[c]) else 0.0
         A[a, a] = 1.0
-    rhs = b.copy()
+    for a in range(p):
+        rhs[a] = b[a]
     if _lu_solve(A, b, y) > singular_pivot:
         for a in range(p):
             d[a] = y[a] / root[a]
@@ -377,7 +379,7 @@ def _step_one(g, H, mu, theta, lower, hold, singular_pivot, d, scratch):  # prag
     return _predicted(g, H, d)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _predicted(g, H, d):  # pragma: no cover
     """The decrease -2 g.d - d.H.d the Gauss-Newton model predicts for the step d."""
     p = g.shape[0]
@@ -401,7 +403,7 @@ def _step_many(g, H, mu, theta, lower, hold, singular_pivot):  # pragma: no cove
     return d, pred
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _judge_one(fa, fn, stat, g, H, th, tn, mu, tol, f_exact, dc):  # pragma: no cover
     """Accept or reject one chart's trial point ``tn`` (objective ``fn``; inf where no trial
     was made, ``stat``) from ``th`` (objective ``fa``, gradient ``g``, Gauss-Newton matrix

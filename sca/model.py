@@ -203,7 +203,7 @@ def chl_from_u(u, e0):
     Parameters
     ----------
     u : float or array_like
-        u = C^e0; values <= 0 give C = 0.
+        u = C^e0; values <= 0 (and NaN) give C = 0.
     e0 : float
         The exponent of eq 10 (``Water.phyto_exponent``), > 0.
 
@@ -212,8 +212,9 @@ def chl_from_u(u, e0):
     ndarray
         C, mg m^-3, same shape as ``u``.
     """
-    u = np.asarray(u, np.float64)  # (np.float64, not float: numba compiles this function too)
-    return np.where(u > 0, np.maximum(u, 0.0) ** (1.0 / e0), 0.0)
+    # fmax: 0 for u <= 0 and for NaN; one expression on scalars and arrays alike, so that
+    # numba compiles this function (sca.fusedlm) without allocating
+    return np.fmax(u, 0.0) ** (1.0 / e0)
 
 
 def du_chain(chl, e0):
@@ -233,8 +234,7 @@ def du_chain(chl, e0):
     ndarray
         dC/du, same shape as ``chl`` (units (mg m^-3)^(1 - e0)).
     """
-    cf = np.maximum(np.asarray(chl, np.float64), TINY)
-    return cf ** (1.0 - e0) / e0
+    return np.maximum(chl, TINY) ** (1.0 - e0) / e0
 
 
 @dataclass

@@ -40,7 +40,7 @@ __all__ = ["LINEAR_SERIAL_BELOW", "SERIAL_BELOW", "grid_best", "linear_part_stat
 SW, SM, SG, SGG, SGM, ACT, SWR, SGR, SX = 0, 1, 2, 3, 4, 5, 6, 7, 8
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _active_set(wk, m, fs, frow, has_fs, free_gain, s, i):  # pragma: no cover
     """gain and s (into ``s[i]``; row ACT of ``wk`` 1 where s is free and positive) of one
     chart from its channel sums (rows SW..SGM of ``wk``; ``fs[frow]`` where s is held); returns
@@ -490,7 +490,7 @@ def project_pieces(weights, dweights, spectra, Bt, inv_scale, M, W2, fixed_s, fr
 
 @njit(parallel=True, cache=True, error_model="numpy")
 def _grid(sw, sM, sMM, sumG, sumGG, MG, w, inv, fs, has_fs, free_gain):  # pragma: no cover
-    R, P, m = MG.shape
+    m, R, P = MG.shape
     best = np.empty(R, dtype=np.int64)
     for r in prange(R):
         wk = np.empty((SX, m))
@@ -503,7 +503,7 @@ def _grid(sw, sM, sMM, sumG, sumGG, MG, w, inv, fs, has_fs, free_gain):  # pragm
             for ch in range(m):
                 wk[SG, ch] = w[r, ch] * sumG[p, ch] * inv[r]
                 wk[SGG, ch] = w[r, ch] * sumGG[p, ch] * inv[r] * inv[r]
-                wk[SGM, ch] = w[r, ch] * MG[r, p, ch] * inv[r]
+                wk[SGM, ch] = w[r, ch] * MG[ch, r, p] * inv[r]
             g = _active_set(wk, m, fs, r, has_fs, free_gain, s, 0)
             f = 0.0
             for ch in range(m):
@@ -541,7 +541,9 @@ def grid_best(M3, w, scale, G, fixed_s, free_gain: bool):
         Index of the candidate with the least weighted sum of squares.
     """
     R, m, n = M3.shape
-    MG = np.stack([M3[:, c] @ G[:, c].T for c in range(m)], axis=-1)  # (R, P, m)
+    MG = np.empty((m, R, G.shape[0]))  # channel-major: each channel's product written in place
+    for c in range(m):
+        np.matmul(M3[:, c], G[:, c].T, out=MG[c])
     sw = n * w
     sM = w * M3.sum(-1)
     sMM = w * np.einsum("rcj,rcj->rc", M3, M3)

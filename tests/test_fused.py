@@ -292,3 +292,24 @@ def test_judge_one_is_nielsens_rule():
                       dc)[2] == 1
     assert _judge_one(10.0, 11.0, False, g, H, th, np.array([1.0]), 1e12, 1e-12, 0.0,
                       dc)[2] == 4
+
+
+def test_u_coordinate_functions_agree_compiled_and_on_arrays():
+    """sca.model.chl_from_u and du_chain, the same functions numba compiles for the fused
+    driver: C = u^(1/e0) for u > 0 and 0 for u <= 0 or NaN, dC/du at max(C, TINY); equal on
+    arrays, on scalars and compiled."""
+    from sca.fusedlm import _chl, _du
+    from sca.model import chl_from_u, du_chain
+
+    e0 = 0.627
+    u = np.array([-1.0, 0.0, np.nan, 1e-300, 0.3, 2.0, np.inf])
+    want = np.array([0.0, 0.0, 0.0, 1e-300 ** (1 / e0), 0.3 ** (1 / e0), 2.0 ** (1 / e0),
+                     np.inf])
+    np.testing.assert_array_equal(chl_from_u(u, e0), want)
+    np.testing.assert_array_equal([chl_from_u(float(x), e0) for x in u], want)
+    np.testing.assert_array_equal([_chl(float(x), e0) for x in u], want)
+    c = np.array([0.0, 1e-320, 0.5, 40.0])
+    want = np.maximum(c, TINY) ** (1 - e0) / e0
+    np.testing.assert_array_equal(du_chain(c, e0), want)
+    np.testing.assert_array_equal([_du(float(x), e0) for x in c], want)
+    assert np.isfinite(du_chain(0.0, e0)) and du_chain(0.0, e0) > 0
