@@ -23,10 +23,10 @@ H + diag w) and the columns' scale (1 / scale, times dC/du for C, as
 :meth:`sca.lm.Problem.column_scales`). It returns what :func:`sca.lm.levenberg_marquardt`
 returns; ``tests/test_fused.py`` checks both drivers against each other, priors included.
 
-The small functions of an iteration (the evaluation, the step, its linear solve and the
-acceptance; :func:`sca.projection._active_set` in its callers) are compiled inline (numba's
-``inline='always'``), and an iteration allocates nothing: at 10 nm that took one chart's
-iteration from about 3.5 to 2.6 microseconds (DECISIONS.md, "Batched solver").
+The step, its linear solve and the acceptance (:mod:`sca.lm`) are compiled inline (numba's
+``inline='always'``), and an iteration allocates nothing (DECISIONS.md, "The batched
+solver": one chart's iteration at 10 nm about 20 % faster). The evaluation stays a call:
+inlined, it gained nothing measurable and cost compile time.
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ BLAS_FROM = 100
 TAB_ROWS = ("const", "cdom", "chl", "p", "e", "g", "h", "depth", "distance")
 
 
-@njit(cache=DEPENDENT_CACHE, error_model="numpy", inline="always")
+@njit(cache=DEPENDENT_CACHE, error_model="numpy")
 def _evaluate_one(th, cols, x0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, row, has_fs,
                   free_gain, m, n, pm, pw, has_prior, slot, sc):  # pragma: no cover
     """(objective, unweighted sum of squares, gain) of one chart at LM coordinates ``th``; its
@@ -122,7 +122,7 @@ def _product(KD, Bt, GJ):  # pragma: no cover
                 GJ[a, j] += kl * Bt[l, j]
 
 
-@njit(cache=DEPENDENT_CACHE, inline="always")
+@njit(cache=DEPENDENT_CACHE)
 def _chart_scratch(P, p, q, m, mn):  # pragma: no cover
     """Work arrays of one chart: (weights, dweights, column scales, s, g, H (current and
     trial rows), tau, KD, the projection's work matrix, the parameters, GJ)."""
@@ -131,7 +131,7 @@ def _chart_scratch(P, p, q, m, mn):  # pragma: no cover
             _scratch(m, p), np.zeros(4), np.zeros((p + 1, mn)))
 
 
-@njit(cache=DEPENDENT_CACHE, inline="always")
+@njit(cache=DEPENDENT_CACHE)
 def _keep(i, slot, ssr, gain, sc, out):  # pragma: no cover
     """Chart i's point of row ``slot`` (just evaluated, now its current point): g, H, gain, s,
     ssr and k into the result arrays ``out``."""
