@@ -209,8 +209,8 @@ def chl_from_u(u, e0):
 
     Returns
     -------
-    ndarray
-        C, mg m^-3, same shape as ``u``.
+    ndarray or numpy.float64
+        C, mg m^-3, same shape as ``u`` (a scalar for a scalar ``u``).
     """
     # fmax: 0 for u <= 0 and for NaN; one expression on scalars and arrays alike, so that
     # numba compiles this function (sca.fusedlm) without allocating
