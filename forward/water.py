@@ -35,7 +35,7 @@ import dataclasses
 import functools
 import hashlib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -922,13 +922,10 @@ class WaterTerms:
         if wrt:
             dphi = 0.0
             if "chl" in wrt:
-                guard = np.errstate(divide="ignore", invalid="ignore") if not floor > 0 else \
-                    contextlib.nullcontext()
-                with guard:
+                with _slope_guard(floor):
                     dphi = chl_weight_derivative(np.maximum(c, floor), tb.p, tb.e, tb.g, tb.h)
             slopes = piece_slopes(tb.cdom, tb.chl, tb.depth, tb.distance, base, dphi, depth,
                                   distance)
-            out = {}
             for name in wrt:
                 d = slopes[TABLE_NAMES.index(name)]
                 out[name] = d if d.shape == weights.shape else np.broadcast_to(d, weights.shape)
@@ -1138,6 +1135,15 @@ COEFFICIENT_PARAMS = ("cdom_slope", "nap_slope", "nap_scale", "nap_exponent", "p
 #: The names :attr:`WaterTerms.piece_table` differentiates by, in the order of
 #: :func:`piece_slopes`' results.
 TABLE_NAMES = ("chl", "cdom", "depth", "distance")
+
+
+def _slope_guard(floor):
+    """The context of d/dC: the slopes may be infinite (C^e at 0, e < 1) only where the floor
+    is not positive, so numpy's warnings are silenced there and only there."""
+    return np.errstate(divide="ignore", invalid="ignore") if not floor > 0 else \
+        contextlib.nullcontext()
+
+
 def _use_table(values, wrt) -> bool:
     """:meth:`WaterTerms.optical_depth` (``stacked``) evaluates :attr:`WaterTerms.piece_table`
     where no constant is replaced and ``wrt`` is among :data:`TABLE_NAMES`."""
@@ -1179,6 +1185,13 @@ class PieceTable:
     depth: np.ndarray
     distance: np.ndarray
     spectra: np.ndarray
+
+    @functools.cached_property
+    def numbers(self) -> np.ndarray:
+        """(9, P), read-only: the rows const .. distance in the order of the fields above (a
+        compiled evaluation's one argument, :mod:`sca.fusedlm`)."""
+        return _readonly(np.stack([getattr(self, f.name) for f in fields(self)
+                                   if f.name != "spectra"]))
 
 
 # The two functions below are plain arithmetic of arrays and scalars: numpy broadcasts them
@@ -1255,9 +1268,7 @@ class _TermInputs:
         self.chl_floor = np.maximum(chl, floor)
         self.offset = terms.offset  # lambda - 440, nm
         self.ratio = terms.ratio  # lambda / 470
-        #: the slopes d/dC may be infinite (C^e at 0, e < 1) only where the floor is not positive
-        self.guard = (functools.partial(np.errstate, divide="ignore", invalid="ignore")
-                      if not floor > 0 else contextlib.nullcontext)
+        self.guard = functools.partial(_slope_guard, floor)
 
     def given(self, name) -> bool:
         return name in self.values

@@ -31,15 +31,17 @@ inlined, it gained nothing measurable and cost compile time.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
-from forward.water import TABLE_NAMES, chl_weight, chl_weight_derivative, piece_slopes, \
+from forward.water import TABLE_NAMES, PieceTable, chl_weight, chl_weight_derivative, piece_slopes, \
     piece_weights
 
 from .compiled import DEPENDENT_CACHE, KERNEL_LOCK, njit, prange
 from .lm import LM_MU0, SINGULAR_PIVOT, _judge_one, _step_one, _step_scratch, fused
 from .model import TINY, chl_from_u, du_chain
-from .projection import FAST, PROJECT_BLOCK, SERIAL_BELOW, _columns_one, _project_one, _scratch
+from .projection import FAST, SERIAL_BELOW, _columns_one, _project_one, _scratch
 
 __all__ = ["compiled_fit", "fit_fused"]
 
@@ -53,8 +55,11 @@ _du = njit(cache=True, error_model="numpy")(du_chain)
 #: Wavelengths from which one chart's signal and columns are projected by BLAS (measured:
 #: at 31 a loop is 1.7x faster, at 301 BLAS is).
 BLAS_FROM = 100
-#: Rows of the table argument ``tab`` (:attr:`forward.WaterTerms.piece_table`'s fields).
-TAB_ROWS = ("const", "cdom", "chl", "p", "e", "g", "h", "depth", "distance")
+#: Rows of the table argument ``tab`` (:attr:`forward.water.PieceTable.numbers`).
+TAB_ROWS = tuple(f.name for f in fields(PieceTable) if f.name != "spectra")
+#: Charts per parallel task of :func:`_fit_all` (a whole fit each: small blocks keep both
+#: threads busy from a few dozen charts on; the scratch is allocated once per block).
+FIT_BLOCK = 16
 
 
 @njit(cache=DEPENDENT_CACHE, error_model="numpy")
@@ -213,10 +218,10 @@ def _fit_all(theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, 
              n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter, tol,
              out):  # pragma: no cover
     N, p = theta.shape
-    blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
+    blocks = (N + FIT_BLOCK - 1) // FIT_BLOCK
     for blk in prange(blocks):
         sc = _chart_scratch(tab.shape[1], p, spectra.shape[1], m, Bt.shape[1])
-        for i in range(blk * PROJECT_BLOCK, min(N, (blk + 1) * PROJECT_BLOCK)):
+        for i in range(blk * FIT_BLOCK, min(N, (blk + 1) * FIT_BLOCK)):
             _fit_chart(i, theta, rows, cols, X0, tab, spectra, Bt, inv_scale, e0, M, W2, fs, has_fs,
                        free_gain, m, n, PM, PW, has_prior, lower, hold, atol, f_exact, max_iter,
                        tol, out, sc)
@@ -290,7 +295,7 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
         return theta, f, iters, code
     mdl = prob.model
     tb = mdl.terms.piece_table
-    tab = np.ascontiguousarray(np.stack([getattr(tb, r) for r in TAB_ROWS]))
+    tab = tb.numbers
     cols = np.array([TABLE_NAMES.index(n) for n in prob.names], np.int64)
     X0 = np.zeros((K, len(TABLE_NAMES)))
     for k, name in enumerate(TABLE_NAMES):
@@ -298,12 +303,13 @@ def fit_fused(prob, theta0, *, max_iter: int, tol: float, f_exact, atol=None, ho
             X0[:, k] = np.broadcast_to(np.asarray(prob.fixed[name], float), (K,))
     has_fs = prob.fixed_s is not None
     has_prior = prob.prior_mean is not None
-    PM = np.ascontiguousarray(prob.prior_mean, float) if has_prior else np.zeros((K, p))
-    PW = np.ascontiguousarray(prob.prior_weight, float) if has_prior else np.zeros((K, p))
+    # placeholders of one row where the kernels never read them (no priors, s free)
+    PM = np.ascontiguousarray(prob.prior_mean, float) if has_prior else np.zeros((1, p))
+    PW = np.ascontiguousarray(prob.prior_weight, float) if has_prior else np.zeros((1, p))
     args = (theta, rows, cols, X0, tab, np.ascontiguousarray(tb.spectra), np.ascontiguousarray(mdl.Bt),
             np.ascontiguousarray(prob.inv_scale, float), float(mdl.e0),
             np.ascontiguousarray(prob.M, float), np.ascontiguousarray(prob.W2, float),
-            np.ascontiguousarray(prob.fixed_s, float) if has_fs else np.zeros((K, mdl.m)),
+            np.ascontiguousarray(prob.fixed_s, float) if has_fs else np.zeros((1, mdl.m)),
             has_fs, bool(prob.free_gain), int(mdl.m), int(mdl.n), PM, PW, has_prior,
             np.ascontiguousarray(prob.lower, float), hold, atol,
             np.ascontiguousarray(np.broadcast_to(np.asarray(f_exact, float), (N,))),

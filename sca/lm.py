@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from forward.water import TABLE_NAMES
+
 from .compiled import njit
 from .model import TINY, ChartModel, chl_from_u, du_chain, lower_bound
 from .projection import SERIAL_BELOW, project, project_pieces
@@ -255,8 +257,8 @@ def evaluate(prob: Problem, idx, theta, grad: bool = True, attenuation: bool = T
 
 #: The names :func:`sca.projection.project_pieces` evaluates (everything of the chart model
 #: that reaches it through the optical depth's pieces; the camera's curves and free Water
-#: constants go through :meth:`sca.model.ChartModel.predict`).
-FUSED_NAMES = ("chl", "cdom", "depth", "distance")
+#: constants go through :meth:`sca.model.ChartModel.predict`): forward's piece table's names.
+FUSED_NAMES = TABLE_NAMES
 
 
 def fused(prob: Problem) -> bool:
@@ -539,6 +541,7 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     if N == 0:
         return theta, f, iters, code
     rows = np.arange(N) if rows is None else np.asarray(rows, np.int64)
+    f_exact = np.asarray(f_exact, float)
     fa, g, H, *_ = evaluate(prob, rows, theta, True, False)
     f[:] = fa
     done = fa <= f_exact
@@ -563,7 +566,7 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
             fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, rows[ti], tn[trial], True,
                                                            False)
         ok, mu[active], fin = _judge_many(fa, fn, stat, g, H, th, tn, mu[active], float(tol),
-                                          np.asarray(f_exact, float)[active])
+                                          f_exact[active])
         acc = active[ok]
         theta[acc], f[acc] = tn[ok], fn[ok]
         stop = fin >= 0
