@@ -1,13 +1,16 @@
-"""Write ``data/colour_science_spectra_1nm.csv``: colour-science's default spectra on the 1 nm grid.
+"""Write ``data/colour_science_spectra_1nm.csv`` and ``data/colour_science_srgb.csv``: colour-science's default spectra on the 1 nm grid, and its sRGB for 8-bit images.
 
     python -m experiments.colour_tables [--out data/colour_science_spectra_1nm.csv]
+                                        [--srgb-out data/colour_science_srgb.csv]
 
 The table :data:`forward.spectra.COLOUR_CACHE` is what :mod:`forward.spectra` reads instead of
 importing colour-science (seconds) for the default camera, illuminant, chart and the CIE 1931
 observer. Every column is :func:`forward.spectra.colour_spectrum` -- colour-science's own data,
 resampled as the package resamples it -- written with every digit (``repr``), so the cache
 gives the same numbers bit for bit; ``tests/test_wait.py`` compares it with the installed
-colour-science.
+colour-science. The sRGB table (:data:`forward.spectra.SRGB_CACHE`, read by
+:func:`forward.spectra.srgb_8bit`) holds colour-science's XYZ -> linear sRGB matrix and the
+linear levels where the 8-bit code of its sRGB encoding steps up.
 """
 
 from __future__ import annotations
@@ -23,11 +26,12 @@ import numpy as np
 from forward.spectra import (
     COLOUR_CACHE,
     COLOUR_CACHE_COLUMNS,
+    SRGB_CACHE,
     colour_spectrum,
     wavelength_grid,
 )
 
-__all__ = ["GRID_NM", "main", "table_columns", "write_table"]
+__all__ = ["GRID_NM", "main", "srgb_rows", "table_columns", "write_srgb_table", "write_table"]
 
 #: The cache's grid: 400-700 nm at 1 nm (the package's default; 301 rows)
 GRID_NM = (400, 700, 1)
@@ -49,6 +53,65 @@ def table_columns() -> dict:
         vals = np.asarray(colour_spectrum(database, name, wl), float).reshape(wl.size, -1)
         out.update({c: vals[:, j] for j, c in enumerate(columns)})
     return out
+
+
+def srgb_rows() -> list:
+    """The rows of the sRGB table, from colour-science: (quantity, index, value).
+
+    Returns
+    -------
+    list of tuple
+        ``('xyz_to_srgb', i, m)`` for the 9 entries of
+        ``colour.RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB`` (row-major), then
+        ``('encoding_8bit_level', k, colour.cctf_decoding((k - 0.5) / 255, 'sRGB'))`` for
+        k = 1..255: the linear value from which the rounded 8-bit code of the encoding is k.
+    """
+    import colour
+
+    matrix = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB, float).ravel()
+    codes = np.arange(1, 256)
+    levels = np.asarray(colour.cctf_decoding((codes - 0.5) / 255.0, function="sRGB"), float)
+    return ([("xyz_to_srgb", i, float(v)) for i, v in enumerate(matrix)]
+            + [("encoding_8bit_level", int(k), float(v)) for k, v in zip(codes, levels)])
+
+
+def _write_whole(path, lines) -> str:
+    """``lines`` into ``path`` through a temporary file beside it (whole or not at all)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+    return str(path)
+
+
+def write_srgb_table(path) -> str:
+    """Write the sRGB CSV (its ``#`` header names source, units and grid), whole or not at all.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV to write.
+
+    Returns
+    -------
+    str
+        The path written.
+    """
+    version = metadata.version("colour-science")
+    header = [
+        "# colour-science's sRGB for 8-bit images (a cache: importing colour-science takes about",
+        "#   1 s; the previews of uw3p measure read this table, forward.spectra.srgb_8bit)",
+        f"# Source: colour-science {version} (https://www.colour-science.org):",
+        "#   RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB (IEC 61966-2-1:1999, D65) and",
+        "#   cctf_decoding((k - 0.5) / 255, function='sRGB'), the linear value from which the",
+        "#   rounded 8-bit code of the sRGB encoding is k (written by python -m",
+        "#   experiments.colour_tables)",
+        "# Units: xyz_to_srgb dimensionless, index = 3 row + column (rows R, G, B; columns X, Y,",
+        "#   Z); encoding_8bit_level in linear light 0-1, index = the 8-bit code k",
+        "# Grid: none (9 matrix entries; codes 1-255)",
+        "quantity,index,value",
+    ]
+    return _write_whole(path, header + [f"{q},{i},{v!r}" for q, i, v in srgb_rows()])
 
 
 def write_table(path) -> str:
@@ -84,20 +147,19 @@ def write_table(path) -> str:
     ]
     rows = [",".join(f"{float(v)!r}" if name != "wavelength_nm" else f"{v:g}"
                      for name, v in zip(cols, vals)) for vals in zip(*cols.values())]
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("\n".join(header + rows) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
-    return str(path)
+    return _write_whole(path, header + rows)
 
 
 def main(argv=None) -> int:
-    """``python -m experiments.colour_tables``: write the cache CSV."""
+    """``python -m experiments.colour_tables``: write both cache CSVs."""
     ap = argparse.ArgumentParser(prog="python -m experiments.colour_tables",
                                  description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default=str(Path(__file__).resolve().parents[1] / "data"
-                                         / COLOUR_CACHE))
-    print(write_table(ap.parse_args(argv).out))
+    data = Path(__file__).resolve().parents[1] / "data"
+    ap.add_argument("--out", default=str(data / COLOUR_CACHE))
+    ap.add_argument("--srgb-out", default=str(data / SRGB_CACHE))
+    args = ap.parse_args(argv)
+    print(write_table(args.out))
+    print(write_srgb_table(args.srgb_out))
     return 0
 
 

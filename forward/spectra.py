@@ -29,6 +29,7 @@ from . import validate
 __all__ = [
     "COLOUR_CACHE",
     "COLOUR_CACHE_COLUMNS",
+    "SRGB_CACHE",
     "DEFAULT_CAMERA",
     "DEFAULT_CHART",
     "DEFAULT_ILLUMINANT",
@@ -49,6 +50,7 @@ __all__ = [
     "read_spectral_csv",
     "read_spectral_table",
     "read_table",
+    "srgb_8bit",
     "resample",
     "wavelength_grid",
 ]
@@ -98,6 +100,12 @@ COLOUR_CACHE_COLUMNS = {
 }
 #: The cached cameras' data ranges in colour-science, nm (first and last wavelength measured)
 COLOUR_CACHE_RANGES_NM = {("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)"): (380.0, 780.0)}
+#: colour-science's sRGB for 8-bit images, cached in the package data (``data/README.md``): the
+#: CIE XYZ -> linear sRGB matrix and the 255 levels of linear light where the 8-bit code of
+#: the sRGB encoding steps up. The previews of ``uw3p measure`` read it instead of importing
+#: colour-science (about 1 s, most of it plotting). Written by ``python -m
+#: experiments.colour_tables``; ``tests/test_wait.py`` checks it against colour-science.
+SRGB_CACHE = "colour_science_srgb.csv"
 
 
 # --------------------------------------------------------------------------- grid
@@ -455,6 +463,40 @@ def _colour_cache() -> tuple[np.ndarray, dict]:
     names, _ = read_table(COLOUR_CACHE)
     wl, vals = read_spectral_table(COLOUR_CACHE)
     return wl, {name: vals[:, j] for j, name in enumerate(names[1:])}
+
+
+@functools.cache
+def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
+    """colour-science's sRGB (IEC 61966-2-1, D65) for 8-bit images, from :data:`SRGB_CACHE`.
+
+    Returns
+    -------
+    xyz_to_rgb : numpy.ndarray, (3, 3)
+        CIE XYZ -> linear sRGB, ``colour.RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB``.
+    levels : numpy.ndarray, (255,)
+        Linear light where the 8-bit code of the sRGB encoding reaches k = 1..255: the
+        code of x is ``numpy.searchsorted(levels, x, side='right')``, which is
+        round(255 cctf_encoding(clip(x, 0, 1))); ``levels[k - 1]`` is colour-science's
+        ``cctf_decoding((k - 0.5) / 255)``.
+
+    Both arrays are read-only (the result is cached).
+
+    References
+    ----------
+    IEC 61966-2-1:1999, Multimedia systems and equipment - Colour measurement and management -
+    Default RGB colour space - sRGB.
+    """
+    _, rows = read_table(SRGB_CACHE)
+    table = {}
+    for quantity, index, value in rows:
+        table.setdefault(quantity.strip(), []).append((int(index), float(value)))
+    matrix = np.array([v for _, v in sorted(table["xyz_to_srgb"])]).reshape(3, 3)
+    levels = np.array([v for _, v in sorted(table["encoding_8bit_level"])])
+    if levels.shape != (255,) or np.any(np.diff(levels) <= 0):
+        raise ValueError(f"{SRGB_CACHE}: expected 255 increasing levels")
+    matrix.setflags(write=False)
+    levels.setflags(write=False)
+    return matrix, levels
 
 
 def _cached(database: str, name: str, wl: np.ndarray):

@@ -603,14 +603,13 @@ def plot_survey(ds, path, joint=None):
     pathlib.Path
         The file written.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # matplotlib's object interface: no pyplot (its global figures and backend; thread-safe)
+    from matplotlib.figure import Figure
 
     has_time = bool(np.any(~np.isnat(ds["time"].values)))
     xs = [("depth", "depth (m)")] + ([("time", "time (EXIF)")] if has_time else [])
-    fig, ax = plt.subplots(2, len(xs), figsize=(5.5 * len(xs), 7), dpi=90, squeeze=False)
+    fig = Figure(figsize=(5.5 * len(xs), 7), dpi=90)
+    ax = fig.subplots(2, len(xs), squeeze=False)
     ok = ds["reliable"].values == 1
     for i, (name, label, unit) in enumerate((("chl", "C", "mg m⁻³"),
                                              ("cdom", "a_CDOM(440)", "m⁻¹"))):
@@ -646,7 +645,6 @@ def plot_survey(ds, path, joint=None):
     p = Path(path)
     with _atomic(p) as tmp:
         fig.savefig(tmp, format="png")
-    plt.close(fig)
     return p
 
 

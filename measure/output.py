@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import forward
-from forward.spectra import WHITE_PATCH
+from forward.spectra import WHITE_PATCH, srgb_8bit
 
 from .image import demosaic
 
@@ -109,7 +109,9 @@ def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
     The image is subsampled to at most :data:`PREVIEW_PIXELS` on its long side, mapped by the
     camera's 3 x 3 matrix to XYZ (:func:`forward.camera_to_xyz_matrix`) and colour-science's
     XYZ -> linear sRGB matrix (D65) as one matrix, scaled so that ``white`` has Y = 1, clipped
-    to 0-1 and encoded with the sRGB transfer function.
+    to 0-1 and encoded with the sRGB transfer function to 8 bits (rounded). colour-science's
+    matrix and encoding come from the package data (:func:`forward.spectra.srgb_8bit`: the
+    linear levels where the 8-bit code steps up), so a preview does not import it.
 
     Parameters
     ----------
@@ -131,20 +133,24 @@ def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
     IEC 61966-2-1:1999, Multimedia systems and equipment - Colour measurement and management -
     Default RGB colour space - sRGB.
     """
-    import colour
-
     s = _stride(rgb_linear.shape)
     small = np.asarray(rgb_linear[::s, ::s], np.float32)
     to_xyz = forward.camera_to_xyz_matrix(setup)
-    srgb = colour.RGB_COLOURSPACES["sRGB"]
-    A = srgb.matrix_XYZ_to_RGB @ to_xyz
+    xyz_to_srgb, levels = srgb_8bit()
+    A = xyz_to_srgb @ to_xyz
     if white is not None:
         ref = float((to_xyz @ np.asarray(white, float))[1])
     else:
         ref = float(np.percentile(small.reshape(-1, 3) @ to_xyz[1], WHITE_PERCENTILE))
     lin = small @ (A / (ref if ref > 0 else 1.0)).T.astype(np.float32)
-    enc = srgb.cctf_encoding(np.clip(lin, 0.0, 1.0))
-    return (enc * 255 + 0.5).astype(np.uint8)
+    return np.searchsorted(levels, lin, side="right").astype(np.uint8)
+
+
+def _save_png(path, rgb8) -> None:
+    """An 8-bit RGB image as PNG (Pillow, :data:`PNG_OPTIONS`)."""
+    from PIL import Image
+
+    Image.fromarray(np.ascontiguousarray(rgb8, np.uint8)).save(path, format="PNG", **PNG_OPTIONS)
 
 
 def _quick_rgb(photo) -> np.ndarray:
@@ -170,13 +176,12 @@ def _quick_rgb(photo) -> np.ndarray:
 
 
 def _report(meas, path, raw_preview):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # matplotlib's object interface: no pyplot (its import, its global figures and backend)
+    from matplotlib.figure import Figure
 
     e = meas.estimate
-    fig, ax = plt.subplots(2, 2, figsize=(11, 8.5), dpi=90)
+    fig = Figure(figsize=(11, 8.5), dpi=90)
+    ax = fig.subplots(2, 2)
     s = meas.photo.size[0] / raw_preview.shape[1]  # image pixels per preview pixel
     a = ax[0, 0]
     a.imshow(raw_preview)
@@ -242,7 +247,6 @@ def _report(meas, path, raw_preview):
     a.set_title("estimate (95 % intervals)", fontsize=9)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.95, wspace=0.25, hspace=0.3)
     fig.savefig(path, pil_kwargs=PNG_OPTIONS)
-    plt.close(fig)
 
 
 def read_marker(outdir) -> dict | None:
@@ -410,7 +414,6 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
 
 def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
-    import matplotlib.pyplot as plt
     import tifffile
 
     names = ["measurement.json"]
@@ -423,8 +426,7 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
         tifffile.imwrite(folder / "corrected.tiff", img, photometric="rgb", **options)
         names.append("corrected.tiff")
     white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white patch
-    plt.imsave(folder / "corrected.png", srgb_preview(img, meas.setup, white),
-               pil_kwargs=PNG_OPTIONS)
+    _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
     names.append("corrected.png")
     if report:
         _report(meas, folder / "report.png", srgb_preview(_quick_rgb(meas.photo), meas.setup,

@@ -45,7 +45,10 @@ def test_table1_constants():
 
 @pytest.mark.parametrize("name", ["pure_water_absorption_smith_baker_1981.csv",
                                   "phytoplankton_absorption_basis.csv",
-                                  "particle_scattering_table1.csv"])
+                                  "particle_scattering_table1.csv",
+                                  "diffuse_attenuation_morel_1988.csv",
+                                  "colour_science_spectra_1nm.csv",
+                                  "colour_science_srgb.csv"])
 def test_every_table_header_names_source_units_grid(name):
     text = (spectra._data_dir() / name).read_text()
     header = "\n".join(l for l in text.splitlines() if l.startswith("#"))

@@ -257,6 +257,24 @@ def meas(shots):
                            profile=str(shots["profile"]), **FAST)
 
 
+def test_a_photos_files_load_neither_colour_science_nor_pyplot(tmp_path, shots):
+    """The previews read colour-science's sRGB from the package data and the report draws on a
+    matplotlib Figure: writing a photo's files (report included) imports neither colour-science
+    (about 1 s) nor pyplot (its global figures and backend)."""
+    import subprocess
+    import sys
+
+    code = (f"import measure, sys\n"
+            f"m = measure.measure({str(shots['uw'])!r}, corners={shots['corners']!r}, depth=5.0, "
+            f"distance=1.5, profile={str(shots['profile'])!r}, **{FAST!r})\n"
+            f"measure.write_outputs(m, {str(tmp_path / 'out')!r})\n"
+            "print(sorted(n for n in sys.modules if n.split('.')[0] == 'colour' "
+            "or n == 'matplotlib.pyplot'))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip().splitlines()[-1] == "[]"
+    assert (tmp_path / "out" / "report.png").exists()
+
+
 def test_compressed_tiff_is_smaller_and_reads_back_equal(tmp_path, meas):
     import tifffile
 

@@ -91,6 +91,44 @@ def test_resampling_is_colour_sciences_linear_interpolator_bit_for_bit(table):
             np.testing.assert_array_equal(ours[:, j], sd[wl])
 
 
+def test_srgb_cache_is_colour_science_bit_for_bit():
+    """The sRGB table is colour-science's matrix and its encoding's 8-bit levels, with the
+    published IEC 61966-2-1 values."""
+    import colour
+
+    matrix, levels = spectra.srgb_8bit()
+    np.testing.assert_array_equal(matrix, colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB)
+    np.testing.assert_array_equal(levels, colour.cctf_decoding((np.arange(1, 256) - 0.5) / 255,
+                                                               function="sRGB"))
+    assert tuple(matrix[0]) == (3.2406, -1.5372, -0.4986)  # IEC 61966-2-1, first row
+    assert levels[0] == pytest.approx(0.5 / 255 / 12.92, rel=1e-12)  # the linear segment
+    assert not matrix.flags.writeable and not levels.flags.writeable
+
+
+def test_srgb_preview_is_colour_sciences_encoding():
+    """srgb_preview's 8-bit codes are colour-science's sRGB encoding of the clipped linear
+    values, rounded, on every pixel (below 0, above 1, the linear segment and the power
+    law)."""
+    import colour
+
+    from measure.output import srgb_preview
+
+    rng = np.random.default_rng(3)
+    img = np.concatenate([rng.uniform(-0.1, 1.3, (40, 50, 3)),
+                          rng.uniform(0.0, 0.004, (40, 50, 3))]) * 5000.0
+    setup = forward.chart_setup()
+    white = np.array([4000.0, 5000.0, 4500.0])
+    ours = srgb_preview(img, setup, white)
+    to_xyz = forward.camera_to_xyz_matrix(setup)
+    srgb = colour.RGB_COLOURSPACES["sRGB"]
+    A = srgb.matrix_XYZ_to_RGB @ to_xyz / float((to_xyz @ white)[1])
+    lin = np.asarray(img, np.float32) @ A.T.astype(np.float32)
+    ref = (srgb.cctf_encoding(np.clip(lin, 0.0, 1.0)) * 255 + 0.5).astype(np.uint8)
+    assert ours.dtype == np.uint8 and ours.shape == img.shape
+    np.testing.assert_array_equal(ours, ref)
+    assert ours.min() == 0 and ours.max() == 255
+
+
 def test_cached_data_ranges_are_colour_sciences():
     import colour
 
