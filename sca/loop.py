@@ -236,10 +236,9 @@ class Estimator:
         known."""
         mdl = st.mdl
         G3 = np.asarray(G, float).reshape((-1, mdl.m, mdl.n))
-        M3 = np.broadcast_to(st.Mv.reshape(1, mdl.m, mdl.n), G3.shape)
         fs = None if st.s_fixed is None else np.broadcast_to(st.s_fixed, (G3.shape[0], mdl.m))
-        gain, s, _ = linear_part(M3, G3, (st.wt ** 2).reshape(1, mdl.m, mdl.n), fs,
-                                 self.free_gain)
+        gain, s, _ = linear_part(st.Mv.reshape(1, mdl.m, mdl.n), G3,
+                                 (st.wt ** 2).reshape(1, mdl.m, mdl.n), fs, self.free_gain)
         return gain.reshape(G.shape[:-1]), s.reshape(G.shape[:-1] + (mdl.m,))
 
     def check_sigma(self, sigma):

@@ -558,8 +558,10 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
 
     Parameters
     ----------
-    M3, G3 : ndarray, (N, m, n)
-        Measurements and unit-gain signals.
+    M3 : ndarray, broadcastable to (N, m, n)
+        Measurements (one chart's (1, m, n) against N signals, or one per signal).
+    G3 : ndarray, (N, m, n)
+        Unit-gain signals.
     w2 : ndarray, broadcastable to (N, m, n)
         Weights 1 / sigma^2 (ones: unweighted).
     fixed_s : ndarray, (N, m), optional
@@ -581,10 +583,16 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     L. Kaufman, "A variable projection method for solving separable nonlinear least squares
     problems", BIT 15 (1975) 49-57.
     """
-    w2 = np.broadcast_to(w2, G3.shape)
+    w2 = np.asarray(w2, float)
+    M3 = np.asarray(M3, float)
+    lead = G3.shape[:-1]
+    # sum w and sum w M do not depend on G: summed once where w and M are shared (a grid of
+    # signals against one chart), the same sums as over their broadcast copies
+    sw = np.broadcast_to(w2.sum(-1), lead)
+    sM = np.broadcast_to((w2 * M3).sum(-1), lead)
     wG = w2 * G3
     M3 = np.broadcast_to(M3, G3.shape)
-    stats = (w2.sum(-1), (w2 * M3).sum(-1), wG.sum(-1), (wG * G3).sum(-1), (wG * M3).sum(-1))
+    stats = (sw, sM, wG.sum(-1), (wG * G3).sum(-1), (wG * M3).sum(-1))
     return linear_part_stats(*stats, fixed_s=fixed_s, free_gain=free_gain)
 
 

@@ -161,16 +161,18 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
     active : ndarray of bool, (..., m)
         True where s is free and positive.
     """
-    shape = np.broadcast_shapes(*(np.shape(x) for x in (sw, sM, sG, sGG, sGM)))
+    stats = [np.asarray(x, float) for x in (sw, sM, sG, sGG, sGM)]
+    shape = stats[0].shape
+    if any(x.shape != shape for x in stats):
+        shape = np.broadcast_shapes(*(x.shape for x in stats))
+        stats = [np.broadcast_to(x, shape) for x in stats]
     m = shape[-1]
-    flat = [np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), shape).reshape(-1, m))
-            for x in (sw, sM, sG, sGG, sGM)]
+    flat = [np.ascontiguousarray(x).reshape(-1, m) for x in stats]
     has_fs = fixed_s is not None
+    # without held s the kernels never read fs: a one-row placeholder
     fs = (np.ascontiguousarray(np.broadcast_to(np.asarray(fixed_s, float), shape).reshape(-1, m))
           if has_fs else np.zeros((1, m)))
-    if not has_fs:
-        fs = np.broadcast_to(fs, flat[0].shape)
-    args = (*flat, np.ascontiguousarray(fs), has_fs, bool(free_gain))
+    args = (*flat, fs, has_fs, bool(free_gain))
     if flat[0].shape[0] < LINEAR_SERIAL_BELOW:
         gain, s, act = _linear_serial(*args)
     else:
