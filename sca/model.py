@@ -342,6 +342,8 @@ class ChartModel:
         dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
         self.Dt = np.ascontiguousarray(
             (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
+        #: [Bt Dt]: both projections by one matrix product where the curves' shift is modelled
+        self.BDt = np.hstack([self.Bt, self.Dt])
         #: d M / d s: one row per channel, 1 on that channel's patches (read-only)
         self._indicators = np.repeat(np.eye(self.m), self.n, axis=1)
         self._indicators.setflags(write=False)
@@ -354,6 +356,7 @@ class ChartModel:
         new.B = self.B / factor
         new.Bt = np.ascontiguousarray(new.B.T)
         new.Dt = self.Dt / factor
+        new.BDt = np.hstack([new.Bt, new.Dt])
         return new
 
     def default(self, name: str):
@@ -468,13 +471,15 @@ class ChartModel:
             else:
                 stack[..., row, :] = minus_Lk * dc[name]
             row += count[name]
-        proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
         GD = None
         if shift is not None or "camera_shift" in free:  # the curves' shift, to first order
-            projD = (stack.reshape(-1, q) @ self.Dt).reshape(proj.shape)
+            both = (stack.reshape(-1, q) @ self.BDt).reshape(lead + (stack.shape[-2], 2 * mn))
+            proj, projD = both[..., :mn], both[..., mn:]
             GD = projD[..., 0, :]
             if shift is not None:
                 proj = proj + np.repeat(shift, self.n, axis=-1)[..., None, :] * projD
+        else:
+            proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
         G_raw = proj[..., 0, :]
         if balance is not None:  # every row of channel c times 1 + beta_c
             G_raw = G_raw.copy()
@@ -588,8 +593,8 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     lead = G3.shape[:-1]
     # sum w and sum w M do not depend on G: summed once where w and M are shared (a grid of
     # signals against one chart), the same sums as over their broadcast copies
-    sw = np.broadcast_to(w2.sum(-1), lead)
-    sM = np.broadcast_to((w2 * M3).sum(-1), lead)
+    sw = np.broadcast_to(w2.sum(-1), lead).copy()
+    sM = np.broadcast_to((w2 * M3).sum(-1), lead).copy()
     wG = w2 * G3
     M3 = np.broadcast_to(M3, G3.shape)
     stats = (sw, sM, wG.sum(-1), (wG * G3).sum(-1), (wG * M3).sum(-1))

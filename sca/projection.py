@@ -128,9 +128,14 @@ def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no c
     return gain, s, act
 
 
-#: numba's fast-math flags of the compiled columns (reassociation and fused multiply-add, so
-#: that the sums vectorise; not 'nnan'/'ninf': a non-finite value compares as IEEE says).
-FAST = {"reassoc", "contract", "nsz", "arcp"}
+#: numba's fast-math flags of the compiled columns: fused multiply-add only. Not 'reassoc',
+#: 'arcp' or 'nsz': with them the compiler may reorder a sum or replace a division as it sees
+#: fit, and it saw fit differently when a kernel and its callees were compiled in one process
+#: than when they were loaded from numba's cache, so the same chart gave results differing in
+#: the last bits between a process's first run and the next (DECISIONS.md, "The batched
+#: solver"). The long sums keep independent partial sums in the source instead. Not
+#: 'nnan'/'ninf': a non-finite value compares as IEEE says.
+FAST = {"contract"}
 #: Below this many charts the kernels run in the calling thread (a parallel launch costs more
 #: than the work).
 SERIAL_BELOW = 64
@@ -245,10 +250,19 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
             wk[XS + a, ch], wk[XG + a, ch], wk[XR + a, ch] = a0, a1, a2
         for b in range(a + 1):
             ob = o + 1 + b
-            acc = 0.0
-            for j in range(m * n):
-                acc += W2[row, j] * GJ[oa, j] * GJ[ob, j]
-            H[i, a, b] = acc
+            # four partial sums (j mod 4) added in a fixed order: independent chains, fast
+            # without reassociation, and the same sum however the compiler vectorises
+            a0 = a1 = a2 = a3 = 0.0
+            mn = m * n
+            top = mn - mn % 4
+            for j in range(0, top, 4):
+                a0 += W2[row, j] * GJ[oa, j] * GJ[ob, j]
+                a1 += W2[row, j + 1] * GJ[oa, j + 1] * GJ[ob, j + 1]
+                a2 += W2[row, j + 2] * GJ[oa, j + 2] * GJ[ob, j + 2]
+                a3 += W2[row, j + 3] * GJ[oa, j + 3] * GJ[ob, j + 3]
+            for j in range(top, mn):
+                a0 += W2[row, j] * GJ[oa, j] * GJ[ob, j]
+            H[i, a, b] = (a0 + a1) + (a2 + a3)
     # the columns x_a = gain CS_a dG_a, centred over the active channels
     for a in range(p):
         fa = gi * CS[i, a]

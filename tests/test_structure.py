@@ -196,3 +196,34 @@ def test_compiled_caches_cover_every_file_they_contain():
                 assert isinstance(locator, compiled.DependentLocator), (mod.__name__, d)
                 digest = hashlib.sha256(b"".join(Path(p).read_bytes() for p in depends))
                 assert locator.get_source_stamp()[1] == digest.hexdigest()
+
+
+_SAME_RUN = """
+import numpy as np, forward, sca
+setup = forward.chart_setup(wavelengths=np.arange(400.0, 701.0, 10.0))
+sims = [forward.simulate_chart(c, a, d, r, seed=i) for i, (c, a, d, r) in
+        enumerate([(1.0, 0.5, 10.0, 5.0), (20.0, 0.05, 30.0, 0.5), (0.05, 0.0, 1.0, 0.5)])]
+e = sca.estimate(sims[0].rgb, depth=10.0, distance=5.0, sigma=sims[0].rgb_sigma, setup=setup,
+                 uncertain={}, mode="lm")
+b = sca.estimate_batch(np.array([s.rgb for s in sims]), depth=np.array([10.0, 30.0, 1.0]),
+                       distance=np.array([5.0, 0.5, 0.5]),
+                       sigma=np.array([s.rgb_sigma for s in sims]), setup=setup, uncertain={})
+print(repr((e.chl, e.cdom, tuple(e.chl_ci), tuple(e.cdom_ci), e.objective, b.chl.tolist(),
+            b.cdom.tolist(), b.chl_ci.tolist(), b.cdom_ci.tolist(), b.objective.tolist())))
+"""
+
+
+@pytest.mark.slow
+def test_results_do_not_depend_on_whether_numbas_cache_was_warm(tmp_path):
+    """A process that compiles the kernels and one that loads them from numba's cache give the
+    same numbers to the last bit (one chart and a batch, intervals included). With
+    reassociation among the kernels' fast-math flags they did not: the compiler ordered the
+    sums differently when it compiled a kernel with its callees than in the code it cached
+    (DECISIONS.md, "The batched solver")."""
+    import os
+
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), OPENBLAS_NUM_THREADS="1")
+    runs = [subprocess.run([sys.executable, "-c", _SAME_RUN], env=env, cwd=ROOT, check=True,
+                           capture_output=True, text=True).stdout for _ in range(2)]
+    assert any((tmp_path / "numba").rglob("*.nbi")), "the first run cached nothing"
+    assert runs[0] == runs[1]
