@@ -27,11 +27,13 @@ from forward.spectra import (
     COLOUR_CACHE,
     COLOUR_CACHE_COLUMNS,
     SRGB_CACHE,
+    SRGB_REFERENCE_CHART,
     colour_spectrum,
     wavelength_grid,
 )
 
-__all__ = ["GRID_NM", "main", "srgb_rows", "table_columns", "write_srgb_table", "write_table"]
+__all__ = ["GRID_NM", "main", "reference_chart_from_colour", "srgb_rows", "table_columns",
+           "write_srgb_table", "write_table"]
 
 #: The cache's grid: 400-700 nm at 1 nm (the package's default; 301 rows)
 GRID_NM = (400, 700, 1)
@@ -71,8 +73,27 @@ def srgb_rows() -> list:
     matrix = np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_XYZ_to_RGB, float).ravel()
     codes = np.arange(1, 256)
     levels = np.asarray(colour.cctf_decoding((codes - 0.5) / 255.0, function="sRGB"), float)
+    chart = reference_chart_from_colour().ravel()
     return ([("xyz_to_srgb", i, float(v)) for i, v in enumerate(matrix)]
-            + [("encoding_8bit_level", int(k), float(v)) for k, v in zip(codes, levels)])
+            + [("encoding_8bit_level", int(k), float(v)) for k, v in zip(codes, levels)]
+            + [("reference_chart_linear_srgb", i, float(v)) for i, v in enumerate(chart)])
+
+
+def reference_chart_from_colour() -> np.ndarray:
+    """Linear sRGB of :data:`forward.spectra.SRGB_REFERENCE_CHART`, computed by colour-science
+    (what the table caches).
+
+    Returns
+    -------
+    numpy.ndarray, (24, 3)
+        Patches in reading order.
+    """
+    import colour
+
+    cc = colour.CCS_COLOURCHECKERS[SRGB_REFERENCE_CHART]
+    xyY = np.array(list(cc.data.values()), float)
+    return np.asarray(colour.XYZ_to_RGB(colour.xyY_to_XYZ(xyY), "sRGB", cc.illuminant,
+                                        apply_cctf_encoding=False), float)
 
 
 def _write_whole(path, lines) -> str:
@@ -104,11 +125,15 @@ def write_srgb_table(path) -> str:
         f"# Source: colour-science {version} (https://www.colour-science.org):",
         "#   RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB (IEC 61966-2-1:1999, D65) and",
         "#   cctf_decoding((k - 0.5) / 255, function='sRGB'), the linear value from which the",
-        "#   rounded 8-bit code of the sRGB encoding is k (written by python -m",
+        "#   rounded 8-bit code of the sRGB encoding is k; and XYZ_to_RGB(xyY_to_XYZ(xyY),",
+        f"#   'sRGB', illuminant, apply_cctf_encoding=False) of CCS_COLOURCHECKERS['{SRGB_REFERENCE_CHART}']",
+        "#   (the chart detection's reference colours) (written by python -m",
         "#   experiments.colour_tables)",
         "# Units: xyz_to_srgb dimensionless, index = 3 row + column (rows R, G, B; columns X, Y,",
-        "#   Z); encoding_8bit_level in linear light 0-1, index = the 8-bit code k",
-        "# Grid: none (9 matrix entries; codes 1-255)",
+        "#   Z); encoding_8bit_level in linear light 0-1, index = the 8-bit code k;",
+        "#   reference_chart_linear_srgb linear sRGB 0-1, index = 3 patch + channel (patches",
+        "#   0-23 in reading order; channels R, G, B)",
+        "# Grid: none (9 matrix entries; codes 1-255; 24 x 3 chart values)",
         "quantity,index,value",
     ]
     return _write_whole(path, header + [f"{q},{i},{v!r}" for q, i, v in srgb_rows()])

@@ -30,6 +30,7 @@ __all__ = [
     "COLOUR_CACHE",
     "COLOUR_CACHE_COLUMNS",
     "SRGB_CACHE",
+    "SRGB_REFERENCE_CHART",
     "DEFAULT_CAMERA",
     "DEFAULT_CHART",
     "DEFAULT_ILLUMINANT",
@@ -50,6 +51,7 @@ __all__ = [
     "read_spectral_csv",
     "read_spectral_table",
     "read_table",
+    "reference_chart_linear_srgb",
     "srgb_8bit",
     "resample",
     "wavelength_grid",
@@ -106,6 +108,9 @@ COLOUR_CACHE_RANGES_NM = {("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)"): (38
 #: colour-science (about 1 s, most of it plotting). Written by ``python -m
 #: experiments.colour_tables``; ``tests/test_wait.py`` checks it against colour-science.
 SRGB_CACHE = "colour_science_srgb.csv"
+#: The ColorChecker chromaticities whose linear sRGB :data:`SRGB_CACHE` holds (the chart
+#: detection's reference colours)
+SRGB_REFERENCE_CHART = "ColorChecker24 - After November 2014"
 
 
 # --------------------------------------------------------------------------- grid
@@ -466,6 +471,20 @@ def _colour_cache() -> tuple[np.ndarray, dict]:
 
 
 @functools.cache
+def _srgb_table() -> dict:
+    """:data:`SRGB_CACHE` as quantity -> its values in index order (read-only arrays)."""
+    _, rows = read_table(SRGB_CACHE)
+    items = {}
+    for quantity, index, value in rows:
+        items.setdefault(quantity.strip(), []).append((int(index), float(value)))
+    out = {}
+    for quantity, pairs in items.items():
+        arr = np.array([v for _, v in sorted(pairs)])
+        arr.setflags(write=False)
+        out[quantity] = arr
+    return out
+
+
 def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
     """colour-science's sRGB (IEC 61966-2-1, D65) for 8-bit images, from :data:`SRGB_CACHE`.
 
@@ -474,29 +493,39 @@ def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
     xyz_to_rgb : numpy.ndarray, (3, 3)
         CIE XYZ -> linear sRGB, ``colour.RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB``.
     levels : numpy.ndarray, (255,)
-        Linear light where the 8-bit code of the sRGB encoding reaches k = 1..255: the
-        code of x is ``numpy.searchsorted(levels, x, side='right')``, which is
-        round(255 cctf_encoding(clip(x, 0, 1))); ``levels[k - 1]`` is colour-science's
-        ``cctf_decoding((k - 0.5) / 255)``.
+        Linear light where the 8-bit code of the sRGB encoding reaches k = 1..255
+        (``levels[k - 1]`` is colour-science's ``cctf_decoding((k - 0.5) / 255)``). For float32
+        x (the previews' type) ``numpy.searchsorted(levels, x, side='right')`` is, to the last
+        bit, the rounded code round(255 cctf_encoding(clip(x, 0, 1))); for float64 x within
+        an ulp or so of a level it may differ by one. NaN sorts above every level (code 255).
 
-    Both arrays are read-only (the result is cached).
+    Both arrays are read-only (the table is read once).
 
     References
     ----------
     IEC 61966-2-1:1999, Multimedia systems and equipment - Colour measurement and management -
     Default RGB colour space - sRGB.
     """
-    _, rows = read_table(SRGB_CACHE)
-    table = {}
-    for quantity, index, value in rows:
-        table.setdefault(quantity.strip(), []).append((int(index), float(value)))
-    matrix = np.array([v for _, v in sorted(table["xyz_to_srgb"])]).reshape(3, 3)
-    levels = np.array([v for _, v in sorted(table["encoding_8bit_level"])])
+    table = _srgb_table()
+    matrix = table["xyz_to_srgb"].reshape(3, 3)
+    levels = table["encoding_8bit_level"]
     if levels.shape != (255,) or np.any(np.diff(levels) <= 0):
         raise ValueError(f"{SRGB_CACHE}: expected 255 increasing levels")
-    matrix.setflags(write=False)
-    levels.setflags(write=False)
     return matrix, levels
+
+
+def reference_chart_linear_srgb() -> np.ndarray:
+    """Linear sRGB (D65) of colour-science's :data:`SRGB_REFERENCE_CHART` chromaticities, from
+    :data:`SRGB_CACHE`: the reference colours of the chart detection (``measure.detect``).
+
+    Returns
+    -------
+    numpy.ndarray, (24, 3)
+        Patches in reading order; read-only. colour-science's ``XYZ_to_RGB(xyY_to_XYZ(xyY),
+        'sRGB', illuminant, apply_cctf_encoding=False)`` of
+        ``CCS_COLOURCHECKERS[SRGB_REFERENCE_CHART]``.
+    """
+    return _srgb_table()["reference_chart_linear_srgb"].reshape(24, 3)
 
 
 def _cached(database: str, name: str, wl: np.ndarray):

@@ -53,6 +53,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from forward import spectra
+
 from .chart import LAYOUTS, ChartLayout, orientations
 
 __all__ = [
@@ -124,7 +126,7 @@ SAMPLE_SPAN = 0.5
 RANSAC_PITCH = 0.25
 #: Reference chart: colour-science's ColorChecker (X-Rite, after November 2014), its xyY under
 #: its own illuminant converted to linear sRGB
-REFERENCE_CHART = "ColorChecker24 - After November 2014"
+REFERENCE_CHART = spectra.SRGB_REFERENCE_CHART
 
 
 class ChartNotFound(ValueError):
@@ -184,17 +186,16 @@ class Detection:
 def reference_rgb() -> np.ndarray:
     """Linear sRGB of the ColorChecker's 24 patches (colour-science, after November 2014).
 
+    colour-science's values, cached in the package data
+    (:func:`forward.spectra.reference_chart_linear_srgb`; ``tests/test_wait.py`` compares them
+    with colour-science), so detecting a chart does not import it.
+
     Returns
     -------
     numpy.ndarray, (24, 3)
-        ColorChecker reading order.
+        ColorChecker reading order (a read-only array).
     """
-    import colour
-
-    cc = colour.CCS_COLOURCHECKERS[REFERENCE_CHART]
-    xyY = np.array(list(cc.data.values()), float)
-    return colour.XYZ_to_RGB(colour.xyY_to_XYZ(xyY), "sRGB", cc.illuminant,
-                             apply_cctf_encoding=False)
+    return spectra.reference_chart_linear_srgb()
 
 
 def _linear_rgb(image):

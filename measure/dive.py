@@ -603,7 +603,7 @@ def plot_survey(ds, path, joint=None):
     pathlib.Path
         The file written.
     """
-    # matplotlib's object interface: no pyplot (its global figures and backend; thread-safe)
+    # matplotlib's object interface: no pyplot (its global figures and backend)
     from matplotlib.figure import Figure
 
     has_time = bool(np.any(~np.isnat(ds["time"].values)))

@@ -23,8 +23,8 @@ from forward.spectra import WHITE_PATCH, srgb_8bit
 from .image import demosaic
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
-           "check_out", "corrected_image", "read_marker", "result_owner", "srgb_preview", "strict_json",
-           "write_outputs"]
+           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "result_owner",
+           "srgb_preview", "strict_json", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -136,14 +136,40 @@ def srgb_preview(rgb_linear, setup, white=None) -> np.ndarray:
     s = _stride(rgb_linear.shape)
     small = np.asarray(rgb_linear[::s, ::s], np.float32)
     to_xyz = forward.camera_to_xyz_matrix(setup)
-    xyz_to_srgb, levels = srgb_8bit()
+    xyz_to_srgb, _ = srgb_8bit()
     A = xyz_to_srgb @ to_xyz
     if white is not None:
         ref = float((to_xyz @ np.asarray(white, float))[1])
     else:
         ref = float(np.percentile(small.reshape(-1, 3) @ to_xyz[1], WHITE_PERCENTILE))
     lin = small @ (A / (ref if ref > 0 else 1.0)).T.astype(np.float32)
-    return np.searchsorted(levels, lin, side="right").astype(np.uint8)
+    return encode_srgb_8bit(lin)
+
+
+def encode_srgb_8bit(linear) -> np.ndarray:
+    """8-bit sRGB codes of linear values: colour-science's sRGB encoding of the values clipped
+    to 0-1, times 255, rounded (from the encoding's levels in the package data,
+    :func:`forward.spectra.srgb_8bit`; to the last bit for float32 values); NaN gives 0.
+
+    Parameters
+    ----------
+    linear : array_like
+        Linear sRGB, 1 = white.
+
+    Returns
+    -------
+    numpy.ndarray, uint8
+        The codes, 0-255, shaped as ``linear``.
+
+    References
+    ----------
+    IEC 61966-2-1:1999 (sRGB).
+    """
+    _, levels = srgb_8bit()
+    lin = np.asarray(linear)
+    codes = np.searchsorted(levels, lin, side="right").astype(np.uint8)
+    codes[np.isnan(lin)] = 0
+    return codes
 
 
 def _save_png(path, rgb8) -> None:

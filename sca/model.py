@@ -442,9 +442,11 @@ class ChartModel:
         lead = k.shape[:-1]
         q, mn = self.wavelengths.size, self.m * self.n
         if not jacobian:
-            G = k @ self.Bt
-            if shift is not None:
-                G = G + np.repeat(shift, self.n, axis=-1) * (k @ self.Dt)
+            if shift is not None:  # both projections by one product, as with the Jacobian
+                both = k @ self.BDt
+                G = both[..., :mn] + np.repeat(shift, self.n, axis=-1) * both[..., mn:]
+            else:
+                G = k @ self.Bt
             if balance is not None:
                 G = G * np.repeat(1.0 + balance, self.n, axis=-1)
             values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
@@ -588,9 +590,12 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     L. Kaufman, "A variable projection method for solving separable nonlinear least squares
     problems", BIT 15 (1975) 49-57.
     """
-    w2 = np.asarray(w2, float)
     M3 = np.asarray(M3, float)
     lead = G3.shape[:-1]
+    w2 = np.asarray(w2, float)
+    # the weights' own leading shape, but every patch of the last axis (a scalar or a
+    # per-channel weight counts n times in sum w)
+    w2 = np.broadcast_to(w2, np.broadcast_shapes(w2.shape, G3.shape[-1:]))
     # sum w and sum w M do not depend on G: summed once where w and M are shared (a grid of
     # signals against one chart), the same sums as over their broadcast copies
     sw = np.broadcast_to(w2.sum(-1), lead).copy()

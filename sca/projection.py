@@ -133,8 +133,10 @@ def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no c
 #: fit, and it saw fit differently when a kernel and its callees were compiled in one process
 #: than when they were loaded from numba's cache, so the same chart gave results differing in
 #: the last bits between a process's first run and the next (DECISIONS.md, "The batched
-#: solver"). The long sums keep independent partial sums in the source instead. Not
-#: 'nnan'/'ninf': a non-finite value compares as IEEE says.
+#: solver"). Every sum is therefore accumulated in the order the source writes it; the
+#: Gauss-Newton matrix's sums over a chart's values (one per pair of columns) keep four
+#: partial sums, the others (per channel, and the objective's) one. Not 'nnan'/'ninf': a
+#: non-finite value compares as IEEE says.
 FAST = {"contract"}
 #: Below this many charts the kernels run in the calling thread (a parallel launch costs more
 #: than the work).
@@ -175,8 +177,8 @@ def linear_part_stats(sw, sM, sG, sGG, sGM, *, fixed_s=None, free_gain: bool = T
     flat = [np.ascontiguousarray(x).reshape(-1, m) for x in stats]
     has_fs = fixed_s is not None
     # without held s the kernels never read fs: a one-row placeholder
-    fs = (np.ascontiguousarray(np.broadcast_to(np.asarray(fixed_s, float), shape).reshape(-1, m))
-          if has_fs else np.zeros((1, m)))
+    fs = (np.array(np.broadcast_to(np.asarray(fixed_s, float), shape).reshape(-1, m))
+          if has_fs else np.zeros((1, m)))  # a writable copy: one compiled signature
     args = (*flat, fs, has_fs, bool(free_gain))
     if flat[0].shape[0] < LINEAR_SERIAL_BELOW:
         gain, s, act = _linear_serial(*args)

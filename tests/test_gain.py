@@ -145,3 +145,15 @@ def test_bad_gain_is_refused(chart):
         sca.estimate(chart.rgb, depth=8.0, distance=3.0, gain="maybe", uncertain={})
     with pytest.raises(ValueError, match="gain"):
         sca.estimate_batch(chart.rgb[None], depth=8.0, distance=3.0, gain="maybe", uncertain={})
+
+
+def test_linear_part_weights_broadcast_over_the_patches():
+    """sca.model.linear_part's weights may be a scalar or one per channel: they count once per
+    patch (sum w = n w), as the full (N, m, n) array of the same weights does."""
+    rng = np.random.default_rng(2)
+    G3 = rng.uniform(0.1, 1.0, (5, 3, 24))
+    M3 = 2.0 * G3[:1] + 0.05 + 0.01 * rng.standard_normal((1, 3, 24))
+    w_ch = np.array([1.0, 4.0, 0.5])[None, :, None]
+    for w, full in ((1.0, np.ones((1, 3, 24))), (w_ch, np.broadcast_to(w_ch, (1, 3, 24)))):
+        for got, want in zip(linear_part(M3, G3, w), linear_part(M3, G3, full)):
+            np.testing.assert_array_equal(got, want)

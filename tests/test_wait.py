@@ -103,6 +103,33 @@ def test_srgb_cache_is_colour_science_bit_for_bit():
     assert tuple(matrix[0]) == (3.2406, -1.5372, -0.4986)  # IEC 61966-2-1, first row
     assert levels[0] == pytest.approx(0.5 / 255 / 12.92, rel=1e-12)  # the linear segment
     assert not matrix.flags.writeable and not levels.flags.writeable
+    from experiments.colour_tables import reference_chart_from_colour
+
+    chart = spectra.reference_chart_linear_srgb()
+    np.testing.assert_array_equal(chart, reference_chart_from_colour())
+    assert chart.shape == (24, 3) and not chart.flags.writeable
+
+
+def test_srgb_codes_at_the_encodings_steps():
+    """Every float32 value within 4 ulp of each of the 255 levels gets colour-science's
+    rounded code (the steps are where an off-by-one would show); NaN gives 0."""
+    import colour
+
+    from measure.output import encode_srgb_8bit
+
+    _, levels = spectra.srgb_8bit()
+    x = levels.astype(np.float32)[:, None]
+    for _ in range(4):
+        x = np.concatenate([np.nextafter(x[:, :1], np.float32(-1)), x,
+                            np.nextafter(x[:, -1:], np.float32(2))], axis=1)
+    ref = (colour.cctf_encoding(np.clip(x, 0.0, 1.0), function="sRGB") * 255 + 0.5
+           ).astype(np.uint8)
+    np.testing.assert_array_equal(encode_srgb_8bit(x), ref)
+    assert encode_srgb_8bit(np.array([np.nan, -1.0, 2.0], np.float32)).tolist() == [0, 0, 255]
+
+
+def test_chart_detection_reads_its_reference_colours_without_colour_science():
+    assert "colour" not in _loaded("from measure import detect\ndetect.reference_rgb()")
 
 
 def test_srgb_preview_is_colour_sciences_encoding():
