@@ -205,12 +205,9 @@ sims = [forward.simulate_chart(c, a, d, r, seed=i) for i, (c, a, d, r) in
         enumerate([(1.0, 0.5, 10.0, 5.0), (20.0, 0.05, 30.0, 0.5), (0.05, 0.0, 1.0, 0.5)])]
 e = sca.estimate(sims[0].rgb, depth=10.0, distance=5.0, sigma=sims[0].rgb_sigma, setup=setup,
                  uncertain={}, mode="lm")
-tile = lambda a: np.concatenate([a] * 22)  # 66 charts: the parallel kernels run
-b = sca.estimate_batch(tile(np.array([s.rgb for s in sims])),
-                       depth=tile(np.array([10.0, 30.0, 1.0])),
-                       distance=tile(np.array([5.0, 0.5, 0.5])),
-                       sigma=tile(np.array([s.rgb_sigma for s in sims])), setup=setup,
-                       uncertain={})
+b = sca.estimate_batch(np.array([s.rgb for s in sims]), depth=np.array([10.0, 30.0, 1.0]),
+                       distance=np.array([5.0, 0.5, 0.5]),
+                       sigma=np.array([s.rgb_sigma for s in sims]), setup=setup, uncertain={})
 print(repr((e.chl, e.cdom, tuple(e.chl_ci), tuple(e.cdom_ci), e.objective, b.chl.tolist(),
             b.cdom.tolist(), b.chl_ci.tolist(), b.cdom_ci.tolist(), b.objective.tolist())))
 """
@@ -219,8 +216,9 @@ print(repr((e.chl, e.cdom, tuple(e.chl_ci), tuple(e.cdom_ci), e.objective, b.chl
 @pytest.mark.slow
 def test_results_do_not_depend_on_whether_numbas_cache_was_warm(tmp_path):
     """A process that compiles the kernels and one that loads them from numba's cache give the
-    same numbers to the last bit (one chart, and a batch big enough for the parallel kernels,
-    intervals included; 10 nm). With
+    same numbers to the last bit (one chart and a batch of three, intervals included; 10 nm).
+    The serial kernels only: the parallel ones run the same per-chart functions, and compiling
+    them too would add half a minute to ``make test``. With
     reassociation among the kernels' fast-math flags they did not: the compiler ordered the
     sums differently when it compiled a kernel with its callees than in the code it cached
     (DECISIONS.md, "The batched solver")."""
