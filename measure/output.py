@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from concurrent.futures import ThreadPoolExecutor
 import shutil
 import tempfile
 from pathlib import Path
@@ -447,16 +448,24 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
         json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
     img = corrected_image(meas)
-    if tiff != "none":
-        options = TIFF_COMPRESSION if tiff == "compressed" else {}
-        tifffile.imwrite(folder / "corrected.tiff", img, photometric="rgb", **options)
-        names.append("corrected.tiff")
-    white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white patch
-    _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
+    # corrected.tiff is compressed by imagecodecs outside the GIL while this thread draws the
+    # previews and the report; its error, if any, is raised before the marker is written
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        pending = None
+        if tiff != "none":
+            options = TIFF_COMPRESSION if tiff == "compressed" else {}
+            pending = pool.submit(tifffile.imwrite, folder / "corrected.tiff", img,
+                                  photometric="rgb", **options)
+        white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white
+        _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
+        if report:
+            _report(meas, folder / "report.png", srgb_preview(_quick_rgb(meas.photo), meas.setup,
+                                                              meas.sample.rgb[:, WHITE_PATCH]))
+        if pending is not None:
+            pending.result()
+            names.append("corrected.tiff")
     names.append("corrected.png")
     if report:
-        _report(meas, folder / "report.png", srgb_preview(_quick_rgb(meas.photo), meas.setup,
-                                                          meas.sample.rgb[:, WHITE_PATCH]))
         names.append("report.png")
     names.append(MARKER)
     done = {"image": str(meas.photo.path), "version": version, "files": names} | (marker or {})

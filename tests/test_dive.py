@@ -275,6 +275,26 @@ def test_a_photos_files_load_neither_colour_science_nor_pyplot(tmp_path, shots):
     assert (tmp_path / "out" / "report.png").exists()
 
 
+def test_a_failed_tiff_leaves_the_old_results_whole(tmp_path, meas, monkeypatch):
+    """corrected.tiff is written beside the previews; its failure is the writer's error (naming
+    ``out``), and the folder keeps the results it had, with no temporary folder left."""
+    import tifffile
+
+    folder = tmp_path / "res"
+    first = measure.write_outputs(meas, folder, report=False, tiff="none")
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+
+    def broken(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tifffile, "imwrite", broken)
+    with pytest.raises(ValueError, match="out: cannot write"):
+        measure.write_outputs(meas, folder)
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    assert set(first) == set(before)
+
+
 def test_compressed_tiff_is_smaller_and_reads_back_equal(tmp_path, meas):
     import tifffile
 
