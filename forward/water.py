@@ -1367,7 +1367,8 @@ def _phytoplankton_term(x, wrt):
     if x.w is not None:
         if "w" in wrt:
             out["w"] = t.T
-        return [(1.0, x.w @ t.T.T)], out
+        # T w; with one basis function a product, not a one-term matrix product (same value)
+        return [(1.0, x.w * t.T[:, 0] if t.T.shape[1] == 1 else x.w @ t.T.T)], out
     scale, exponent = x.get("phyto_scale"), x.get("phyto_exponent")
     weight = x.phi(scale, exponent, 0.0, 0.0)
     shape = t.phyto_shape
@@ -1441,19 +1442,31 @@ def _sum_pieces(pieces, lead, q):
     rest elementwise."""
     few = math.prod(lead) < _FEW_CHARTS
     weights, spectra, total = [], [], None
+    owned = False  # total is an array made here (not a caller's spectrum): added to in place
     for w, sh in pieces:
         if few or sh.ndim > 1 or not isinstance(w, np.ndarray) or w.ndim == 0:
-            term = w * sh
-            total = term if total is None else total + term
+            unit = type(w) is float and w == 1.0  # 1.0 x is x, exactly: no product
+            term = sh if unit else w * sh
+            if total is None:
+                total, owned = term, not unit
+            elif owned and (term.shape == total.shape
+                            or term.ndim == 1 and total.shape[-1:] == term.shape):
+                total += term
+            else:
+                total, owned = total + term, True
         else:
             weights.append(w[..., 0] if w.shape[:-1] == lead else
                            np.broadcast_to(w, lead + (1,))[..., 0])
             spectra.append(sh)
     if weights:
         prod = np.stack(weights, axis=-1) @ np.stack(spectra)
-        total = prod if total is None else total + prod
+        if total is not None:
+            prod += total  # the same sum as total + prod (addition commutes exactly)
+        total, owned = prod, True
     if total is None:
         return np.zeros(lead + (q,))
+    if not owned:
+        total = total.copy()
     return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))
 
 

@@ -60,7 +60,8 @@ from .verdict import assess, fit_lm
 
 __all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
            "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",
-           "INIT_CDOM", "GRADIENT_VANISHES"]
+           "INIT_CDOM", "GRADIENT_VANISHES", "GRID_BLOCK_VALUES",
+           "GRID_BLOCK_MIN_POINTS"]
 
 MODES = ("paper", "safeguarded", "lm")
 #: Clarabel settings of the subproblem: its defaults (1e-8 tolerances on a subproblem that
@@ -90,6 +91,16 @@ PARAM_SCALE_MIN = 1e-6
 #: The loop stops as converged when ||Q^T r0|| (the part of the residual a step can remove)
 #: is below this: the gradient vanishes.
 GRADIENT_VANISHES = 1e-300
+
+#: The start grid's objective is evaluated in blocks of at most about this many (point,
+#: wavelength) values (~0.5 MB per temporary array), so that a block's temporaries stay in a
+#: core's L2 cache: at 1 nm the 513-point grid in one piece spent ~1.3 ms more per fit moving
+#: memory (DECISIONS.md, "The start grid in blocks"). The blocks change no number.
+GRID_BLOCK_VALUES = 60_000
+#: ... and of at least this many points: :func:`forward.WaterTerms.path_coefficient` adds the
+#: terms of fewer than 8 points one by one and of more by one matrix product, whose sums may
+#: round differently, so a smaller block could change the last bits.
+GRID_BLOCK_MIN_POINTS = 64
 
 #: Coarse initial search grids (deterministic, independent of the data's truth).
 INIT_CHL = np.concatenate([[0.0], np.logspace(-3, 2, 26)])
@@ -303,13 +314,49 @@ class Estimator:
         W = np.multiply.outer(mdl.phyto_scale(C) / float(mdl.t440 @ u), u)
         grid = {"chl": C, "cdom": A, "w": W, "s": np.zeros((C.size, mdl.m)), "gain": 1.0}
         grid.update({n: np.full(C.size, v) for n, v in start.items()})
-        G = self.signal(st, grid)
-        gain, s = self.linear_part(st, G)
-        r = st.wt * (st.Mv - gain[:, None] * G - np.repeat(s, mdl.n, axis=-1))
-        j = int(np.argmin(np.einsum("ij,ij->i", r, r)))
+        j = int(np.argmin(self.grid_objective(st, grid, C.size)))
         x = {"chl": float(C[j]), "cdom": float(A[j]), "w": W[j].copy(), **start}
         x["gain"], x["s"] = self._closed_form(st, x)
         return x
+
+    def grid_objective(self, st, grid, n, block_values: int = GRID_BLOCK_VALUES) -> np.ndarray:
+        """The objective at each of the ``n`` points of ``grid`` with the closed-form gain and
+        s (the start grid's search).
+
+        Parameters
+        ----------
+        st : _FitState
+            The prepared fit (:meth:`prepare`).
+        grid : dict
+            The loop's point names -> (n, ...) arrays, or scalars shared by every point.
+        n : int
+            Points.
+        block_values : int
+            Evaluated in blocks of at most about this many (point, wavelength) values, so that
+            a block's temporaries stay in a core's cache (:data:`GRID_BLOCK_VALUES`), and of
+            at least :data:`GRID_BLOCK_MIN_POINTS` points. Each point's value is computed on
+            its own (elementwise operations, sums per point and matrix products whose rows do
+            not mix), so the blocks change no number (a test checks it).
+
+        Returns
+        -------
+        ndarray, (n,)
+            The (whitened) sums of squares.
+        """
+        mdl = st.mdl
+        if int(block_values) != block_values or block_values < 1:
+            raise ValueError(f"block_values: must be a positive integer, got {block_values!r}")
+        blocks = max(1, min(-(-n * mdl.wavelengths.size // int(block_values)),
+                            n // GRID_BLOCK_MIN_POINTS))
+        edges = [n * i // blocks for i in range(blocks + 1)]  # even: none below the minimum
+        out = np.empty(n)
+        for a, b in zip(edges[:-1], edges[1:]):
+            part = {k: v[a:b] if isinstance(v, np.ndarray) else v for k, v in grid.items()}
+            G = self.signal(st, part)
+            gain, s = self.linear_part(st, G)
+            r = st.wt * (st.Mv - gain[:, None] * G - np.repeat(s, mdl.n, axis=-1))
+            out[a:b] = np.einsum("ij,ij->i", r, r)
+        return out
 
     def _closed_form(self, st, x, G=None):
         """(gain, s) in closed form at ``x`` (``G``: its unit-gain signal, when computed)."""

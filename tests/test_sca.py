@@ -243,3 +243,27 @@ def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
     exact = sca.estimate(forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb, depth=5.0,
                          distance=2.0, fix={"cdom": 0.1}, uncertain={})
     assert exact.chl_se < 1e-9 and exact.cdom_se == 0.0
+
+
+def test_start_grid_in_blocks_changes_no_number():
+    # the start grid's objective is evaluated in cache-sized blocks (sca.loop.GRID_BLOCK_VALUES,
+    # at least GRID_BLOCK_MIN_POINTS points each): every block size gives the same numbers, to
+    # the last bit, as the grid in one piece
+    sim = forward.simulate_chart(2.0, 0.3, 10.0, 3.0, seed=4)
+    est = sca.Estimator(depth=10.0, distance=3.0, uncertain={})  # the default 1 nm grid
+    st = est.prepare(sim.rgb, sim.rgb_sigma)
+    mdl = st.mdl
+    chl, cdom = (v.ravel() for v in np.meshgrid(sca.loop.INIT_CHL, sca.loop.INIT_CDOM,
+                                                indexing="ij"))
+    w = (mdl.phyto_scale(chl) / float(mdl.t440[0]))[:, None]
+    grid = {"chl": chl, "cdom": cdom, "w": w, "s": np.zeros((chl.size, mdl.m)), "gain": 1.0}
+    whole = est.grid_objective(st, grid, chl.size, block_values=10**9)
+    assert whole.shape == (chl.size,) and np.all(np.isfinite(whole))
+    for block_values in (sca.loop.GRID_BLOCK_VALUES, 40_000, 301 * 7, 1):
+        np.testing.assert_array_equal(est.grid_objective(st, grid, chl.size, block_values), whole)
+    # the start is the grid's best point
+    x = est.initial_point(st)
+    j = int(np.argmin(whole))
+    assert (x["chl"], x["cdom"]) == (chl[j], cdom[j])
+    with pytest.raises(ValueError, match="block_values"):
+        est.grid_objective(st, grid, chl.size, block_values=0)

@@ -90,3 +90,19 @@ def test_other_grids():
         # the common wavelengths agree exactly (linear interpolation is exact at nodes)
         common = np.intersect1d(wl, forward.wavelength_grid())
         np.testing.assert_allclose(c[np.isin(wl, common)], c10[np.isin(forward.wavelength_grid(), common)])
+
+
+def test_path_coefficient_returns_fresh_arrays_not_its_tables():
+    # a derivative that is one table times 1 (d c / d a_CDOM = the CDOM shape) is summed
+    # without the product: the caller still gets its own array, never the table itself
+    terms = forward.Water().on_grid(np.arange(400.0, 701.0, 10.0))
+    for chl in (1.0, np.array([0.5, 2.0]), np.full(20, 3.0)):  # one chart, few, many
+        c, d = terms.path_coefficient(chl, 0.2, wrt=("chl", "cdom"), floor=1e-3)
+        np.testing.assert_array_equal(d["cdom"], np.broadcast_to(terms.cdom_shape, c.shape))
+        for arr in (c, d["cdom"], d["chl"]):
+            assert not np.shares_memory(arr, terms.cdom_shape)
+            assert not np.shares_memory(arr, terms.pure_water_absorption)
+    before = terms.cdom_shape.copy()
+    c, d = terms.path_coefficient(1.0, 0.2, wrt=("cdom",))
+    d["cdom"][...] = 0.0  # the caller's own array
+    np.testing.assert_array_equal(terms.cdom_shape, before)
