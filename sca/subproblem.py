@@ -255,27 +255,25 @@ def _rows(sub: Subproblem):
     for kind, sl, *params in sub.blocks:
         idx = np.arange(nv)[sl]
         if kind in ("lower", "box"):
-            val = np.broadcast_to(params[0].value, idx.shape)
+            val = np.broadcast_to(np.asarray(params[0].value, float), idx.shape)
             E = np.eye(nv)[idx]
             if kind == "lower":  # v_i >= lo_i
-                ineq += list(E)
-                lbs += list(val)
+                ineq.append(E)
+                lbs.append(val)
             else:  # -hi_i <= v_i <= hi_i, as -v_i >= -hi_i and v_i >= -hi_i
                 both = np.empty((2 * idx.size, nv))
                 both[0::2], both[1::2] = -E, E
-                ineq += list(both)
-                lbs += list(np.repeat(-val, 2))
+                ineq.append(both)
+                lbs.append(np.repeat(-val, 2))
             continue
         A = np.zeros((np.atleast_2d(params[0].value).shape[0], nv))
         A[:, idx] = np.atleast_2d(params[0].value)
-        if kind == "rows":
-            ineq += list(A)
-            lbs += list(np.atleast_1d(params[1].value))
-        else:
-            eq += list(A)
-            rhs += list(np.atleast_1d(params[1].value))
-    as_array = (lambda rows: np.array(rows).reshape(-1, nv))
-    return as_array(ineq), np.array(lbs, float), as_array(eq), np.array(rhs, float)
+        (ineq if kind == "rows" else eq).append(A)
+        (lbs if kind == "rows" else rhs).append(np.atleast_1d(np.asarray(params[1].value, float)))
+
+    def stack(parts, shape):
+        return np.concatenate(parts) if parts else np.zeros(shape)
+    return (stack(ineq, (0, nv)), stack(lbs, (0,)), stack(eq, (0, nv)), stack(rhs, (0,)))
 
 
 #: The active-set polish: constraints within this (relative) distance of their bound are taken
@@ -348,6 +346,10 @@ def polish(sub: Subproblem, v: np.ndarray, *, active_tol: float = POLISH_ACTIVE_
         bad = viol > feas_tol * scale * norms
         if not bad.any():
             break
+        if not np.any(bad & ~active):
+            # only constraints already held are violated (e.g. both sides of a box): the active
+            # set cannot grow, so every further round would repeat this one to max_rounds
+            return v, False
         active |= bad
     else:
         return v, False

@@ -267,3 +267,72 @@ def test_start_grid_in_blocks_changes_no_number():
     assert (x["chl"], x["cdom"]) == (chl[j], cdom[j])
     with pytest.raises(ValueError, match="block_values"):
         est.grid_objective(st, grid, chl.size, block_values=0)
+
+
+def _polish_every_round(sub, v, active_tol=1e-4, feas_tol=1e-9, max_rounds=10):
+    """The active-set polish as it was before it stopped early: every round to max_rounds
+    (the oracle of the test below; returns (v, polished, rounds))."""
+    from sca.subproblem import POLISH_SLACK, _rows
+    R, b = sub.R.value, sub.b.value
+    nv = R.shape[1]
+    scale = 1.0 + float(np.max(np.abs(v)))
+    A_in, lb, C_eq, d_eq = _rows(sub)
+    norms = 1.0 + np.abs(A_in).sum(axis=1)
+    active = (A_in @ v - lb) <= active_tol * scale * norms
+    H, g = R.T @ R, R.T @ b
+    for rounds in range(1, max_rounds + 1):
+        C = np.vstack([C_eq, A_in[active]])
+        d = np.concatenate([d_eq, lb[active]])
+        K = np.block([[H, C.T], [C, np.zeros((C.shape[0], C.shape[0]))]])
+        vp = np.linalg.lstsq(K, np.concatenate([g, d]), rcond=None)[0][:nv]
+        if not np.all(np.isfinite(vp)):
+            return v, False, rounds
+        bad = lb - A_in @ vp > feas_tol * scale * norms
+        if not bad.any():
+            break
+        active |= bad
+    else:
+        return v, False, rounds
+    if C_eq.shape[0] and np.any(np.abs(C_eq @ vp - d_eq) > feas_tol * scale):
+        return v, False, rounds
+    if np.any(lb - A_in @ vp > feas_tol * scale * norms):
+        return v, False, rounds
+    f_v = float(np.sum((R @ v - b) ** 2))
+    if float(np.sum((R @ vp - b) ** 2)) <= f_v + POLISH_SLACK * max(1.0, f_v):
+        return vp, True, rounds
+    return v, False, rounds
+
+
+def test_polish_stops_early_only_where_more_rounds_would_change_nothing(monkeypatch):
+    # sca.subproblem.polish returns as soon as the violated constraints are all in the active
+    # set already (the set cannot grow: every later round would repeat this one); on the
+    # subproblems of real fits it returns exactly what the every-round polish returns
+    from sca import subproblem
+    polish, seen = subproblem.polish, {"calls": 0, "all_rounds_failed": 0}
+
+    def checked(sub, v, **kw):
+        out = polish(sub, v, **kw)
+        if "f_ref" not in kw:
+            ref, ok, rounds = _polish_every_round(sub, v)
+            assert out[1] == ok and np.array_equal(out[0], ref)
+            seen["calls"] += 1
+            seen["all_rounds_failed"] += int(rounds == 10 and not ok)
+        return out
+    monkeypatch.setattr(subproblem, "polish", checked)
+    for chl, cdom, depth, distance in ((1.0, 0.5, 10.0, 5.0), (0.001, 0.0, 30.0, 5.0),
+                                       (20.0, 2.0, 1.0, 0.5), (0.05, 0.05, 10.0, 0.5)):
+        sim = forward.simulate_chart(chl, cdom, depth, distance, seed=5)
+        for mode in ("safeguarded", "paper"):
+            sca.estimate(sim.rgb, depth=depth, distance=distance, sigma=sim.rgb_sigma,
+                         uncertain={}, mode=mode, wavelengths=np.arange(400.0, 701.0, 10.0))
+    assert seen["calls"] > 20
+    assert seen["all_rounds_failed"] > 0  # the early stop was exercised
+    # and where a round adds a constraint the polish goes on: min |v - (-1, 1)|^2 with v >= 0
+    # from an interior point near (0, 1) (no bound active at the start; the first round's
+    # unconstrained step violates v_0 >= 0, the second holds it)
+    sub = build_subproblem(2, 2, None, 1, 0, False, False)
+    sub.R.value, sub.b.value, sub.lo.value = np.eye(2), np.array([-1.0, 1.0]), np.zeros(2)
+    v, polished = subproblem.polish(sub, np.array([1e-2, 0.999]))
+    assert polished and np.allclose(v, [0.0, 1.0], rtol=0, atol=1e-12)
+    ref, ok, rounds = _polish_every_round(sub, np.array([1e-2, 0.999]))
+    assert ok and rounds == 2 and np.array_equal(ref, v)
