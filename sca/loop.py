@@ -497,23 +497,23 @@ class Estimator:
             return row, float(alpha) - float(mdl.t440 @ x["w"])
         return row, float(mdl.phyto_scale(self.fixed["chl"])) - float(mdl.t440 @ x["w"])
 
-    def _set_subproblem(self, sub, lin, st, safeguarded):
-        """Write the QP's parameters (all in units of ``lin.unit``)."""
+    def _set_subproblem(self, sub, lin, st, safeguarded) -> str:
+        """Write the QP's parameters (all in units of ``lin.unit``; :func:`sca.subproblem.assign`):
+        '' or why they could not be written."""
+        from .subproblem import assign, equality_step
+
         mdl, x = st.mdl, st.x
         unit = lin.unit
-        sub.R.value = lin.R
-        sub.b.value = lin.b / unit
+        vals = {"R": lin.R, "b": lin.b / unit}
         eq_row, eq_rhs = self._eq17_row(st, lin)
         # Bounds far beyond any step the model can want only hurt the interior-point start;
         # they are capped at BOUND_CAP times the least-squares step that respects the
         # linearised eq 17 (without it, C and w are nearly collinear and the unconstrained
         # step is meaningless).
-        from .subproblem import equality_step
-
         v_ls = equality_step(lin.R, lin.b / unit, eq_row, eq_rhs / unit)
         cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
         if self.free_s:
-            sub.s_lo.value = np.maximum(-x["s"] / unit, -cap)
+            vals["s_lo"] = np.maximum(-x["s"] / unit, -cap)
         if self.n_pos:
             lo = []
             for name in self.order[:self.n_scalar_pos]:
@@ -521,17 +521,18 @@ class Estimator:
                 lo.append((lower_bound(name, self.water) - x[name]) / lin.scales[i])
             if self.w_bound:
                 lo.append(-float(x["w"][0]) / float(lin.scales[self.w_slice[0]]))
-            sub.lo.value = np.maximum(np.array(lo) / unit, -cap)
+            vals["lo"] = np.maximum(np.array(lo) / unit, -cap)
         if safeguarded and self.n_free:
-            sub.hi.value = np.full(self.n_free, min(st.radius / unit, cap))
+            vals["hi"] = np.full(self.n_free, min(st.radius / unit, cap))
         if self.free_w:
             if not self.w_bound:
                 TDw = mdl.T * lin.scales[self.w_slice[0]:self.w_slice[1]]
-                sub.TDw.value = TDw
-                sub.Tw_rhs.value = np.maximum(-(mdl.T @ x["w"]) / unit,
-                                              -cap * np.abs(TDw).sum(axis=1))
-            sub.a_eq.value = eq_row[:self.n_free]
-            sub.b_eq.value = eq_rhs / unit
+                vals["TDw"] = TDw
+                vals["Tw_rhs"] = np.maximum(-(mdl.T @ x["w"]) / unit,
+                                            -cap * np.abs(TDw).sum(axis=1))
+            vals["a_eq"] = eq_row[:self.n_free]
+            vals["b_eq"] = eq_rhs / unit
+        return assign(sub, vals)
 
     def qp_problem(self, sub, lin):
         """The cvxpy problem and variable solved each iteration: the compiled DPP problem.
@@ -542,7 +543,9 @@ class Estimator:
         """Solve the QP (with the fallbacks and the active-set polish): the step in data units
         and '' or the reasons it failed."""
         from .subproblem import polish
-        self._set_subproblem(sub, lin, st, safeguarded)
+        failure = self._set_subproblem(sub, lin, st, safeguarded)
+        if failure:
+            return None, failure
         t0 = time.perf_counter()
         problem, v_var = self.qp_problem(sub, lin)
         v_var.value = None  # a cached problem: never read a previous solve's values

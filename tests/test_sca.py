@@ -336,3 +336,36 @@ def test_polish_stops_early_only_where_more_rounds_would_change_nothing(monkeypa
     assert polished and np.allclose(v, [0.0, 1.0], rtol=0, atol=1e-12)
     ref, ok, rounds = _polish_every_round(sub, np.array([1e-2, 0.999]))
     assert ok and rounds == 2 and np.array_equal(ref, v)
+
+
+def test_assign_checks_what_cvxpys_setter_checked_and_reports_non_finite_data(monkeypatch):
+    # the loop writes the QP's parameters with sca.subproblem.assign (cvxpy's own setter
+    # validates each value again, ~30 us): shapes and signs raise, non-finite data is a reason
+    # (nothing written), and the loop reports it as the solve's failure
+    from sca import subproblem
+    sub = build_subproblem(3, 3, None, 301, 3, True, True)
+    vals = {"R": np.eye(6), "b": np.ones(6), "lo": -np.ones(3), "hi": np.ones(3),
+            "s_lo": -np.ones(3), "a_eq": np.ones(3), "b_eq": 0.5}
+    assert subproblem.assign(sub, vals) == ""
+    assert sub.b.value is vals["b"] and sub.b_eq.value == 0.5
+    with pytest.raises(ValueError, match="b: a value of shape"):
+        subproblem.assign(sub, dict(vals, b=np.ones(5)))
+    with pytest.raises(ValueError, match="hi: the QP's parameter is nonnegative"):
+        subproblem.assign(sub, dict(vals, hi=-np.ones(3)))
+    reason = subproblem.assign(sub, dict(vals, R=np.full((6, 6), np.nan), lo=np.ones(3),
+                                         b_eq=np.inf))
+    assert reason == "the linearised problem is not finite (R, b_eq)"
+    assert np.array_equal(sub.lo.value, -np.ones(3))  # nothing written
+    # in the loop: a linearisation that is not finite ends the fit, reported
+    linearise = sca.Estimator._linearise
+
+    def broken(self, st):
+        lin = linearise(self, st)
+        lin.b[0] = np.nan
+        return lin
+    monkeypatch.setattr(sca.Estimator, "_linearise", broken)
+    sim = forward.simulate_chart(1.0, 0.1, 5.0, 1.0, seed=2)
+    est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, sigma=sim.rgb_sigma, uncertain={},
+                       wavelengths=np.arange(400.0, 701.0, 10.0))
+    assert not est.converged and not est.reliable
+    assert est.status == "solver failed at iteration 1: the linearised problem is not finite (b)"
