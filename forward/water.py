@@ -1367,8 +1367,11 @@ def _phytoplankton_term(x, wrt):
     if x.w is not None:
         if "w" in wrt:
             out["w"] = t.T
-        # T w; with one basis function a product, not a one-term matrix product (same value)
-        return [(1.0, x.w * t.T[:, 0] if t.T.shape[1] == 1 else x.w @ t.T.T)], out
+        # T w; with one basis function (and w of shape S + (1,)) a product, not a one-term
+        # matrix product: the same values, but for the sign of a zero product, which the
+        # water's terms added to it erase
+        one = t.T.shape[1] == 1 and x.w.shape[-1:] == (1,)
+        return [(1.0, x.w * t.T[:, 0] if one else x.w @ t.T.T)], out
     scale, exponent = x.get("phyto_scale"), x.get("phyto_exponent")
     weight = x.phi(scale, exponent, 0.0, 0.0)
     shape = t.phyto_shape

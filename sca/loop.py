@@ -32,6 +32,7 @@ and the trust-region update) and ``_result`` (:mod:`sca.verdict`).
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -319,7 +320,7 @@ class Estimator:
         x["gain"], x["s"] = self._closed_form(st, x)
         return x
 
-    def grid_objective(self, st, grid, n, block_values: int = GRID_BLOCK_VALUES) -> np.ndarray:
+    def grid_objective(self, st, grid, n, block_values: int | None = None) -> np.ndarray:
         """The objective at each of the ``n`` points of ``grid`` with the closed-form gain and
         s (the start grid's search).
 
@@ -331,9 +332,9 @@ class Estimator:
             The loop's point names -> (n, ...) arrays, or scalars shared by every point.
         n : int
             Points.
-        block_values : int
+        block_values : int, optional
             Evaluated in blocks of at most about this many (point, wavelength) values, so that
-            a block's temporaries stay in a core's cache (:data:`GRID_BLOCK_VALUES`), and of
+            a block's temporaries stay in a core's cache (default :data:`GRID_BLOCK_VALUES`), and of
             at least :data:`GRID_BLOCK_MIN_POINTS` points. Each point's value is computed on
             its own (elementwise operations, sums per point and matrix products whose rows do
             not mix), so the blocks change no number (a test checks it).
@@ -344,8 +345,13 @@ class Estimator:
             The (whitened) sums of squares.
         """
         mdl = st.mdl
-        if int(block_values) != block_values or block_values < 1:
+        block_values = GRID_BLOCK_VALUES if block_values is None else block_values
+        if isinstance(block_values, bool) or not isinstance(block_values, numbers.Integral) \
+                or block_values < 1:
             raise ValueError(f"block_values: must be a positive integer, got {block_values!r}")
+        lengths = {k: len(v) for k, v in grid.items() if isinstance(v, np.ndarray)}
+        if any(size != n for size in lengths.values()):
+            raise ValueError(f"grid: every array must have n = {n} points, got {lengths}")
         blocks = max(1, min(-(-n * mdl.wavelengths.size // int(block_values)),
                             n // GRID_BLOCK_MIN_POINTS))
         edges = [n * i // blocks for i in range(blocks + 1)]  # even: none below the minimum
@@ -504,6 +510,9 @@ class Estimator:
 
         mdl, x = st.mdl, st.x
         unit = lin.unit
+        if not (np.isfinite(unit) and np.all(np.isfinite(lin.R)) and np.all(np.isfinite(lin.b))):
+            # before any LAPACK call on them (an SVD of NaN can fail, or not return)
+            return "the linearised problem is not finite (R, b)"
         vals = {"R": lin.R, "b": lin.b / unit}
         eq_row, eq_rhs = self._eq17_row(st, lin)
         # Bounds far beyond any step the model can want only hurt the interior-point start;

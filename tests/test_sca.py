@@ -245,28 +245,42 @@ def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
     assert exact.chl_se < 1e-9 and exact.cdom_se == 0.0
 
 
-def test_start_grid_in_blocks_changes_no_number():
+def test_start_grid_in_blocks_changes_no_number(monkeypatch):
     # the start grid's objective is evaluated in cache-sized blocks (sca.loop.GRID_BLOCK_VALUES,
     # at least GRID_BLOCK_MIN_POINTS points each): every block size gives the same numbers, to
     # the last bit, as the grid in one piece
+    from forward.water import _FEW_CHARTS
+    assert sca.loop.GRID_BLOCK_MIN_POINTS >= _FEW_CHARTS  # below it the terms add another way
     sim = forward.simulate_chart(2.0, 0.3, 10.0, 3.0, seed=4)
-    est = sca.Estimator(depth=10.0, distance=3.0, uncertain={})  # the default 1 nm grid
-    st = est.prepare(sim.rgb, sim.rgb_sigma)
-    mdl = st.mdl
     chl, cdom = (v.ravel() for v in np.meshgrid(sca.loop.INIT_CHL, sca.loop.INIT_CDOM,
                                                 indexing="ij"))
-    w = (mdl.phyto_scale(chl) / float(mdl.t440[0]))[:, None]
-    grid = {"chl": chl, "cdom": cdom, "w": w, "s": np.zeros((chl.size, mdl.m)), "gain": 1.0}
-    whole = est.grid_objective(st, grid, chl.size, block_values=10**9)
-    assert whole.shape == (chl.size,) and np.all(np.isfinite(whole))
-    for block_values in (sca.loop.GRID_BLOCK_VALUES, 40_000, 301 * 7, 1):
-        np.testing.assert_array_equal(est.grid_objective(st, grid, chl.size, block_values), whole)
-    # the start is the grid's best point
-    x = est.initial_point(st)
-    j = int(np.argmin(whole))
-    assert (x["chl"], x["cdom"]) == (chl[j], cdom[j])
-    with pytest.raises(ValueError, match="block_values"):
-        est.grid_objective(st, grid, chl.size, block_values=0)
+    n = chl.size
+    water = forward.Water()
+    shape = water.on_grid(np.arange(400.0, 701.0, 1.0)).T[:, 0]
+    two = np.column_stack([shape, np.linspace(0.5, 1.5, shape.size) * shape])
+    for kw in ({}, {"gain": "free", "free": ("cdom_slope",)}, {"basis": two}):
+        est = sca.Estimator(depth=10.0, distance=3.0, uncertain={}, **kw)  # the 1 nm grid
+        st = est.prepare(sim.rgb, sim.rgb_sigma)
+        mdl = st.mdl
+        w = np.multiply.outer(mdl.phyto_scale(chl) / float(mdl.t440.sum()), np.ones(mdl.z))
+        grid = {"chl": chl, "cdom": cdom, "w": w, "s": np.zeros((n, mdl.m)), "gain": 1.0}
+        grid.update({name: np.full(n, water.cdom_slope) for name in est.extras})
+        whole = est.grid_objective(st, grid, n, block_values=10**9)
+        assert whole.shape == (n,) and np.all(np.isfinite(whole))
+        for block_values in (None, 40_000, 301 * 7, 1):
+            np.testing.assert_array_equal(est.grid_objective(st, grid, n, block_values), whole)
+        # the start is the grid's best point (z = 1: initial_point's own grid)
+        if mdl.z == 1:
+            x = est.initial_point(st)
+            j = int(np.argmin(whole))
+            assert (x["chl"], x["cdom"]) == (chl[j], cdom[j])
+    monkeypatch.setattr(sca.loop, "GRID_BLOCK_VALUES", 1)  # the default is read at the call
+    np.testing.assert_array_equal(est.grid_objective(st, grid, n), whole)
+    for bad in (0, True, 2.5, np.inf):
+        with pytest.raises(ValueError, match="block_values"):
+            est.grid_objective(st, grid, n, block_values=bad)
+    with pytest.raises(ValueError, match="grid: every array must have n"):
+        est.grid_objective(st, grid, n - 1)
 
 
 def _polish_every_round(sub, v, active_tol=1e-4, feas_tol=1e-9, max_rounds=10):
@@ -368,4 +382,17 @@ def test_assign_checks_what_cvxpys_setter_checked_and_reports_non_finite_data(mo
     est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, sigma=sim.rgb_sigma, uncertain={},
                        wavelengths=np.arange(400.0, 701.0, 10.0))
     assert not est.converged and not est.reliable
-    assert est.status == "solver failed at iteration 1: the linearised problem is not finite (b)"
+    assert est.status == "solver failed at iteration 1: the linearised problem is not finite (R, b)"
+    # a NaN in R is caught before any LAPACK call on it (an SVD of NaN fails or does not
+    # return), with C free (eq 17 in the step) and held (no equality)
+    def broken_r(self, st):
+        lin = linearise(self, st)
+        lin.R[0, 0] = np.nan
+        return lin
+    monkeypatch.setattr(sca.Estimator, "_linearise", broken_r)
+    for fix in (None, {"chl": 1.0}):
+        est = sca.estimate(sim.rgb, depth=5.0, distance=1.0, sigma=sim.rgb_sigma, uncertain={},
+                           wavelengths=np.arange(400.0, 701.0, 10.0), fix=fix)
+        assert not est.converged and "the linearised problem is not finite" in est.status
+    with pytest.raises(ValueError, match="b: the QP's parameters are real"):
+        subproblem.assign(sub, dict(vals, b=np.ones(6) + 0j))
