@@ -329,7 +329,8 @@ class Estimator:
         st : _FitState
             The prepared fit (:meth:`prepare`).
         grid : dict
-            The loop's point names -> (n, ...) arrays, or scalars shared by every point.
+            The loop's point names -> (n, ...) arrays, or scalars (0-d arrays too) shared by
+            every point.
         n : int
             Points.
         block_values : int, optional
@@ -349,7 +350,8 @@ class Estimator:
         if isinstance(block_values, bool) or not isinstance(block_values, numbers.Integral) \
                 or block_values < 1:
             raise ValueError(f"block_values: must be a positive integer, got {block_values!r}")
-        lengths = {k: len(v) for k, v in grid.items() if isinstance(v, np.ndarray)}
+        per_point = {k for k, v in grid.items() if isinstance(v, np.ndarray) and v.ndim}
+        lengths = {k: len(grid[k]) for k in per_point}
         if any(size != n for size in lengths.values()):
             raise ValueError(f"grid: every array must have n = {n} points, got {lengths}")
         blocks = max(1, min(-(-n * mdl.wavelengths.size // int(block_values)),
@@ -357,7 +359,7 @@ class Estimator:
         edges = [n * i // blocks for i in range(blocks + 1)]  # even: none below the minimum
         out = np.empty(n)
         for a, b in zip(edges[:-1], edges[1:]):
-            part = {k: v[a:b] if isinstance(v, np.ndarray) else v for k, v in grid.items()}
+            part = {k: v[a:b] if k in per_point else v for k, v in grid.items()}
             G = self.signal(st, part)
             gain, s = self.linear_part(st, G)
             r = st.wt * (st.Mv - gain[:, None] * G - np.repeat(s, mdl.n, axis=-1))

@@ -276,6 +276,8 @@ def test_start_grid_in_blocks_changes_no_number(monkeypatch):
             assert (x["chl"], x["cdom"]) == (chl[j], cdom[j])
     monkeypatch.setattr(sca.loop, "GRID_BLOCK_VALUES", 1)  # the default is read at the call
     np.testing.assert_array_equal(est.grid_objective(st, grid, n), whole)
+    grid["gain"] = np.array(1.0)  # a 0-d array is shared by every point, as a float is
+    np.testing.assert_array_equal(est.grid_objective(st, grid, n), whole)
     for bad in (0, True, 2.5, np.inf):
         with pytest.raises(ValueError, match="block_values"):
             est.grid_objective(st, grid, n, block_values=bad)
