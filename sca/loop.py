@@ -515,13 +515,14 @@ class Estimator:
         if not (np.isfinite(unit) and np.all(np.isfinite(lin.R)) and np.all(np.isfinite(lin.b))):
             # before any LAPACK call on them (an SVD of NaN can fail, or not return)
             return "the linearised problem is not finite (R, b)"
-        vals = {"R": lin.R, "b": lin.b / unit}
+        b = lin.b / unit
+        vals = {"R": lin.R, "b": b}
         eq_row, eq_rhs = self._eq17_row(st, lin)
         # Bounds far beyond any step the model can want only hurt the interior-point start;
         # they are capped at BOUND_CAP times the least-squares step that respects the
         # linearised eq 17 (without it, C and w are nearly collinear and the unconstrained
         # step is meaningless).
-        v_ls = equality_step(lin.R, lin.b / unit, eq_row, eq_rhs / unit)
+        v_ls = equality_step(lin.R, b, eq_row, eq_rhs / unit)
         cap = BOUND_CAP * max(1.0, float(np.max(np.abs(v_ls))))
         if self.free_s:
             vals["s_lo"] = np.maximum(-x["s"] / unit, -cap)
