@@ -40,34 +40,32 @@ POINT_ATOL = 1e-4
 F_OVERFLOW = 1e300
 
 
-def effective_curvature(H, j):
+def effective_curvature(H, j=None):
     """1 / (H^-1)_jj: the curvature of the profile of parameter j (H_jj where H is singular).
 
     Parameters
     ----------
     H : array_like, (N, p, p)
         Gauss-Newton matrices J^T J (LM coordinates) of N charts.
-    j : int
-        The parameter's column.
+    j : int, optional
+        The parameter's column (default: every column, from one inverse of each H).
 
     Returns
     -------
-    ndarray, (N,)
+    ndarray, (N,), or (N, p) without ``j``
         The profile's Gauss-Newton curvature; H_jj where H is singular (zero or non-finite
         determinant) or 1 / (H^-1)_jj is not finite and positive, and for p = 1.
     """
     H = np.asarray(H, float)
-    out = np.array(H[:, j, j], float)
-    if H.shape[1] == 1:
-        return out
-    with np.errstate(all="ignore"):
-        det = np.linalg.det(H)
-    ok = np.isfinite(det) & (np.abs(det) > 0)
-    if ok.any():
-        inv = np.linalg.inv(H[ok])
-        val = 1.0 / inv[:, j, j]
-        out[ok] = np.where(np.isfinite(val) & (val > 0), val, out[ok])
-    return out
+    out = np.array(np.diagonal(H, axis1=1, axis2=2), float)  # (N, p)
+    if H.shape[1] > 1:
+        with np.errstate(all="ignore"):
+            det = np.linalg.det(H)
+        ok = np.isfinite(det) & (np.abs(det) > 0)
+        if ok.any():
+            val = 1.0 / np.diagonal(np.linalg.inv(H[ok]), axis1=1, axis2=2)
+            out[ok] = np.where(np.isfinite(val) & (val > 0), val, out[ok])
+    return out if j is None else np.array(out[:, j])
 
 
 def profile_slopes(H, col):
@@ -90,25 +88,26 @@ def profile_slopes(H, col):
     """
     R, p = H.shape[0], H.shape[1]
     out = np.zeros((R, p))
-    out[np.arange(R), col] = 1.0
-    if p == 1:
+    rows = np.arange(R)
+    out[rows, col] = 1.0
+    if p == 1 or R == 0:
         return out
-    for j in np.unique(col):
-        rows = np.flatnonzero(col == j)
-        others = [k for k in range(p) if k != j]
-        Hoo = H[np.ix_(rows, others, others)]
-        Hoj = H[rows][:, others, j]
-        with np.errstate(all="ignore"):
-            # well conditioned only: the smallest eigenvalue of H_oo scaled to unit diagonal
-            # above SINGULAR_PIVOT (as the LM step's test); else the point starts where it was
-            d = np.sqrt(np.abs(np.diagonal(Hoo, axis1=1, axis2=2)))
-            scaled = Hoo / (d[:, :, None] * d[:, None, :])
-            ok = np.all(np.isfinite(scaled), axis=(1, 2)) & np.all(d > 0, axis=1)
-            ok[ok] = np.linalg.eigvalsh(scaled[ok])[:, 0] > SINGULAR_PIVOT
-            if ok.any():
-                sl = -np.linalg.solve(Hoo[ok], Hoj[ok][..., None])[..., 0]
-                good = np.all(np.isfinite(sl), axis=1)
-                out[np.ix_(rows[ok][good], others)] = sl[good]
+    # each row's other parameters (o), in order: every H_oo has the same size, one batch
+    others = np.array([[k for k in range(p) if k != j] for j in range(p)])[col]  # (R, p - 1)
+    Hoo = H[rows[:, None, None], others[:, :, None], others[:, None, :]]
+    Hoj = H[rows[:, None], others, col[:, None]]
+    with np.errstate(all="ignore"):
+        # well conditioned only: the smallest eigenvalue of H_oo scaled to unit diagonal
+        # above SINGULAR_PIVOT (as the LM step's test); else the point starts where it was
+        d = np.sqrt(np.abs(np.diagonal(Hoo, axis1=1, axis2=2)))
+        scaled = Hoo / (d[:, :, None] * d[:, None, :])
+        ok = np.all(np.isfinite(scaled), axis=(1, 2)) & np.all(d > 0, axis=1)
+        ok[ok] = np.linalg.eigvalsh(scaled[ok])[:, 0] > SINGULAR_PIVOT
+        if ok.any():
+            sl = -np.linalg.solve(Hoo[ok], Hoj[ok][..., None])[..., 0]
+            good = np.all(np.isfinite(sl), axis=1)
+            keep = rows[ok][good]
+            out[keep[:, None], others[keep]] = sl[good]
     return out
 
 
@@ -259,7 +258,7 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     # every end of every chart searched together: one row per (chart, parameter, side)
     charts, cols, sides = (a.ravel() for a in np.meshgrid(np.arange(N), which, (-1.0, 1.0),
                                                            indexing="ij"))
-    heff = np.stack([effective_curvature(H, j) for j in range(p)], axis=1)  # (N, p)
+    heff = effective_curvature(H)  # (N, p)
     lower_open = ~np.isfinite(prob.lower)
     lower = np.where(lower_open, -np.asarray(caps, float), prob.lower)
     down = sides < 0

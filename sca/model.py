@@ -601,9 +601,12 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     sw = np.broadcast_to(w2.sum(-1), lead).copy()
     sM = np.broadcast_to((w2 * M3).sum(-1), lead).copy()
     wG = w2 * G3
-    M3 = np.broadcast_to(M3, G3.shape)
-    stats = (sw, sM, wG.sum(-1), (wG * G3).sum(-1), (wG * M3).sum(-1))
-    return linear_part_stats(*stats, fixed_s=fixed_s, free_gain=free_gain)
+    sG = wG.sum(-1)
+    if free_gain:
+        sGG, sGM = (wG * G3).sum(-1), (wG * np.broadcast_to(M3, G3.shape)).sum(-1)
+    else:  # the gain is 1: s needs sum w, sum w M and sum w G alone (the kernel reads no more)
+        sGG = sGM = sG
+    return linear_part_stats(sw, sM, sG, sGG, sGM, fixed_s=fixed_s, free_gain=free_gain)
 
 
 def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):

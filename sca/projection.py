@@ -508,8 +508,10 @@ def project_pieces(weights, dweights, spectra, Bt, inv_scale, M, W2, fixed_s, fr
 
 #: :func:`_active_set` compiled into its caller (the start grid calls it for every chart and
 #: candidate: inlined there, with the channel-major products of :func:`grid_best`, the grid
-#: took half the time; elsewhere a call costs less to compile).
-_active_set_inline = njit(cache=True, inline="always")(_active_set.py_func)
+#: took half the time; elsewhere a call costs less to compile). Under NUMBA_DISABLE_JIT
+#: ``njit`` returns the plain function, which has no ``py_func``.
+_active_set_inline = njit(cache=True, inline="always")(
+    getattr(_active_set, "py_func", _active_set))
 
 
 @njit(parallel=True, cache=True, error_model="numpy")

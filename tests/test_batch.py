@@ -141,6 +141,40 @@ def test_profile_slopes_minimise_the_quadratic_model():
     np.testing.assert_array_equal(sl[2], [1.0, 0.0, 0.0])
 
 
+def test_effective_curvature_of_every_column_from_one_inverse():
+    """Without a column, effective_curvature gives every column's 1 / (H^-1)_jj at once: the
+    same numbers as one column at a time, H_jj where H is singular; profile_slopes of no rows
+    is empty."""
+    from sca.intervals import effective_curvature, profile_slopes
+
+    H = np.array([[[2.0, 1.0, 0.5], [1.0, 3.0, 0.2], [0.5, 0.2, 1.0]],
+                  [[1.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 4.0]]])  # the second singular
+    every = effective_curvature(H)
+    assert every.shape == (2, 3)
+    for j in range(3):
+        np.testing.assert_array_equal(every[:, j], effective_curvature(H, j))
+    np.testing.assert_allclose(every[0], 1.0 / np.diag(np.linalg.inv(H[0])))
+    np.testing.assert_array_equal(every[1], np.diag(H[1]))
+    assert profile_slopes(H[:0], np.zeros(0, int)).shape == (0, 3)
+
+
+def test_linear_part_with_the_gain_known_is_the_clipped_weighted_mean():
+    """With the gain known (1), s of each channel is max(0, sum w (M - G) / sum w): the sums
+    of the gain's own normal equations are not needed (and not computed)."""
+    from sca.model import linear_part
+
+    rng = np.random.default_rng(5)
+    M = rng.uniform(0.2, 1.0, (1, 3, 24))
+    G = M - rng.normal(0.0, 0.05, (4, 3, 24)) - np.array([0.05, -0.2, 0.0])[:, None]
+    w2 = rng.uniform(0.5, 2.0, (1, 3, 24))
+    gain, s, active = linear_part(M, G, w2, free_gain=False)
+    want = np.maximum((w2 * (M - G)).sum(-1) / w2.sum(-1), 0.0)
+    np.testing.assert_array_equal(gain, 1.0)
+    np.testing.assert_allclose(s, want, rtol=1e-13, atol=1e-15)
+    np.testing.assert_array_equal(active, s > 0)
+    assert np.any(s == 0) and np.any(s > 0)
+
+
 def test_profile_slopes_leave_nearly_collinear_columns_alone():
     """A nearly singular H_oo (two almost collinear nuisance columns) gives no move: the
     profile point starts where it was instead of far away."""
