@@ -161,21 +161,41 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
         blacks = np.asarray(raw.black_level_per_channel, float)
         white = float(raw.white_level)
     letters = [desc[i] if i < len(desc) else "?" for i in range(4)]
-    if any(letter not in CHANNEL_OF_LETTER for letter in set(letters[i] for i in np.unique(colors))):
+    top = int(colors.max(initial=0))
+    if top >= len(letters):
+        raise ValueError(f"image: {p}: colour index {top} outside LibRaw's 4 colours")
+    # the colour indices present (a comparison each: np.unique sorts all 24 M of them)
+    used = [c for c in range(top + 1) if (colors == c).any()]
+    if any(letters[c] not in CHANNEL_OF_LETTER for c in used):
         raise ValueError(f"image: {p}: colour filter array {desc!r} is not red/green/blue")
     lut = np.array([CHANNEL_OF_LETTER.get(letter, 0) for letter in letters], dtype=np.int8)
-    channel = lut[colors]
     if black_level is not None:  # per model channel -> per colour index
         blacks = _levels("black_level", black_level, 3)[lut]
     if white_level is not None:
         white = float(_levels("white_level", white_level, 1)[0])
-    clipped = mosaic >= white
-    data = mosaic.astype(np.float32)
-    data -= blacks.astype(np.float32)[colors]
+    data = np.empty(mosaic.shape, np.float32)
+    channel = np.empty(mosaic.shape, np.int8)
+    clipped = np.empty(mosaic.shape, bool)
+    with _KERNEL_LOCK:
+        _unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
     present = np.unique(colors[:4, :4])  # the CFA's colour indices (a 2x2 or larger repeat)
     black3 = np.array([blacks[[i for i in present if lut[i] == c]].mean()
                        if any(lut[i] == c for i in present) else np.nan for c in range(3)])
     return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, _exif(p))
+
+
+@njit(parallel=True, cache=True)
+def _unpack(mosaic, colors, lut, blacks, white, data, channel, clipped):  # pragma: no cover
+    """One pass over the mosaic (parallel over rows): data = mosaic - blacks[colour] (float32,
+    as numpy's float32 subtraction), channel = lut[colour], clipped = mosaic >= white."""
+    H, W = mosaic.shape
+    for y in prange(H):
+        for x in range(W):
+            c = colors[y, x]
+            v = mosaic[y, x]
+            data[y, x] = np.float32(v) - blacks[c]
+            channel[y, x] = lut[c]
+            clipped[y, x] = v >= white
 
 
 def _read_tiff(p: Path, black_level, white_level) -> Photo:

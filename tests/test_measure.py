@@ -74,6 +74,30 @@ def test_rawpy_reads_the_mosaic_black_levels_clip_and_exif(files):
     assert photo.exposure == pytest.approx({"exposure_s": 1 / 125, "f_number": 5.6, "iso": 400})
 
 
+def test_raw_mosaic_unpacked_in_one_pass_as_numpy_would():
+    """The compiled one-pass unpack gives numpy's own float32 mosaic - black[colour], the
+    channel lut[colour] and the clip test, value for value (black levels per colour index, a
+    white level between the values)."""
+    from measure.image import _unpack
+
+    rng = np.random.default_rng(2)
+    mosaic = rng.integers(0, 2 ** 14, (37, 52)).astype(np.uint16)
+    colors = rng.integers(0, 4, mosaic.shape).astype(np.uint8)
+    lut = np.array([0, 1, 2, 1], np.int8)
+    blacks = np.array([512.25, 510.0, 514.5, 516.0])
+    white = 12000.0
+    data = np.empty(mosaic.shape, np.float32)
+    channel = np.empty(mosaic.shape, np.int8)
+    clipped = np.empty(mosaic.shape, bool)
+    _unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
+    want = mosaic.astype(np.float32)
+    want -= blacks.astype(np.float32)[colors]
+    np.testing.assert_array_equal(data, want)
+    np.testing.assert_array_equal(channel, lut[colors])
+    np.testing.assert_array_equal(clipped, mosaic >= white)
+    assert clipped.any() and not clipped.all()
+
+
 def test_calibration_round_trip(profile):
     assert profile.reliable, profile.flags
     g = np.array(profile.gains)
