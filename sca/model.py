@@ -317,6 +317,8 @@ class ChartModel:
         (P (x) R) diag(i): vec(G) = B k.
     Bt : ndarray, (q, m n)
         B transposed (contiguous).
+    Dt, BDt : ndarray, (q, m n) and (q, 2 m n)
+        d vec(G) / d (each channel's curve shift), and [Bt Dt] (built on first use).
     e0 : float
         The exponent of eq 10 (the batch's coordinate u = C^e0).
 
@@ -338,12 +340,9 @@ class ChartModel:
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
         self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
         self.Bt = np.ascontiguousarray(self.B.T)
-        # d vec(G) / d lambda-shift of each channel's curve: P(lambda - delta) ~ P - delta dP/dlambda
-        dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
-        self.Dt = np.ascontiguousarray(
-            (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
-        #: [Bt Dt]: both projections by one matrix product where the curves' shift is modelled
-        self.BDt = np.hstack([self.Bt, self.Dt])
+        #: where :attr:`Dt` comes from: None (this setup's curves) or (model, factor) for a
+        #: :meth:`scaled` copy (the model's Dt / factor)
+        self._dt_source = None
         #: d M / d s: one row per channel, 1 on that channel's patches (read-only)
         self._indicators = np.repeat(np.eye(self.m), self.n, axis=1)
         self._indicators.setflags(write=False)
@@ -355,9 +354,28 @@ class ChartModel:
         new = copy.copy(self)
         new.B = self.B / factor
         new.Bt = np.ascontiguousarray(new.B.T)
-        new.Dt = self.Dt / factor
-        new.BDt = np.hstack([new.Bt, new.Dt])
+        for name in ("Dt", "BDt"):  # computed for the copy when it needs them, not copied
+            new.__dict__.pop(name, None)
+        new._dt_source = (self, factor)
         return new
+
+    @functools.cached_property
+    def Dt(self) -> np.ndarray:
+        """d vec(G) / d lambda-shift of each channel's curve, (q, m n) contiguous: P(lambda -
+        delta) ~ P - delta dP/dlambda. Built on first use (only a camera shift needs it)."""
+        if self._dt_source is not None:
+            model, factor = self._dt_source
+            return model.Dt / factor
+        P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
+        dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
+        return np.ascontiguousarray(
+            (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
+
+    @functools.cached_property
+    def BDt(self) -> np.ndarray:
+        """[Bt Dt]: both projections by one matrix product where the curves' shift is
+        modelled."""
+        return np.hstack([self.Bt, self.Dt])
 
     def default(self, name: str):
         """The value a parameter takes when it is not given: the water's constant, gain 1,

@@ -116,6 +116,25 @@ def test_free_weights_jacobian_equals_finite_differences():
     assert J == pytest.approx(central(f, 0.02, 1e-7), rel=1e-5, abs=1e-12)
 
 
+def test_scaled_model_builds_its_shift_projection_from_its_own_scale():
+    """The camera-shift projection (Dt, [Bt Dt]) is built on first use: a scaled copy's is its
+    model's divided by the factor, whether the model built its own before or after the copy."""
+    p = {"chl": 1.0, "cdom": 0.1, "depth": 5.0, "distance": 1.0,
+         "camera_shift": np.array([1.0, -2.0, 0.5])}
+    for built_first in (False, True):
+        mdl = sca.ChartModel(SETUP)
+        if built_first:
+            assert mdl.BDt.shape == (WL.size, 2 * 72)
+        half = mdl.scaled(2.0)
+        quarter = half.scaled(2.0)
+        np.testing.assert_array_equal(half.Dt, mdl.Dt / 2.0)
+        np.testing.assert_array_equal(quarter.Dt, mdl.Dt / 2.0 / 2.0)
+        np.testing.assert_array_equal(quarter.BDt, np.hstack([quarter.Bt, quarter.Dt]))
+        full = mdl.predict(p, jacobian=False).values
+        np.testing.assert_allclose(half.predict(p, jacobian=False).values * 2.0, full,
+                                   rtol=1e-14)
+
+
 def test_unknown_or_inert_names_are_refused():
     mdl = sca.ChartModel(SETUP)
     p = {"chl": 1.0, "depth": 5.0, "distance": 1.0}
