@@ -63,7 +63,8 @@ def effective_curvature(H, j=None):
             det = np.linalg.det(H)
         ok = np.isfinite(det) & (np.abs(det) > 0)
         if ok.any():
-            val = 1.0 / np.diagonal(np.linalg.inv(H[ok]), axis1=1, axis2=2)
+            with np.errstate(divide="ignore"):  # a zero gives inf: H_jj is kept below
+                val = 1.0 / np.diagonal(np.linalg.inv(H[ok]), axis1=1, axis2=2)
             out[ok] = np.where(np.isfinite(val) & (val > 0), val, out[ok])
     return out if j is None else np.array(out[:, j])
 
@@ -87,6 +88,7 @@ def profile_slopes(H, col):
     ndarray, (R, p)
     """
     R, p = H.shape[0], H.shape[1]
+    col = np.asarray(col, int)
     out = np.zeros((R, p))
     rows = np.arange(R)
     out[rows, col] = 1.0

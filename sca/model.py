@@ -350,7 +350,8 @@ class ChartModel:
         self.e0 = float(water.phyto_exponent)
 
     def scaled(self, factor: float) -> "ChartModel":
-        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest."""
+        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest
+        and keeps a reference to this model (its Dt, when needed, is this model's / factor)."""
         new = copy.copy(self)
         new.B = self.B / factor
         new.Bt = np.ascontiguousarray(new.B.T)

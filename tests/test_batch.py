@@ -1,6 +1,7 @@
 """The batched solver reaches the same optimum as the sca loop (correctness, not speed)."""
 
 import itertools
+import warnings
 
 import numpy as np
 import pytest
@@ -156,6 +157,11 @@ def test_effective_curvature_of_every_column_from_one_inverse():
     np.testing.assert_allclose(every[0], 1.0 / np.diag(np.linalg.inv(H[0])))
     np.testing.assert_array_equal(every[1], np.diag(H[1]))
     assert profile_slopes(H[:0], np.zeros(0, int)).shape == (0, 3)
+    np.testing.assert_array_equal(profile_slopes(H, [0, 2]), profile_slopes(H, np.array([0, 2])))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a zero in another column's inverse: no warning
+        np.testing.assert_array_equal(effective_curvature(np.array([[[1.0, 1.0], [1.0, 0.0]]]),
+                                                          1), [0.0])
 
 
 def test_linear_part_with_the_gain_known_is_the_clipped_weighted_mean():

@@ -121,6 +121,9 @@ def test_scaled_model_builds_its_shift_projection_from_its_own_scale():
     model's divided by the factor, whether the model built its own before or after the copy."""
     p = {"chl": 1.0, "cdom": 0.1, "depth": 5.0, "distance": 1.0,
          "camera_shift": np.array([1.0, -2.0, 0.5])}
+    plain = sca.ChartModel(SETUP).scaled(3.0)
+    plain.predict({k: v for k, v in p.items() if k != "camera_shift"}, ("chl",))
+    assert "Dt" not in plain.__dict__ and "BDt" not in plain.__dict__  # not built without a shift
     for built_first in (False, True):
         mdl = sca.ChartModel(SETUP)
         if built_first:
