@@ -178,9 +178,8 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
     clipped = np.empty(mosaic.shape, bool)
     with _KERNEL_LOCK:
         _unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
-    present = np.unique(colors[:4, :4])  # the CFA's colour indices (a 2x2 or larger repeat)
-    black3 = np.array([blacks[[i for i in present if lut[i] == c]].mean()
-                       if any(lut[i] == c for i in present) else np.nan for c in range(3)])
+    black3 = np.array([blacks[[i for i in used if lut[i] == c]].mean()
+                       if any(lut[i] == c for i in used) else np.nan for c in range(3)])
     return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, _exif(p))
 
 
