@@ -2,24 +2,38 @@
 
 The 95 % interval of a parameter theta_j is {theta_j : min over the other parameters of f <= f_hat
 + delta} (:func:`sca.assess.profile_delta`). Each end is searched from the optimum on
-z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear model: a first step
-from the Gauss-Newton curvature, secant extrapolation until the target sqrt(delta) is
-bracketed, then the Illinois method to 1e-3 of sqrt(delta). Every profile point P(theta_j) is
-the Levenberg-Marquardt of :mod:`sca.lm` with theta_j held (the same engine and model function
-as the fit, so every estimator's intervals agree), started from the previous point moved along
-the profile's Gauss-Newton slope at the optimum (:func:`profile_slopes`). C is searched in
-u = C^e0.
+z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear model:
+
+* first, where the profile points below would be fitted by the Python driver of
+  :func:`sca.lm.levenberg_marquardt` (:func:`sca.lm.compiled_driver`), by the method of Venzon
+  & Moolgavkar (:func:`_vm_ends`): Newton's method on the end's two conditions together
+  (z = sqrt(delta), the other parameters at their minimum), one evaluation of the model
+  function (:func:`sca.lm.evaluate`) per step;
+* an end it does not find within :data:`VM_MAX_ITER` evaluations by a first step from the
+  Gauss-Newton curvature, secant extrapolation until the target sqrt(delta) is bracketed, then
+  the Illinois method to 1e-3 of sqrt(delta) (:func:`_profile_ends`). Every profile point
+  P(theta_j) is the Levenberg-Marquardt of :mod:`sca.lm` with theta_j held, started from the
+  previous point moved along the profile's Gauss-Newton slope at the optimum
+  (:func:`profile_slopes`).
+
+Both use the same engine and model function as the fit (so every estimator's intervals agree)
+and stop on the same tests. C is searched in u = C^e0.
+
+References
+----------
+D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based confidence
+intervals", Applied Statistics 37 (1988) 87-94.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .lm import SINGULAR_PIVOT, Problem, levenberg_marquardt
+from .lm import SINGULAR_PIVOT, Problem, compiled_driver, evaluate, levenberg_marquardt
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
-           "ROOT_TOL", "profile_intervals", "profile_slopes", "effective_curvature"]
+           "ROOT_TOL", "VM_MAX_ITER", "profile_intervals", "profile_slopes", "effective_curvature"]
 
 #: Result codes of a profile end: found, at the lower bound (e.g. 0), open (beyond the cap),
 #: failed.
@@ -38,6 +52,9 @@ ROOT_TOL = 1e-3
 POINT_ATOL = 1e-4
 #: Overflow guard of the profile objective.
 F_OVERFLOW = 1e300
+#: Newton iterations of the Venzon-Moolgavkar search of an end (one evaluation of the model
+#: function each); an end not found within them is searched by bracketing and Illinois.
+VM_MAX_ITER = 6
 
 
 def effective_curvature(H, j=None):
@@ -69,6 +86,27 @@ def effective_curvature(H, j=None):
     return out if j is None else np.array(out[:, j])
 
 
+def _others_system(H, col):
+    """Each row's other parameters (o, in order: every H_oo has the same size, one batch),
+    H_oo (R, p - 1, p - 1), H_o,col (R, p - 1) and whether H_oo is well conditioned: its
+    smallest eigenvalue, scaled to unit diagonal, above :data:`sca.lm.SINGULAR_PIVOT` (as the
+    LM step's test)."""
+    R, p = H.shape[0], H.shape[1]
+    rows = np.arange(R)
+    others = np.array([[k for k in range(p) if k != j] for j in range(p)],
+                      dtype=int).reshape(p, p - 1)[col]  # (R, p - 1)
+    Hoo = H[rows[:, None, None], others[:, :, None], others[:, None, :]]
+    Hoj = H[rows[:, None], others, col[:, None]]
+    if p == 1:  # nothing else to minimise
+        return others, Hoo, Hoj, np.ones(R, bool)
+    with np.errstate(all="ignore"):
+        d = np.sqrt(np.abs(np.diagonal(Hoo, axis1=1, axis2=2)))
+        scaled = Hoo / (d[:, :, None] * d[:, None, :])
+        ok = np.all(np.isfinite(scaled), axis=(1, 2)) & np.all(d > 0, axis=1)
+        ok[ok] = np.linalg.eigvalsh(scaled[ok])[:, 0] > SINGULAR_PIVOT
+    return others, Hoo, Hoj, ok
+
+
 def profile_slopes(H, col):
     """d theta / d theta_col along the profile of each row's parameter ``col[r]``, from the
     Gauss-Newton matrices ``H`` (R, p, p): 1 for the parameter itself, -H_oo^-1 H_o,col for the
@@ -94,23 +132,147 @@ def profile_slopes(H, col):
     out[rows, col] = 1.0
     if p == 1 or R == 0:
         return out
-    # each row's other parameters (o), in order: every H_oo has the same size, one batch
-    others = np.array([[k for k in range(p) if k != j] for j in range(p)])[col]  # (R, p - 1)
-    Hoo = H[rows[:, None, None], others[:, :, None], others[:, None, :]]
-    Hoj = H[rows[:, None], others, col[:, None]]
+    others, Hoo, Hoj, ok = _others_system(H, col)
     with np.errstate(all="ignore"):
-        # well conditioned only: the smallest eigenvalue of H_oo scaled to unit diagonal
-        # above SINGULAR_PIVOT (as the LM step's test); else the point starts where it was
-        d = np.sqrt(np.abs(np.diagonal(Hoo, axis1=1, axis2=2)))
-        scaled = Hoo / (d[:, :, None] * d[:, None, :])
-        ok = np.all(np.isfinite(scaled), axis=(1, 2)) & np.all(d > 0, axis=1)
-        ok[ok] = np.linalg.eigvalsh(scaled[ok])[:, 0] > SINGULAR_PIVOT
         if ok.any():
             sl = -np.linalg.solve(Hoo[ok], Hoj[ok][..., None])[..., 0]
             good = np.all(np.isfinite(sl), axis=1)
             keep = rows[ok][good]
             out[keep[:, None], others[keep]] = sl[good]
     return out
+
+
+def _vm_step(theta, f, g, H, col, side, f_hat, delta, held):
+    """One Venzon-Moolgavkar step of every row from its point ``theta`` (objective ``f``, half
+    gradient ``g``, Gauss-Newton matrix ``H``) on the quadratic model: the others at their
+    minimum given theta_col, theta + a + b dt (a = -H_oo^-1 g_o, b = -H_oo^-1 H_o,col on the
+    others; a_col = 0, b_col = 1).
+
+    dt is Newton's step on z = sqrt(P - ``f_hat``) to sqrt(``delta``), where P = A dt^2 + B dt
+    + C is the quadratic profile (dz/dtheta_col = B / 2 z; z is nearly linear in theta_col), or,
+    at the optimum (z = 0) or where the profile falls towards the end, the root of P = f_hat +
+    delta (the larger for an upper end, ``side`` +1). The parameters ``held`` (R, p) stay where
+    they are (their rows and columns of H, and their g, replaced by those of a parameter that
+    does not move).
+
+    Returns
+    -------
+    a, b : ndarray, (R, p)
+        NaN where H_oo is not well conditioned.
+    dt : ndarray, (R,)
+        NaN where the quadratic profile misses the target.
+    decrease : ndarray, (R,)
+        g_o^T H_oo^-1 g_o, the decrease that re-optimising the others at this theta_col would
+        bring (inf where unknown).
+    """
+    R, p = theta.shape
+    rows = np.arange(R)
+    a_full, b_full = np.full((R, p), np.nan), np.full((R, p), np.nan)
+    dt_out, decrease = np.full(R, np.nan), np.full(R, np.inf)
+    if held.any():
+        H, g = np.array(H), np.where(held, 0.0, g)
+        hr, hi = np.nonzero(held)
+        H[hr, hi, :] = 0.0
+        H[hr, :, hi] = 0.0
+        H[hr, hi, hi] = 1.0
+    others, Hoo, Hoj, ok = _others_system(H, col)
+    if not ok.any():
+        return a_full, b_full, dt_out, decrease
+    go = g[rows[:, None], others]
+    r, c = rows[ok], col[ok]
+    with np.errstate(all="ignore"):
+        sol = np.linalg.solve(Hoo[ok], np.stack([go[ok], Hoj[ok]], axis=-1)) if p > 1 else \
+            np.zeros((r.size, 0, 2))
+        a, b = -sol[..., 0], -sol[..., 1]
+        A = H[r, c, c] + np.einsum("ro,ro->r", Hoj[ok], b)  # the profile's curvature
+        B = 2.0 * (g[r, c] + np.einsum("ro,ro->r", go[ok], b))
+        drop = -np.einsum("ro,ro->r", go[ok], a)
+        C = f[ok] - drop
+        root = np.sqrt(B * B - 4.0 * A * (C - f_hat[ok] - delta[ok]))
+        dt = np.where(side[ok] > 0, -B + root, -B - root) / (2.0 * A)
+        dt = np.where(A > 0, dt, np.nan)
+        z = np.sqrt(np.maximum(C - f_hat[ok], 0.0))
+        newton = (z > 0) & (side[ok] * B > 0)
+        dt = np.where(newton, (np.sqrt(delta[ok]) - z) * 2.0 * z / B, dt)
+    k = np.arange(r.size)
+    a_full[ok], b_full[ok] = 0.0, 0.0
+    a_full[r[:, None], others[ok]] = a
+    b_full[r[:, None], others[ok]] = b
+    b_full[r, c] = 1.0
+    dt_out[ok], decrease[ok] = dt[k], drop
+    return a_full, b_full, dt_out, decrease
+
+
+def _vm_ends(prob, chart, col, side, theta_hat, f_hat, delta, H, limit, limit_code,
+             max_iter=VM_MAX_ITER):
+    """The ends of the rows (as :func:`_profile_ends`' rows) by the Venzon-Moolgavkar method:
+    Newton's method on the two conditions of an end, P(theta_col) = f_hat + delta and the others
+    at their minimum, one model evaluation per iteration (:func:`_vm_step`), from the optimum.
+
+    A parameter at its lower bound with the gradient pointing out is held there, and a step
+    below a bound is cut to it. A step of theta_col beyond ``limit`` stops at the limit, one
+    back across the optimum is not taken (the others alone move). An end is found where
+    sqrt(P - f_hat) is within :data:`ROOT_TOL` of sqrt(delta), or below it at the limit (then
+    the end is the limit, code ``limit_code``), with the others' remaining decrease below
+    :data:`POINT_ATOL` delta (the tests of the bracketing search and of its profile points).
+    A row whose H_oo is not well conditioned, whose profile misses the target, whose objective
+    overflows or which is not found within ``max_iter`` evaluations stops unfound (to be
+    searched by :func:`_profile_ends`).
+
+    Returns
+    -------
+    ends, codes : ndarray, (R,)
+    found : ndarray of bool, (R,)
+    """
+    R, p = theta_hat.shape
+    rows = np.arange(R)
+    theta = np.array(theta_hat, float)
+    f = np.array(f_hat, float)
+    g = np.zeros((R, p))
+    Hc = np.array(H, float)
+    zt = np.sqrt(delta)
+    atol = POINT_ATOL * delta
+    t_hat = theta_hat[rows, col]
+    res = np.full(R, np.nan)
+    code = np.full(R, BOUND_FOUND)
+    found = np.zeros(R, bool)
+    active = rows.copy()
+    for it in range(max_iter + 1):
+        if active.size == 0:
+            break
+        k = np.arange(active.size)
+        th, ca, sa = theta[active], col[active], side[active]
+        # a parameter at its lower bound stays there while the gradient points out of bounds
+        held = (th <= prob.lower) & (g[active] >= 0.0)
+        held[k, ca] = False
+        a, b, dt, decrease = _vm_step(th, f[active], g[active], Hc[active], ca, sa,
+                                      f_hat[active], delta[active], held)
+        t, lim = th[k, ca], limit[active]
+        z = np.sqrt(np.maximum(f[active] - f_hat[active], 0.0))
+        settled = decrease <= atol[active]
+        at_limit = t == lim
+        hit = settled & (np.abs(z - zt[active]) <= ROOT_TOL * zt[active])
+        hit_limit = settled & at_limit & (z < zt[active]) & ~hit
+        res[active[hit]] = t[hit]
+        res[active[hit_limit]] = lim[hit_limit]
+        code[active[hit_limit]] = limit_code[active[hit_limit]]
+        found[active[hit | hit_limit]] = True
+        with np.errstate(invalid="ignore"):
+            dt = np.where(sa * (t + dt - t_hat[active]) > 0, dt, 0.0)  # not back across
+            dt = np.where(sa * (lim - (t + dt)) > 0, dt, lim - t)  # not beyond the limit
+        new = np.maximum(th + a + b * dt[:, None], prob.lower)  # (NaN stays NaN)
+        new[k, ca] = np.where(np.isfinite(dt), t + dt, np.nan)
+        go = ~(hit | hit_limit) & np.all(np.isfinite(new), axis=1)
+        if it == max_iter:
+            break
+        active, new = active[go], new[go]
+        if active.size == 0:
+            break
+        fn, gn, Hn, *_ = evaluate(prob, chart[active], new, True, False)
+        ok = fn < F_OVERFLOW
+        active, new = active[ok], new[ok]
+        theta[active], f[active], g[active], Hc[active] = new, fn[ok], gn[ok], Hn[ok]
+    return res, code, found
 
 
 def _point(prob, idx, col, t, psi, atol, slope=None):
@@ -215,7 +377,8 @@ def _profile_ends(prob, chart, col, side, theta_hat, f_hat, delta, heff, limit, 
     return res, code
 
 
-def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=None):
+def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=None, *,
+                      newton_steps: int = VM_MAX_ITER):
     """Profile-likelihood ends of the parameters ``which`` (default: all) of every chart.
 
     Parameters
@@ -237,6 +400,12 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     which : iterable of int, optional
         The columns whose intervals are searched (default: all); the others keep
         ``theta_hat`` as both ends with code ``BOUND_FOUND``.
+    newton_steps : int, optional
+        Model evaluations allowed to the Venzon-Moolgavkar search of each end (default
+        :data:`VM_MAX_ITER`; 0: every end by bracketing and Illinois alone). It runs where the
+        search's profile points would be fitted by the Python driver of
+        :func:`sca.lm.levenberg_marquardt` (:func:`sca.lm.compiled_driver` False: many charts
+        on a fine grid, or a problem with parameters beyond C, a_CDOM and the path).
 
     Returns
     -------
@@ -251,6 +420,8 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
+    if int(newton_steps) != newton_steps or newton_steps < 0:
+        raise ValueError(f"newton_steps: must be a whole number >= 0, got {newton_steps!r}")
     N, p = theta_hat.shape
     which = list(range(p) if which is None else which)
     ends = np.repeat(theta_hat[:, :, None], 2, axis=2).astype(float)
@@ -268,8 +439,27 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     limit_code = np.where(down & ~lower_open[cols], BOUND_ZERO, BOUND_OPEN)
     # the two sides of a (chart, parameter) are adjacent rows and share its slope
     slopes = np.repeat(profile_slopes(np.asarray(H, float)[charts[::2]], cols[::2]), 2, axis=0)
-    res, code = _profile_ends(prob, charts, cols, sides, theta_hat[charts], f_hat[charts],
-                              delta[charts], heff[charts, cols], limit, limit_code, slopes)
+    res = np.full(charts.size, np.nan)
+    code = np.full(charts.size, BOUND_FOUND)
+    th, fh, dl = theta_hat[charts], f_hat[charts], delta[charts]
+    # the Venzon-Moolgavkar search where the end is inside the limits and the search's profile
+    # points would be rounds of the Python driver (where they are fitted chart by chart in
+    # compiled code the search alone is faster); the rest, and every end it does not find, by
+    # bracketing and Illinois
+    t_hat = th[np.arange(charts.size), cols]
+    newton = newton_steps > 0 and not compiled_driver(prob, charts.size)
+    vm = np.flatnonzero((dl > 0) & (sides * (limit - t_hat) > 0) & np.isfinite(fh)) \
+        if newton else np.zeros(0, int)
+    found = np.zeros(charts.size, bool)
+    if vm.size:
+        res[vm], code[vm], found[vm] = _vm_ends(
+            prob, charts[vm], cols[vm], sides[vm], th[vm], fh[vm], dl[vm],
+            np.asarray(H, float)[charts[vm]], limit[vm], limit_code[vm], int(newton_steps))
+    rest = np.flatnonzero(~found)
+    if rest.size:
+        res[rest], code[rest] = _profile_ends(
+            prob, charts[rest], cols[rest], sides[rest], th[rest], fh[rest], dl[rest],
+            heff[charts[rest], cols[rest]], limit[rest], limit_code[rest], slopes[rest])
     k = (sides > 0).astype(int)
     ends[charts, cols, k] = res
     codes[charts, cols, k] = code

@@ -50,6 +50,7 @@ __all__ = [
     "SINGULAR_PIVOT",
     "STATUS",
     "Problem",
+    "compiled_driver",
     "evaluate",
     "fused",
     "levenberg_marquardt",
@@ -466,6 +467,28 @@ def _step(g, H, mu, theta, lower, hold):
                       SINGULAR_PIVOT)
 
 
+def compiled_driver(prob: Problem, n: int) -> bool:
+    """True where :func:`levenberg_marquardt`, by default, fits ``n`` charts of ``prob``
+    chart by chart in compiled code (:func:`sca.fusedlm.fit_fused`): a problem it can fit
+    (:func:`sca.fusedlm.compiled_fit`), fewer than :data:`sca.projection.SERIAL_BELOW` charts or
+    a grid coarser than :data:`sca.fusedlm.BLAS_FROM` wavelengths (BLAS over many charts at once
+    beats chart-by-chart on fine grids).
+
+    Parameters
+    ----------
+    prob : Problem
+    n : int
+        Charts fitted together.
+
+    Returns
+    -------
+    bool
+    """
+    from .fusedlm import BLAS_FROM, compiled_fit  # (fusedlm imports this module)
+
+    return (n < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM) and compiled_fit(prob)
+
+
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
                         atol=None, hold=None, compiled: bool | None = None,
                         final: dict | None = None, rows=None):
@@ -523,11 +546,10 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05, Technical
     University of Denmark (1999) (the damping update).
     """
-    from .fusedlm import BLAS_FROM, compiled_fit, fit_fused  # (fusedlm imports this module)
+    from .fusedlm import compiled_fit, fit_fused  # (fusedlm imports this module)
 
-    if compiled is None:  # BLAS over many charts at once beats chart-by-chart on fine grids
-        compiled = len(theta0) < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM
-    if compiled and compiled_fit(prob):
+    if compiled_driver(prob, len(theta0)) if compiled is None else (
+            compiled and compiled_fit(prob)):
         return fit_fused(prob, theta0, max_iter=max_iter, tol=tol, f_exact=f_exact, atol=atol,
                          hold=hold, final=final, rows=rows)
     N, p = theta0.shape

@@ -205,3 +205,83 @@ def test_z2_basis_intervals_are_marked_approximate():
 def test_water_mismatch_is_a_misfit():
     s = sim(water=dataclasses.replace(forward.PAPER_WATER, cdom_slope=0.019))
     assert "misfit" in fit(s).flags
+
+
+def _batch_charts(n, seed):
+    rng = np.random.default_rng(seed)
+    sims = [forward.simulate_chart(10 ** rng.uniform(-2, 1.5), 10 ** rng.uniform(-2, 0.3),
+                                   rng.uniform(1, 20), rng.uniform(0.5, 5), seed=seed + i)
+            for i in range(n)]
+    # a chart whose a_CDOM interval reaches 0
+    sims += [forward.simulate_chart(1.0, 0.0, 5.0, 1.0, seed=seed + n)]
+    return (np.array([s.rgb for s in sims]), np.array([s.rgb_sigma for s in sims]),
+            np.array([s.depth for s in sims]), np.array([s.distance for s in sims]))
+
+
+@pytest.mark.parametrize("uncertain,n,step", [({}, 40, 1.0), (None, 6, 10.0)])
+def test_newton_ends_agree_with_the_search_alone(monkeypatch, uncertain, n, step):
+    """The Venzon-Moolgavkar ends are the bracketing search's to its tolerance (both stop where
+    sqrt(P - f_hat) is within ROOT_TOL of sqrt(delta)), with every verdict the same; and Newton's
+    method, not the search, finds most of them (the exact model's many charts on the 1 nm grid
+    and the default budget: problems whose profile points the Python driver fits)."""
+    import functools
+
+    import sca.batch
+    import sca.intervals as iv
+
+    M, S, D, R = _batch_charts(n, 50)
+    kw = dict(depth=D, distance=R, sigma=S, uncertain=uncertain,
+              setup=forward.chart_setup(wavelengths=np.arange(400.0, 701.0, step)))
+    searched = []
+    ends_alone = iv._profile_ends
+
+    def counting(prob, chart, *args, **kwargs):
+        searched.append(chart.size)
+        return ends_alone(prob, chart, *args, **kwargs)
+
+    monkeypatch.setattr(iv, "_profile_ends", counting)
+    new = sca.estimate_batch(M, **kw)
+    rows_newton_missed = sum(searched)
+    searched.clear()
+    monkeypatch.setattr(sca.batch, "profile_intervals",
+                        functools.partial(iv.profile_intervals, newton_steps=0))
+    old = sca.estimate_batch(M, **kw)
+    rows_searched = sum(searched)
+    assert rows_newton_missed < rows_searched / 2, (rows_newton_missed, rows_searched)
+    assert old.flags == new.flags and np.array_equal(old.reliable, new.reliable)
+    for name in ("chl", "cdom"):
+        a, b = old.intervals[name], new.intervals[name]
+        assert np.array_equal(np.isfinite(a), np.isfinite(b)), name
+        width = np.where(np.isfinite(a[:, 1]), a[:, 1] - a[:, 0], np.inf)
+        both = np.isfinite(a) & np.isfinite(b)
+        moved = np.where(both, np.abs(a - b), 0.0) / width[:, None]
+        assert np.all(moved <= 3 * iv.ROOT_TOL), (name, np.max(moved))
+        # both reach 0 where the data allow 0 (the last chart's a_CDOM)
+        assert np.array_equal(a[:, 0] == 0.0, b[:, 0] == 0.0), name
+    assert new.intervals["cdom"][n, 0] == old.intervals["cdom"][n, 0] == 0.0
+
+
+def test_few_charts_of_the_exact_model_use_the_search_alone(monkeypatch):
+    """Where the profile points are fitted chart by chart in compiled code (one chart of the
+    exact model), Newton's method is not tried: it would be slower."""
+    import sca.intervals as iv
+
+    def fail(*args, **kwargs):
+        raise AssertionError("Newton's method was tried")
+
+    monkeypatch.setattr(iv, "_vm_ends", fail)
+    s = sim()
+    assert fit(s).reliable
+    M, S = s.rgb[None], s.rgb_sigma[None]
+    b = sca.estimate_batch(M, depth=np.array([s.depth]), distance=np.array([s.distance]),
+                           sigma=S, uncertain={})
+    assert b.reliable[0]
+
+
+def test_newton_steps_must_not_be_negative():
+    import sca.intervals as iv
+
+    H = np.eye(2)[None]
+    with pytest.raises(ValueError, match="newton_steps"):
+        iv.profile_intervals(None, np.zeros((1, 2)), np.zeros(1), np.ones(1), H, np.ones(2),
+                             newton_steps=-1)
