@@ -22,7 +22,11 @@ The commands:
   like the decode's (what the rest of the pipeline costs beside the deflate);
 * ``estimate``: ``uw3p estimate m.csv --depth 8 --distance 1.5`` (one chart);
 * ``help``: ``uw3p --help``; ``measure --help``; ``bad input``: ``uw3p measure missing.dng
-  ...`` (exit 2).
+  ...`` (exit 2);
+* ``numba floor``: a process that imports numba and calls one trivial compiled function from
+  numba's on-disk cache (written by the fixture): what any command that runs the package's
+  compiled kernels pays before its own work (numba's import and its first load of a cached
+  function), for issue 21's target 2.
 """
 
 from __future__ import annotations
@@ -67,7 +71,10 @@ REPEATS = 3
 TARGETS = {"measure": ("decode", 1.0), "measure (detect)": ("decode", None),
            "measure --tiff full": ("decode", None),
            "estimate": (None, 1.0), "help": (None, 0.3), "measure --help": (None, 0.3),
-           "bad input": (None, 0.3)}
+           "bad input": (None, 0.3), "numba floor": (None, None)}
+#: The ``numba floor`` command's module: one trivial function in numba's on-disk cache
+_FLOOR = ("import numba\n\n\n@numba.njit(cache=True)\ndef one(x):\n    return x + 1.0\n\n\n"
+          "one(1.0)\n")
 
 _DECODE = ("import sys, rawpy, tifffile\n"
            "with rawpy.imread(sys.argv[1]) as raw:\n"
@@ -94,7 +101,8 @@ def fixture(folder, frame=FRAME) -> dict:
     Returns
     -------
     dict
-        ``dng`` and ``patches`` (paths, str) and ``corners`` (the patch grid's corners,
+        ``dng``, ``patches`` and ``floor`` (paths, str: the ``numba floor`` module, its
+        function compiled into numba's cache) and ``corners`` (the patch grid's corners,
         pixels, the ``--corners`` text).
     """
     from .independent_world import render_chart
@@ -113,7 +121,10 @@ def fixture(folder, frame=FRAME) -> dict:
     subprocess.run([*_uw3p(), "simulate", "--chl", str(chl), "--cdom", str(cdom), "--depth",
                     str(depth), "--distance", str(distance), "--out", str(patches)],
                    check=True, capture_output=True)
-    return {"dng": str(dng), "patches": str(patches), "corners": corners}
+    floor = folder / "numba_floor.py"
+    floor.write_text(_FLOOR)
+    subprocess.run([sys.executable, str(floor)], check=True, capture_output=True)  # the cache
+    return {"dng": str(dng), "patches": str(patches), "corners": corners, "floor": str(floor)}
 
 
 def _fixture_in_child(folder, frame) -> dict:
@@ -162,6 +173,7 @@ def commands(fx: dict, folder) -> dict:
         "measure --help": [*uw3p, "measure", "--help"],
         "bad input": [*uw3p, "measure", str(folder / "missing.dng"), *geometry,
                       "--out", str(folder / "x")],
+        "numba floor": [sys.executable, fx["floor"]],
     }
 
 

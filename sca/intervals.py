@@ -268,7 +268,8 @@ def _vm_ends(prob, chart, col, side, theta_hat, f_hat, delta, H, limit, limit_co
         active, new = active[go], new[go]
         if active.size == 0:
             break
-        fn, gn, Hn, *_ = evaluate(prob, chart[active], new, True, False)
+        with np.errstate(all="ignore"):  # a step far out overflows: the row stops (below)
+            fn, gn, Hn, *_ = evaluate(prob, chart[active], new, True, False)
         ok = fn < F_OVERFLOW
         active, new = active[ok], new[ok]
         theta[active], f[active], g[active], Hc[active] = new, fn[ok], gn[ok], Hn[ok]
