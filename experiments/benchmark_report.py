@@ -294,6 +294,10 @@ def report(out) -> str:
                   f"rounds (best kept); the photo: a {fr[0] * fr[1] / 1e6:.0f} MP "
                   f"({fr[1]} x {fr[0]}) RGGB DNG of a chart on a reef (`experiments.scene`). "
                   "`decode` is rawpy's own decode of it to a 16-bit TIFF (`postprocess"
-                  "(output_bps=16)` + `tifffile.imwrite`).", "", wait_table(waits)]
+                  "(output_bps=16)` + `tifffile.imwrite`)."
+                  + (" `numba floor` imports numba and calls one trivial function from "
+                     "numba's on-disk cache: what any command that runs compiled code pays "
+                     "before its own work." if "numba floor" in waits["commands"] else ""),
+                  "", wait_table(waits)]
     lines += ["", *targets(out)]
     return "\n".join(lines) + "\n"

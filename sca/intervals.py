@@ -9,7 +9,8 @@ z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear m
   & Moolgavkar (:func:`_vm_ends`): Newton's method on the end's two conditions together
   (z = sqrt(delta), the other parameters at their minimum), one evaluation of the model
   function (:func:`sca.lm.evaluate`) per step;
-* an end it does not find within :data:`VM_MAX_ITER` evaluations by a first step from the
+* an end it does not find within ``newton_steps`` (default :data:`VM_MAX_ITER`) evaluations,
+  and every end elsewhere, by a first step from the
   Gauss-Newton curvature, secant extrapolation until the target sqrt(delta) is bracketed, then
   the Illinois method to 1e-3 of sqrt(delta) (:func:`_profile_ends`). Every profile point
   P(theta_j) is the Levenberg-Marquardt of :mod:`sca.lm` with theta_j held, started from the
@@ -17,7 +18,9 @@ z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear m
   (:func:`profile_slopes`).
 
 Both use the same engine and model function as the fit (so every estimator's intervals agree)
-and stop on the same tests. C is searched in u = C^e0.
+and accept an end on the same tests (Newton's test of the other parameters' convergence, the
+undamped Gauss-Newton decrease, is as strict as the profile points' or stricter). C is
+searched in u = C^e0.
 
 References
 ----------
@@ -209,15 +212,18 @@ def _vm_ends(prob, chart, col, side, theta_hat, f_hat, delta, H, limit, limit_co
     Newton's method on the two conditions of an end, P(theta_col) = f_hat + delta and the others
     at their minimum, one model evaluation per iteration (:func:`_vm_step`), from the optimum.
 
-    A parameter at its lower bound with the gradient pointing out is held there, and a step
-    below a bound is cut to it. A step of theta_col beyond ``limit`` stops at the limit, one
-    back across the optimum is not taken (the others alone move). An end is found where
-    sqrt(P - f_hat) is within :data:`ROOT_TOL` of sqrt(delta), or below it at the limit (then
-    the end is the limit, code ``limit_code``), with the others' remaining decrease below
-    :data:`POINT_ATOL` delta (the tests of the bracketing search and of its profile points).
-    A row whose H_oo is not well conditioned, whose profile misses the target, whose objective
-    overflows or which is not found within ``max_iter`` evaluations stops unfound (to be
-    searched by :func:`_profile_ends`).
+    A parameter at its lower bound with the gradient not pointing into the bounds (g >= 0;
+    at the optimum, where g is taken as 0, every parameter at its bound) is held there, and a
+    step below a bound is cut to it. A step of theta_col beyond ``limit`` stops at the limit;
+    one back across the optimum, or none (the quadratic profile misses the target) while the
+    others are unsettled, is not taken (the others alone move). An end is found where the
+    others' remaining decrease is below :data:`POINT_ATOL` delta (the undamped Gauss-Newton
+    decrease: as strict as, or stricter than, the test of the search's profile points) and
+    sqrt(P - f_hat) is below sqrt(delta) at the limit (the end is the limit, code
+    ``limit_code``, as the search's) or within :data:`ROOT_TOL` of it (the search's test). A
+    row whose H_oo is not well conditioned, whose profile misses the target with the others
+    settled, whose objective overflows or which is not found within ``max_iter`` evaluations
+    stops unfound (to be searched by :func:`_profile_ends`).
 
     Returns
     -------
@@ -250,18 +256,24 @@ def _vm_ends(prob, chart, col, side, theta_hat, f_hat, delta, H, limit, limit_co
         t, lim = th[k, ca], limit[active]
         z = np.sqrt(np.maximum(f[active] - f_hat[active], 0.0))
         settled = decrease <= atol[active]
-        at_limit = t == lim
-        hit = settled & (np.abs(z - zt[active]) <= ROOT_TOL * zt[active])
-        hit_limit = settled & at_limit & (z < zt[active]) & ~hit
+        # at the limit with the profile below the target, the end is the limit (as the
+        # search's 'at end'), before the target's tolerance band is tested
+        hit_limit = settled & (t == lim) & (z < zt[active])
+        hit = settled & ~hit_limit & (np.abs(z - zt[active]) <= ROOT_TOL * zt[active])
         res[active[hit]] = t[hit]
         res[active[hit_limit]] = lim[hit_limit]
         code[active[hit_limit]] = limit_code[active[hit_limit]]
         found[active[hit | hit_limit]] = True
         with np.errstate(invalid="ignore"):
+            # no step of theta_col (the profile misses the target): the others alone move
+            # while they are unsettled; settled, the row stops
+            lost = ~np.isfinite(dt)
+            dt = np.where(lost & ~settled, 0.0, dt)
             dt = np.where(sa * (t + dt - t_hat[active]) > 0, dt, 0.0)  # not back across
-            dt = np.where(sa * (lim - (t + dt)) > 0, dt, lim - t)  # not beyond the limit
-        new = np.maximum(th + a + b * dt[:, None], prob.lower)  # (NaN stays NaN)
-        new[k, ca] = np.where(np.isfinite(dt), t + dt, np.nan)
+            dt = np.where(lost & settled, np.nan, dt)
+            beyond = ~(sa * (lim - (t + dt)) > 0) & np.isfinite(dt)  # stopped at the limit
+        new = np.maximum(th + a + b * np.where(beyond, lim - t, dt)[:, None], prob.lower)
+        new[k, ca] = np.where(beyond, lim, t + dt)  # (NaN stays NaN)
         go = ~(hit | hit_limit) & np.all(np.isfinite(new), axis=1)
         if it == max_iter:
             break
@@ -444,9 +456,9 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     code = np.full(charts.size, BOUND_FOUND)
     th, fh, dl = theta_hat[charts], f_hat[charts], delta[charts]
     # the Venzon-Moolgavkar search where the end is inside the limits and the search's profile
-    # points would be rounds of the Python driver (where they are fitted chart by chart in
-    # compiled code the search alone is faster); the rest, and every end it does not find, by
-    # bracketing and Illinois
+    # points would be rounds of the Python driver anyway (where they are fitted chart by chart
+    # in compiled code, each Newton step would add a Python round the compiled points do not
+    # pay); the rest, and every end it does not find, by bracketing and Illinois
     t_hat = th[np.arange(charts.size), cols]
     newton = newton_steps > 0 and not compiled_driver(prob, charts.size)
     vm = np.flatnonzero((dl > 0) & (sides * (limit - t_hat) > 0) & np.isfinite(fh)) \

@@ -263,7 +263,7 @@ def test_newton_ends_agree_with_the_search_alone(monkeypatch, uncertain, n, step
 
 def test_few_charts_of_the_exact_model_use_the_search_alone(monkeypatch):
     """Where the profile points are fitted chart by chart in compiled code (one chart of the
-    exact model), Newton's method is not tried: it would be slower."""
+    exact model), Newton's method is not tried (each of its steps would be a Python round)."""
     import sca.intervals as iv
 
     def fail(*args, **kwargs):
@@ -285,3 +285,81 @@ def test_newton_steps_must_not_be_negative():
     with pytest.raises(ValueError, match="newton_steps"):
         iv.profile_intervals(None, np.zeros((1, 2)), np.zeros(1), np.ones(1), H, np.ones(2),
                              newton_steps=-1)
+
+
+def _stub_ends(monkeypatch, objective, theta_hat, H_hat, side, limit, limit_code, lower,
+               delta=1.0):
+    """Newton's ends (sca.intervals._vm_ends) of one row on a stub objective: theta (1, p) ->
+    (f, half gradient, Gauss-Newton H); returns (end, code, found, evaluations)."""
+    import types
+
+    import sca.intervals as iv
+
+    calls = []
+
+    def evaluate(prob, idx, theta, grad=True, attenuation=True):
+        calls.append(theta.copy())
+        f, g, H = objective(theta)
+        return f, g, H, None, None, None, None
+
+    monkeypatch.setattr(iv, "evaluate", evaluate)
+    prob = types.SimpleNamespace(lower=np.asarray(lower, float))
+    theta_hat = np.atleast_2d(np.asarray(theta_hat, float))
+    f_hat = objective(theta_hat)[0]
+    end, code, found = iv._vm_ends(prob, np.array([0]), np.array([0]), np.array([float(side)]),
+                                   theta_hat, f_hat, np.array([delta]),
+                                   np.asarray(H_hat, float)[None], np.array([float(limit)]),
+                                   np.array([limit_code]))
+    return end[0], code[0], found[0], len(calls)
+
+
+def test_newton_ends_on_known_profiles(monkeypatch):
+    import sca.intervals as iv
+
+    def square(th):  # f = t^2: the ends of delta = 1 at -1 and 1, one step each
+        return th[:, 0] ** 2, th.copy(), np.ones((len(th), 1, 1))
+    for side in (-1, 1):
+        end, code, found, n = _stub_ends(monkeypatch, square, [[0.0]], [[1.0]], side,
+                                         side * 1e4, iv.BOUND_OPEN, [-np.inf])
+        assert found and code == iv.BOUND_FOUND and end == pytest.approx(side, rel=1e-9)
+        assert n == 1
+    # the cap inside the tolerance band of the target: the interval is open there, as the
+    # search says (z below sqrt(delta) at the limit)
+    end, code, found, _ = _stub_ends(monkeypatch, square, [[0.0]], [[1.0]], 1, 0.9995,
+                                     iv.BOUND_OPEN, [-np.inf])
+    assert found and code == iv.BOUND_OPEN and end == 0.9995
+
+    def shifted(th):  # f = (t - 0.5)^2, t >= 0: the lower end of delta = 1 is the bound
+        return (th[:, 0] - 0.5) ** 2, th - 0.5, np.ones((len(th), 1, 1))
+    end, code, found, _ = _stub_ends(monkeypatch, shifted, [[0.5]], [[1.0]], -1, 0.0,
+                                     iv.BOUND_ZERO, [0.0])
+    assert found and code == iv.BOUND_ZERO and end == 0.0
+
+    def flat(th):  # no curvature: nothing to step on, no evaluation spent
+        return np.zeros(len(th)), np.zeros_like(th), np.zeros((len(th), 1, 1))
+    end, code, found, n = _stub_ends(monkeypatch, flat, [[0.0]], [[0.0]], 1, 10.0,
+                                     iv.BOUND_OPEN, [-np.inf])
+    assert not found and n == 0
+
+
+def test_newton_ends_profile_the_others(monkeypatch):
+    import sca.intervals as iv
+
+    def coupled(th):  # residuals t - psi and sqrt(0.1) psi: P(t) = t^2 / 11
+        t, psi = th[:, 0], th[:, 1]
+        g = np.column_stack([t - psi, -(t - psi) + 0.1 * psi])
+        H = np.broadcast_to(np.array([[1.0, -1.0], [-1.0, 1.1]]), (len(th), 2, 2))
+        return (t - psi) ** 2 + 0.1 * psi ** 2, g, H.copy()
+    end, code, found, n = _stub_ends(monkeypatch, coupled, [[0.0, 0.0]],
+                                     [[1.0, -1.0], [-1.0, 1.1]], 1, 1e4, iv.BOUND_OPEN,
+                                     [-np.inf, -np.inf])
+    assert found and code == iv.BOUND_FOUND and end == pytest.approx(np.sqrt(11.0), rel=1e-6)
+    assert n <= 2
+
+    def bounded(th):  # residuals t and psi + 1, psi >= 0: psi stays at its bound, P = t^2 + 1
+        t, psi = th[:, 0], th[:, 1]
+        H = np.broadcast_to(np.eye(2), (len(th), 2, 2))
+        return t ** 2 + (psi + 1.0) ** 2, np.column_stack([t, psi + 1.0]), H.copy()
+    end, code, found, _ = _stub_ends(monkeypatch, bounded, [[0.0, 0.0]], np.eye(2), 1, 1e4,
+                                     iv.BOUND_OPEN, [-np.inf, 0.0])
+    assert found and code == iv.BOUND_FOUND and end == pytest.approx(1.0, rel=1e-6)
