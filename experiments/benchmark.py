@@ -390,10 +390,10 @@ def machine():
 
 # --------------------------------------------------------------------------- photographs
 #: Whole-process waits (:mod:`experiments.wait_bench`) in ``make bench``: its commands run here
-#: (issue 21's targets 1 and 2, and the floor of any command that runs compiled code), rounds
+#: (issue 21's targets 1 and 2, and the floor of the libraries uw3p estimate needs), rounds
 #: (each keeps its best), and the --quick frame (h, w; the full run uses wait_bench's 24 MP)
 WAIT_COMMANDS = ("decode", "measure", "estimate", "help", "measure --help", "bad input",
-                 "numba floor")
+                 "library floor")
 WAIT_REPEATS = 2
 QUICK_PHOTO_FRAME = (1000, 1500)
 
