@@ -197,12 +197,11 @@ def _vm_step(theta, f, g, H, col, side, f_hat, delta, held):
         z = np.sqrt(np.maximum(C - f_hat[ok], 0.0))
         newton = (z > 0) & (side[ok] * B > 0)
         dt = np.where(newton, (np.sqrt(delta[ok]) - z) * 2.0 * z / B, dt)
-    k = np.arange(r.size)
     a_full[ok], b_full[ok] = 0.0, 0.0
     a_full[r[:, None], others[ok]] = a
     b_full[r[:, None], others[ok]] = b
     b_full[r, c] = 1.0
-    dt_out[ok], decrease[ok] = dt[k], drop
+    dt_out[ok], decrease[ok] = dt, drop
     return a_full, b_full, dt_out, decrease
 
 
