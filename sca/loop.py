@@ -96,7 +96,8 @@ GRADIENT_VANISHES = 1e-300
 #: The start grid's objective is evaluated in blocks of at most about this many (point,
 #: wavelength) values (~0.5 MB per temporary array), so that a block's temporaries stay in a
 #: core's L2 cache: at 1 nm the 513-point grid in one piece spent ~1.3 ms more per fit moving
-#: memory (DECISIONS.md, "The start grid in blocks"). The blocks change no number.
+#: memory (DECISIONS.md, "The start grid in blocks"). The blocks change a point's value by
+#: rounding at most (BLAS's kernel for a block's last rows) and not the best point.
 GRID_BLOCK_VALUES = 60_000
 #: ... and of at least this many points: :func:`forward.WaterTerms.path_coefficient` adds the
 #: terms of fewer than 8 points one by one and of more by one matrix product, whose sums may
@@ -338,7 +339,9 @@ class Estimator:
             a block's temporaries stay in a core's cache (default :data:`GRID_BLOCK_VALUES`), and of
             at least :data:`GRID_BLOCK_MIN_POINTS` points. Each point's value is computed on
             its own (elementwise operations, sums per point and matrix products whose rows do
-            not mix), so the blocks change no number (a test checks it).
+            not mix), so the blocks change a value by rounding at most: BLAS may multiply a
+            block's last rows by another kernel, summing in another order (a test checks
+            1e-12 relative and the same best point).
 
         Returns
         -------

@@ -677,8 +677,8 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
             D = np.where(ok[:, None], d, 1.0)
             scaled = flat_F / (D[:, :, None] * D[:, None, :])
             ok[ok] = np.linalg.cond(scaled[ok]) < cond_max
-        if ok.any():
-            flat_out[ok] = np.linalg.inv(scaled[ok]) / (D[ok][:, :, None] * D[ok][:, None, :])
+            if ok.any():  # a tiny scale D overflows to an infinite variance, quietly
+                flat_out[ok] = np.linalg.inv(scaled[ok]) / (D[ok][:, :, None] * D[ok][:, None, :])
     return out.reshape(F.shape) * np.asarray(sigma2, float)[..., None, None]
 
 
