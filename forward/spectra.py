@@ -494,7 +494,8 @@ def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
         CIE XYZ -> linear sRGB, ``colour.RGB_COLOURSPACES['sRGB'].matrix_XYZ_to_RGB``.
     levels : numpy.ndarray, (255,)
         Linear light where the 8-bit code of the sRGB encoding reaches k = 1..255
-        (``levels[k - 1]`` is colour-science's ``cctf_decoding((k - 0.5) / 255)``). For float32
+        (``levels[k - 1]`` is colour-science's ``cctf_decoding((k - 0.5) / 255)``, to the
+        ulp by which numpy's power differs between CPUs). For float32
         x (the previews' type) ``numpy.searchsorted(levels, x, side='right')`` is, to the last
         bit, the rounded code round(255 cctf_encoding(clip(x, 0, 1))); for float64 x within
         an ulp or so of a level it may differ by one. NaN sorts above every level (code 255).

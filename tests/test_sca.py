@@ -251,7 +251,7 @@ def test_standard_errors_track_the_spread_and_flag_undecidable_charts():
 BLOCK_RTOL = 1e-12
 
 
-def test_start_grid_in_blocks_changes_no_number(monkeypatch):
+def test_start_grid_blocks_change_only_rounding(monkeypatch):
     # the start grid's objective is evaluated in cache-sized blocks (sca.loop.GRID_BLOCK_VALUES,
     # at least GRID_BLOCK_MIN_POINTS points each): every block size gives the numbers of the
     # grid in one piece, to BLAS's rounding, and the same best point (the start)
