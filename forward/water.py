@@ -35,7 +35,7 @@ import dataclasses
 import functools
 import hashlib
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,11 +53,6 @@ from .spectra import (
 
 __all__ = [
     "BASIS_TABLE",
-    "LEG_LENGTHS",
-    "PieceTable",
-    "TABLE_NAMES",
-    "piece_slopes",
-    "piece_weights",
     "CDOM_SLOPE",
     "CHL_TERMS",
     "COEFFICIENT_PARAMS",
@@ -725,6 +720,32 @@ class WaterTerms:
         arrays = [_readonly(x) for x in (wl, a_w, b_w, bk, particles, cdom, nap, T, t440, phyto)]
         return cls(water, *arrays, free_only)
 
+    def subset(self, index) -> "WaterTerms":
+        """These terms on the grid points ``index`` (a subset of this grid): every spectral
+        array sliced, no value recomputed (the same numbers at those wavelengths).
+
+        Parameters
+        ----------
+        index : array_like of int, (r,)
+            Increasing indices into :attr:`wavelengths` (at least 3).
+
+        Returns
+        -------
+        WaterTerms
+            The terms on ``wavelengths[index]`` (arrays read-only).
+        """
+        idx = np.asarray(index, int)
+        wl = self.wavelengths[idx]
+        if idx.ndim != 1 or wl.size < 3 or np.any(np.diff(idx) <= 0):
+            raise ValueError("index: expected at least 3 increasing grid indices")
+        cut = [_readonly(a[..., idx]) for a in (self.pure_water_absorption,
+                                                self.pure_water_scattering,
+                                                self.background_scattering,
+                                                self.particle_shapes, self.cdom_shape,
+                                                self.nap_shape)]
+        return WaterTerms(self.water, _readonly(wl), *cut, _readonly(self.T[idx]),
+                          self.t440, _readonly(self.phyto_shape[idx]), self.free_only)
+
     @functools.cached_property
     def offset(self) -> np.ndarray:
         """lambda - 440 nm (the CDOM and NAP exponentials of eqs 6-7), nm."""
@@ -741,7 +762,7 @@ class WaterTerms:
 
     # ---------------------------------------------------------------- the path coefficient
     def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0,
-                         terms=None, stacked: bool = False):
+                         terms=None):
         """The path coefficient c(x) and its analytic derivatives: the one place they are built.
 
         Parameters
@@ -764,11 +785,6 @@ class WaterTerms:
         terms : sequence of term functions, optional
             Which terms to add (default: the path model's, :data:`PATH_TERMS`); e.g.
             :data:`ABSORPTION_TERMS` gives a, :data:`SCATTERING_TERMS` b.
-        stacked : bool
-            Return the terms' (weight, spectrum) pieces instead of their sums (see Returns):
-            the form a compiled evaluation adds up without knowing any term. Only where every
-            spectrum is one for all points (no ``w``, no ``values`` that change a shape).
-
         Returns
         -------
         c : ndarray, shape S + (q,)
@@ -776,22 +792,11 @@ class WaterTerms:
         derivatives : dict
             name -> d c / d name, shape S + (q,) (S + (q, z) for 'w').
 
-        With ``stacked``, instead (c = weights @ spectra, d c / d name = dweights[name] @
-        spectra):
-
-        weights : ndarray, shape S + (P,)
-            The pieces' weights.
-        spectra : ndarray, shape (P, q)
-            The pieces' spectra, each once.
-        dweights : dict
-            name -> S + (P,), the weights of d c / d name on the same spectra.
-
         Raises
         ------
         ValueError
             For a name of ``values`` outside :data:`COEFFICIENT_PARAMS`, a name of ``wrt``
-            that c(x) does not depend on, (without ``w``) a z > 1 basis without weights, or
-            (``stacked``) a spectrum that differs between points or 'w'.
+            that c(x) does not depend on, or (without ``w``) a z > 1 basis without weights.
 
         References
         ----------
@@ -819,11 +824,6 @@ class WaterTerms:
             pieces += value
             for name, d in parts.items():
                 by_name.setdefault(name, []).append(d)
-        if stacked:
-            if w is not None or "w" in wrt:
-                raise ValueError("stacked: not available with free phytoplankton weights 'w'")
-            return _stack_pieces(pieces, {name: [piece for d in by_name.get(name, [])
-                                                 for piece in d] for name in wrt}, lead)
         c = _sum_pieces(pieces, lead, q)
         derivatives = {}
         for name in wrt:
@@ -837,7 +837,7 @@ class WaterTerms:
         return c, derivatives
 
     def optical_depth(self, chl, cdom, depth, distance, *, w=None, values=None, wrt=(),
-                      floor: float = 0.0, stacked: bool = False):
+                      floor: float = 0.0):
         """tau of k = exp(-tau) along the light's path, and its derivatives: the one place
         where the path model's legs are put together.
 
@@ -849,12 +849,6 @@ class WaterTerms:
             The chart's depth and the camera-to-chart distance, m.
         wrt : sequence of str
             Names of :meth:`path_coefficient`, and 'depth' and 'distance'.
-        stacked : bool
-            Return (weights, spectra, dweights) as :meth:`path_coefficient` does, for tau:
-            tau = weights @ spectra, d tau / d name = dweights[name] @ spectra (each leg's
-            weights times its length; d tau / d depth and d distance are the legs' c). The
-            spectra (and dweights broadcast to the weights' shape) may be read-only views.
-
         Returns
         -------
         tau : ndarray, shape S + (q,)
@@ -872,10 +866,6 @@ class WaterTerms:
         depth = np.asarray(depth, float)[..., None]
         distance = np.asarray(distance, float)[..., None]
         spectral = tuple(n for n in wrt if n not in ("depth", "distance"))
-        if stacked:
-            if w is not None:
-                raise ValueError("stacked: not available with free phytoplankton weights 'w'")
-            return self._stacked_depth(chl, cdom, depth, distance, values, wrt, spectral, floor)
         tau, out = 0.0, {}
         for terms, leg in PATH_LEGS[self.water.path_model]:
             coef, dcoef = self.path_coefficient(chl, cdom, w=w, values=values, wrt=spectral,
@@ -889,72 +879,6 @@ class WaterTerms:
                 if geo in wrt and (leg == "path" or leg == geo):
                     out[geo] = out[geo] + coef if geo in out else coef
         return tau, out
-
-    @functools.cached_property
-    def piece_table(self) -> "PieceTable":
-        """The optical depth's pieces as numbers (:class:`PieceTable`): every term of every leg
-        of the path model, run once in table mode (:class:`_TableInputs`), its weight's form
-        and its spectrum. tau = sum_j weight_j spectrum_j with the weights of
-        :func:`piece_weights`."""
-        self._check_shape(None)
-        x = _TableInputs(self)
-        rows, spectra = [], []
-        for terms, leg in PATH_LEGS[self.water.path_model]:
-            alpha, beta = LEG_LENGTHS[leg]
-            for term in terms:
-                for w, sh in term(x, ())[0]:
-                    form = w if isinstance(w, _Affine) else _Affine(const=float(w))
-                    rows.append((form.const, form.cdom, form.chl, *form.row, alpha, beta))
-                    spectra.append(sh)
-        cols = np.array(rows, float).T
-        return PieceTable(*(_readonly(c) for c in cols), _readonly(np.array(spectra, float)))
-
-    def _table_depth(self, chl, cdom, depth, distance, wrt, floor):
-        """:meth:`optical_depth` with ``stacked`` from :attr:`piece_table` (no ``values``, ``wrt``
-        among chl, cdom, depth, distance): the same numbers as the terms' own pieces."""
-        self._check_shape(None)
-        tb = self.piece_table
-        c = np.asarray(chl, float)[..., None]
-        phi = chl_weight(c, tb.p, tb.e, tb.g, tb.h)
-        weights, base = piece_weights(tb.const, tb.cdom, tb.chl, tb.depth, tb.distance, phi,
-                                      np.asarray(cdom, float)[..., None], depth, distance)
-        out = {}
-        if wrt:
-            dphi = 0.0
-            if "chl" in wrt:
-                with _slope_guard(floor):
-                    dphi = chl_weight_derivative(np.maximum(c, floor), tb.p, tb.e, tb.g, tb.h)
-            slopes = piece_slopes(tb.cdom, tb.chl, tb.depth, tb.distance, base, dphi, depth,
-                                  distance)
-            for name in wrt:
-                d = slopes[TABLE_NAMES.index(name)]
-                out[name] = d if d.shape == weights.shape else np.broadcast_to(d, weights.shape)
-        return weights, tb.spectra, out
-
-    def _stacked_depth(self, chl, cdom, depth, distance, values, wrt, spectral, floor):
-        """:meth:`optical_depth` with ``stacked``: each leg's pieces times its length, the
-        legs' spectra side by side (from :attr:`piece_table` where no constant is replaced and
-        ``wrt`` is among :data:`TABLE_NAMES`)."""
-        if _use_table(values, wrt):
-            return self._table_depth(chl, cdom, depth, distance, wrt, floor)
-        weights, spectra, dweights = [], [], {name: [] for name in wrt}
-        for terms, leg in PATH_LEGS[self.water.path_model]:
-            wt, sp, dw = self.path_coefficient(chl, cdom, values=values, wrt=spectral,
-                                               floor=floor, terms=terms, stacked=True)
-            length = depth + distance if leg == "path" else depth if leg == "depth" else distance
-            weights.append(length * wt)
-            spectra.append(sp)
-            for name in wrt:
-                if name in dw:
-                    dweights[name].append(length * dw[name])
-                elif leg == "path" or leg == name:  # d tau / d length = the leg's c
-                    dweights[name].append(wt)
-                else:
-                    dweights[name].append(np.zeros_like(wt))
-        weights = np.concatenate(np.broadcast_arrays(*weights), axis=-1)
-        return (weights, np.concatenate(spectra),
-                {name: np.concatenate(np.broadcast_arrays(*d), axis=-1)
-                 for name, d in dweights.items()})
 
     def coefficient(self, chl, cdom, w=None) -> np.ndarray:
         """The path coefficient (c for 'beam', a for 'absorption'), m^-1, shape S + (q,).
@@ -1132,131 +1056,11 @@ COEFFICIENT_PARAMS = ("cdom_slope", "nap_slope", "nap_scale", "nap_exponent", "p
                       "water_scattering_exponent")
 
 
-#: The names :attr:`WaterTerms.piece_table` differentiates by, in the order of
-#: :func:`piece_slopes`' results.
-TABLE_NAMES = ("chl", "cdom", "depth", "distance")
-
-
 def _slope_guard(floor):
     """The context of d/dC: the slopes may be infinite (C^e at 0, e < 1) only where the floor
     is not positive, so numpy's warnings are silenced there and only there."""
     return np.errstate(divide="ignore", invalid="ignore") if not floor > 0 else \
         contextlib.nullcontext()
-
-
-def _use_table(values, wrt) -> bool:
-    """:meth:`WaterTerms.optical_depth` (``stacked``) evaluates :attr:`WaterTerms.piece_table`
-    where no constant is replaced and ``wrt`` is among :data:`TABLE_NAMES`."""
-    return not values and set(wrt) <= set(TABLE_NAMES)
-
-
-#: Each leg's length as (depth, distance) coefficients: length = alpha depth + beta distance.
-LEG_LENGTHS = {"path": (1.0, 1.0), "depth": (1.0, 0.0), "distance": (0.0, 1.0)}
-
-
-@dataclass(frozen=True, eq=False)
-class PieceTable:
-    """The optical depth's pieces as numbers (:attr:`WaterTerms.piece_table`).
-
-    Piece j has the weight (depth alpha_j + distance beta_j) (const_j + cdom_j a_CDOM +
-    chl_j phi(C; p_j, e_j, g_j, h_j)) (:func:`piece_weights`, :func:`chl_weight`) and the
-    spectrum ``spectra[j]``; tau = sum_j weight_j spectrum_j. Every array is read-only, (P,)
-    or (P, q).
-
-    Attributes
-    ----------
-    const, cdom, chl : ndarray, (P,)
-        The weight's constant, its factor of a_CDOM(440) and its factor of phi.
-    p, e, g, h : ndarray, (P,)
-        phi's row (:meth:`Water.chl_terms`' form; (0, 1, 0, 0), phi = 0, for no chlorophyll).
-    depth, distance : ndarray, (P,)
-        The piece's leg length in depth and distance (:data:`LEG_LENGTHS`).
-    spectra : ndarray, (P, q)
-        The pieces' spectra (m^-1 per unit weight).
-    """
-
-    const: np.ndarray
-    cdom: np.ndarray
-    chl: np.ndarray
-    p: np.ndarray
-    e: np.ndarray
-    g: np.ndarray
-    h: np.ndarray
-    depth: np.ndarray
-    distance: np.ndarray
-    spectra: np.ndarray
-
-    @functools.cached_property
-    def numbers(self) -> np.ndarray:
-        """(9, P), read-only: the rows const .. distance in the order of the fields above (a
-        compiled evaluation's one argument, :mod:`sca.fusedlm`)."""
-        return _readonly(np.stack([getattr(self, f.name) for f in fields(self)
-                                   if f.name != "spectra"]))
-
-
-# The two functions below are plain arithmetic of arrays and scalars: numpy broadcasts them
-# over charts here, and numba compiles them unchanged for the batch's engine (sca.fusedlm).
-def piece_weights(const, kcdom, kchl, alpha, beta, phi, cdom, depth, distance):
-    """The pieces' weights of tau and their brackets (:class:`PieceTable`).
-
-    Parameters
-    ----------
-    const, kcdom, kchl, alpha, beta : ndarray, (P,)
-        The table's ``const``, ``cdom``, ``chl``, ``depth`` and ``distance``.
-    phi : ndarray, S + (P,)
-        phi(C) of every piece's row (:func:`chl_weight`).
-    cdom, depth, distance : float or ndarray, S + (1,)
-        a_CDOM(440) (m^-1), the chart's depth and distance (m).
-
-    Returns
-    -------
-    weights : ndarray, S + (P,)
-        (depth alpha + distance beta) base (dimensionless: tau = weights @ spectra).
-    base : ndarray, S + (P,)
-        const + kcdom a_CDOM + kchl phi, m^-1 per unit spectrum.
-    """
-    base = const + kcdom * cdom + kchl * phi
-    return (alpha * depth + beta * distance) * base, base
-
-
-def piece_slopes(kcdom, kchl, alpha, beta, base, dphi, depth, distance):
-    """d weights / d (C, a_CDOM, depth, distance), in the order of :data:`TABLE_NAMES`.
-
-    Parameters
-    ----------
-    kcdom, kchl, alpha, beta : ndarray, (P,)
-        As :func:`piece_weights`.
-    base : ndarray, S + (P,)
-        :func:`piece_weights`' bracket.
-    dphi : float or ndarray, S + (P,)
-        d phi / dC (:func:`chl_weight_derivative`).
-    depth, distance : float or ndarray, S + (1,)
-        m.
-
-    Returns
-    -------
-    tuple of 4 ndarray, S + (P,)
-    """
-    length = alpha * depth + beta * distance
-    return length * (kchl * dphi), length * kcdom, alpha * base, beta * base
-
-
-class _Affine:
-    """A piece's weight as numbers, const + cdom a_CDOM + chl phi(C; row) (table mode): what
-    the terms return for a :class:`_TableInputs` point. Scaling it by a number (a leg's
-    factor, :func:`_scaled`) scales const, cdom and chl."""
-
-    __slots__ = ("const", "cdom", "chl", "row")
-
-    def __init__(self, const=0.0, cdom=0.0, chl=0.0, row=(0.0, 1.0, 0.0, 0.0)):
-        self.const, self.cdom, self.chl, self.row = const, cdom, chl, row
-
-    def __mul__(self, factor):
-        if not isinstance(factor, (int, float)):
-            return NotImplemented
-        return _Affine(self.const * factor, self.cdom * factor, self.chl * factor, self.row)
-
-    __rmul__ = __mul__
 
 
 class _TermInputs:
@@ -1286,20 +1090,6 @@ class _TermInputs:
         """ln C, 0 where C = 0 (the factor of a d/d exponent term, C^e ln C -> 0)."""
         with np.errstate(divide="ignore"):
             return np.where(self.chl > 0, np.log(np.where(self.chl > 0, self.chl, 1.0)), 0.0)
-
-
-class _TableInputs(_TermInputs):
-    """The point of the terms in table mode (:attr:`WaterTerms.piece_table`): a_CDOM and every
-    chlorophyll weight are :class:`_Affine` forms, the constants the water's own (no
-    ``values``: :class:`_TermInputs`' ``given`` and ``get``)."""
-
-    def __init__(self, terms):
-        self.terms, self.w, self.values = terms, None, {}
-        self.cdom = _Affine(cdom=1.0)
-        self.offset, self.ratio = terms.offset, terms.ratio
-
-    def phi(self, p, e, g, h):
-        return _Affine(chl=1.0, row=(float(p), float(e), float(g), float(h)))
 
 
 # Each term returns its value and its derivatives as sums of (weight, spectrum) pieces: a
@@ -1471,28 +1261,6 @@ def _sum_pieces(pieces, lead, q):
     if not owned:
         total = total.copy()
     return total if total.shape == lead + (q,) else np.broadcast_to(total, lead + (q,))
-
-
-def _stack_pieces(pieces, derivative_pieces, lead):
-    """(weights S + (P,), spectra (P, q), dweights {name: S + (P,)}) of value ``pieces`` and
-    ``derivative_pieces`` (name -> pieces): each distinct spectrum once; ``ValueError`` for a
-    spectrum that differs between points."""
-    spectra, index = [], {}
-    for sh in [sh for _, sh in pieces] + [sh for p in derivative_pieces.values() for _, sh in p]:
-        if np.ndim(sh) != 1:
-            raise ValueError("stacked: a spectrum differs between points (a constant that "
-                             "changes a shape is given per point)")
-        if id(sh) not in index:
-            index[id(sh)] = len(spectra)
-            spectra.append(sh)
-
-    def weights(plist):
-        out = np.zeros(lead + (len(spectra),))
-        for w, sh in plist:  # w: a scalar or S + (1,)
-            out[..., index[id(sh)]] += w[..., 0] if np.ndim(w) else w
-        return out
-    return (weights(pieces), np.array(spectra, float).reshape(len(spectra), -1),
-            {name: weights(p) for name, p in derivative_pieces.items()})
 
 
 #: The terms of the absorption a (eq 5) and of the scattering b (eqs 11-12), each returning

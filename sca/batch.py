@@ -43,7 +43,8 @@ from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .limits import EXACT_FIT, MAX_RGB
-from .lm import LM_TOL, STATUS, Problem, evaluate, levenberg_marquardt
+from .charts import ChartProblem
+from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import (
     CAMERA,
     CHL_DERIVATIVE_FLOOR,
@@ -448,8 +449,8 @@ def _empty(mdl, spec):
             "budget": {}}
 
 
-def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> Problem:
-    """The scaled :class:`sca.lm.Problem` of charts ``M`` (N, m, n) (data units); with a
+def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> ChartProblem:
+    """The scaled :class:`sca.charts.ChartProblem` of charts ``M`` (N, m, n) (data units); with a
     ``budget`` (:class:`sca.budget.Budget` of these charts) its nuisance parameters follow the
     free names, with their Gaussian priors, and ``sig`` includes the per-patch term."""
     N = M.shape[0]
@@ -474,11 +475,11 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> Problem:
     fixed = {k: v for k, v in fixed.items() if k not in names}
     fs = None if spec.free_s else np.ascontiguousarray(
         spec.fixed["backscatter"][None, :] / scale[:, None])
-    return Problem(mdl, Ms, W2, np.ascontiguousarray(scale), names, fixed,
-                   spec.free_gain, fs, mean, weight)
+    return ChartProblem(mdl, Ms, W2, np.ascontiguousarray(scale), names, fixed,
+                        spec.free_gain, fs, mean, weight)
 
 
-def start_values(prob: Problem, geometry) -> np.ndarray:
+def start_values(prob: ChartProblem, geometry) -> np.ndarray:
     """(N, p) start in LM coordinates: the start grid's (C, a_CDOM), every other free parameter
     at its given value (geometry) or the water's constant."""
     N = prob.size
@@ -498,7 +499,7 @@ def start_values(prob: Problem, geometry) -> np.ndarray:
     return theta
 
 
-def start_grid(prob: Problem, geometry):
+def start_grid(prob: ChartProblem, geometry):
     """The best (C, a_CDOM) of the coarse grid for every chart: gain and s in closed form with
     each channel's mean weight (:func:`sca.projection.grid_best`), one matrix of signals per
     distinct path length.
@@ -508,7 +509,7 @@ def start_grid(prob: Problem, geometry):
 
     Parameters
     ----------
-    prob : sca.lm.Problem
+    prob : sca.charts.ChartProblem
         The charts (scaled units).
     geometry : dict
         'depth' and 'distance', (N,) each, m.
@@ -562,16 +563,14 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
         hold[:, len(spec.names):] = True
         theta0, _, it0, _ = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
                                                 f_exact=f_exact, hold=hold)
-    final = {}
     theta, f, it, code = levenberg_marquardt(prob, theta0, max_iter=max_iter, tol=tol,
-                                             f_exact=f_exact, final=final)
+                                             f_exact=f_exact)
     if prob.prior_mean is not None:
         it = it + it0
     idx = np.arange(N)
-    if final:  # the compiled driver kept its points' H, gain, s, ssr and k
-        H, gain, s, ssr, k = (final[n] for n in ("H", "gain", "s", "ssr", "k"))
-    else:
-        f, _g, H, gain, s, ssr, k = evaluate(prob, idx, theta, True)
+    ev = evaluate(prob, idx, theta, True)
+    f, H = ev.f, ev.H
+    gain, s, ssr, k = (ev.extras[n] for n in ("gain", "s", "ssr", "k"))
     res = {"s": s, "k": k, "f": f, "it": it, "code": code, "gain": gain}
     res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", prob.M, prob.M))
     n_s = np.zeros(N, dtype=int) if not spec.free_s else np.sum(s > 0, axis=1)
@@ -654,7 +653,7 @@ def _chl_cdom_codes(names, codes):
     return out
 
 
-def gain_variance(prob: Problem, theta, gain, s):
+def gain_variance(prob: ChartProblem, theta, gain, s):
     """Gauss-Newton variance of the gain (noise variance 1 units) at the charts' optima
     (:func:`sca.model.profiled_covariance`); inf where the information is singular."""
     mdl = prob.model
@@ -662,7 +661,7 @@ def gain_variance(prob: Problem, theta, gain, s):
     params = prob.params(np.arange(N), theta)
     pred = mdl.predict(params, prob.free, chl_floor=TINY)
     sc = prob.scale[:, None]
-    J = pred.jacobian * prob.column_scales(np.arange(N), params.get("chl"))[:, None, :]
+    J = pred.jacobian * (prob.chain(params) / sc)[:, None, :]
     shape = (N, mdl.m, mdl.n)
     active = (s > 0) if prob.fixed_s is None else np.zeros((N, mdl.m), bool)
     cov = profiled_covariance((gain[:, None, None] * J).reshape(shape + (-1,)),

@@ -4,9 +4,7 @@ The 95 % interval of a parameter theta_j is {theta_j : min over the other parame
 + delta} (:func:`sca.assess.profile_delta`). Each end is searched from the optimum on
 z(theta_j) = sqrt(P(theta_j) - f_hat), which is linear in theta_j for a linear model:
 
-* first, where the profile points below would be fitted by the Python driver of
-  :func:`sca.lm.levenberg_marquardt` (:func:`sca.lm.compiled_driver`), by the method of Venzon
-  & Moolgavkar (:func:`_vm_ends`): Newton's method on the end's two conditions together
+* first, by the method of Venzon & Moolgavkar (:func:`_vm_ends`): Newton's method on the end's two conditions together
   (z = sqrt(delta), the other parameters at their minimum), one evaluation of the model
   function (:func:`sca.lm.evaluate`) per step;
 * an end it does not find within ``newton_steps`` (default :data:`VM_MAX_ITER`) evaluations,
@@ -32,7 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lm import SINGULAR_PIVOT, Problem, compiled_driver, evaluate, levenberg_marquardt
+from .lm import SINGULAR_PIVOT, evaluate, levenberg_marquardt
+from .problem import Problem
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
@@ -280,7 +279,8 @@ def _vm_ends(prob, chart, col, side, theta_hat, f_hat, delta, H, limit, limit_co
         if active.size == 0:
             break
         with np.errstate(all="ignore"):  # a step far out overflows: the row stops (below)
-            fn, gn, Hn, *_ = evaluate(prob, chart[active], new, True, False)
+            ev = evaluate(prob, chart[active], new, True)
+            fn, gn, Hn = ev.f, ev.g, ev.H
         ok = fn < F_OVERFLOW
         active, new = active[ok], new[ok]
         theta[active], f[active], g[active], Hc[active] = new, fn[ok], gn[ok], Hn[ok]
@@ -395,8 +395,8 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
 
     Parameters
     ----------
-    prob : sca.lm.Problem
-        The charts (scaled units) and what is fixed about them.
+    prob : sca.problem.Problem
+        The units (any layout).
     theta_hat : ndarray, (N, p)
         The optimum, LM coordinates (u = C^e0 for C, own units otherwise).
     f_hat : ndarray, (N,)
@@ -414,10 +414,7 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
         ``theta_hat`` as both ends with code ``BOUND_FOUND``.
     newton_steps : int, optional
         Model evaluations allowed to the Venzon-Moolgavkar search of each end (default
-        :data:`VM_MAX_ITER`; 0: every end by bracketing and Illinois alone). It runs where the
-        search's profile points would be fitted by the Python driver of
-        :func:`sca.lm.levenberg_marquardt` (:func:`sca.lm.compiled_driver` False: many charts
-        on a fine grid, or a problem with parameters beyond C, a_CDOM and the path).
+        :data:`VM_MAX_ITER`; 0: every end by bracketing and Illinois alone).
 
     Returns
     -------
@@ -454,12 +451,10 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     res = np.full(charts.size, np.nan)
     code = np.full(charts.size, BOUND_FOUND)
     th, fh, dl = theta_hat[charts], f_hat[charts], delta[charts]
-    # the Venzon-Moolgavkar search where the end is inside the limits and the search's profile
-    # points would be rounds of the Python driver anyway (where they are fitted chart by chart
-    # in compiled code, each Newton step would add a Python round the compiled points do not
-    # pay); the rest, and every end it does not find, by bracketing and Illinois
+    # the Venzon-Moolgavkar search where the end is inside the limits; the rest, and every end
+    # it does not find, by bracketing and Illinois
     t_hat = th[np.arange(charts.size), cols]
-    newton = newton_steps > 0 and not compiled_driver(prob, charts.size)
+    newton = newton_steps > 0
     vm = np.flatnonzero((dl > 0) & (sides * (limit - t_hat) > 0) & np.isfinite(fh)) \
         if newton else np.zeros(0, int)
     found = np.zeros(charts.size, bool)

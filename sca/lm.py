@@ -1,27 +1,15 @@
-"""Variable projection and Levenberg-Marquardt for many charts at once, for any free parameters.
+"""The one Levenberg-Marquardt of the package: every unit of any problem at once.
 
-The engine knows no physics: it calls :meth:`sca.model.ChartModel.predict` for the signals and
-their Jacobian (for C, a_CDOM and the path alone, :func:`fused`, the same numbers chart by chart
-in compiled code from :meth:`forward.WaterTerms.optical_depth`'s (weight, spectrum) pieces,
-:func:`sca.projection.project_pieces`). For charts i with weights w2 = 1 / sigma^2 (ones where
-the noise is unknown):
-
-    G = predict(theta).signal / scale_i,   (gain, s) = closed form (:func:`sca.model.linear_part`),
-    r = sqrt(w2) (M - gain G - s 1^T),   f = ||r||^2,
-    J = -gain dG/dtheta projected off span{active channel indicators, G (free gain)}
-        (Kaufman's variable-projection Jacobian: exact gradient g = J^T r, H = J^T J).
-
-The iteration variable of C is u = C^e0 (:func:`sca.model.du_chain`); every other parameter is
-its own coordinate. A Levenberg-Marquardt step with Marquardt scaling (diag of H) and projected
-lower bounds (a variable at its bound whose gradient points outwards is held), solved per chart
-in compiled code (Gaussian elimination of the unit-diagonal Marquardt matrix; a pivot below
-:data:`SINGULAR_PIVOT` falls back to the diagonal); in the Python driver all charts advance
-together and converged charts leave the active set.
-
-Two drivers run this iteration with the same compiled step and acceptance (:func:`_step_one`,
-:func:`_judge_one`): :func:`levenberg_marquardt`'s loop below, every active chart one
-iteration at a time (any problem), and, for :func:`fused` problems, :mod:`sca.fusedlm`, each
-chart's whole fit in compiled code (the weights from forward's own functions, compiled).
+The engine knows no physics: it calls :meth:`sca.problem.Problem.evaluate` (the layout's data
+terms -- a chart's model function and variable projection, a dive's photographs, a K_d
+spectrum -- and the uncertainty budget's priors) for the objective f, half its gradient g and
+the Gauss-Newton matrix H of every active unit. A step with Marquardt scaling (diag of H) and
+projected lower bounds (a variable at its bound whose gradient points outwards is held) is
+solved per unit in compiled code (Gaussian elimination of the unit-diagonal Marquardt matrix; a
+pivot below :data:`SINGULAR_PIVOT` falls back to the diagonal) and accepted or rejected by
+compiled code (:func:`_step_one`, :func:`_judge_one`); all units advance together, and a unit
+that has converged leaves the active set. Every estimator (one chart, a batch, a dive's joint
+fit, a K_d spectrum) and the profile-likelihood ends (:mod:`sca.intervals`) call it.
 
 Codes (:data:`STATUS`): 0 relative decrease below tol, 1 exact fit, 2 no further decrease
 predicted, 3 iteration limit, 4 damping grew without decrease.
@@ -29,18 +17,12 @@ predicted, 3 iteration limit, 4 damping grew without decrease.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from forward.water import TABLE_NAMES
-
 from .compiled import njit
-from .model import TINY, ChartModel, chl_from_u, du_chain, lower_bound
-from .projection import SERIAL_BELOW, project, project_pieces
+from .problem import Evaluation, Problem
 
 __all__ = [
-    "FUSED_NAMES",
     "LM_DOWN",
     "LM_MU0",
     "LM_MU_MAX",
@@ -49,10 +31,7 @@ __all__ = [
     "LM_UP",
     "SINGULAR_PIVOT",
     "STATUS",
-    "Problem",
-    "compiled_driver",
     "evaluate",
-    "fused",
     "levenberg_marquardt",
 ]
 
@@ -85,233 +64,26 @@ SINGULAR_PIVOT = 1e-12
 LM_TOL = 1e-12
 
 
-@dataclass
-class Problem:
-    """N charts in scaled units (every chart's maximum is 1) and what is fixed about them.
-
-    Attributes
-    ----------
-    model : ChartModel
-        The chart model (unscaled units: its signals are divided by ``scale`` here).
-    M : ndarray, (N, m n)
-        Measurements / scale (row-major over channel, patch).
-    W2 : ndarray, (N, m n)
-        Weights (scale / sigma)^2, or ones where the noise is unknown.
-    scale : ndarray, (N,)
-        The data's scales (each chart's maximum, data units).
-    names : tuple of str
-        Free nonlinear parameters, in the order of theta's columns.
-    fixed : dict
-        name -> (N,) (or (N, m) for 'backscatter') values of everything else the model
-        needs ('depth', 'distance' in m, and 'chl' (mg m^-3) / 'cdom' (m^-1) where they are
-        held; the estimators pass a held backscatter as ``fixed_s`` instead).
-    free_gain : bool
-        The exposure gain is estimated (profiled out with s). Default False.
-    fixed_s : ndarray, (N, m), or None
-        Backscatter held (scaled units) or None (s free, s >= 0). Default None.
-    prior_mean : ndarray, (N, p), or None
-        Centre of each column's Gaussian prior (LM coordinates; the uncertainty budget's
-        nuisance parameters, :mod:`sca.budget`). Default None: no prior.
-    prior_weight : ndarray, (N, p), or None
-        1 / sd^2 of each column's prior in the objective's units (0: no prior on that column).
-        The objective is then f = ||r||^2 + sum prior_weight (theta - prior_mean)^2.
-    lower : ndarray, (p,)
-        Lower bound of each column of theta (:func:`sca.model.lower_bound`; set on
-        construction).
-    chl_col : int
-        The column of C (iterated in u = C^e0), or -1 (set on construction).
-    """
-
-    model: ChartModel
-    M: np.ndarray
-    W2: np.ndarray
-    scale: np.ndarray
-    names: tuple
-    fixed: dict
-    free_gain: bool = False
-    fixed_s: np.ndarray | None = None
-    prior_mean: np.ndarray | None = None
-    prior_weight: np.ndarray | None = None
-    lower: np.ndarray = field(init=False)
-
-    def __post_init__(self):
-        self.lower = np.array([lower_bound(n, self.model.water) for n in self.names])
-        self.chl_col = self.names.index("chl") if "chl" in self.names else -1
-        #: the distinct names in column order (a name of m values, 'balance', has m columns)
-        self.free = tuple(dict.fromkeys(self.names))
-        #: 1 / scale (the factor of the model's signals)
-        self.inv_scale = 1.0 / np.asarray(self.scale, float)
-
-    def subset(self, idx) -> Problem:
-        """The charts ``idx`` as a problem of their own."""
-        def rows(a):
-            return None if a is None else a[idx]
-        return Problem(self.model, self.M[idx], self.W2[idx], self.scale[idx], self.names,
-                       {k: v[idx] for k, v in self.fixed.items()}, self.free_gain,
-                       rows(self.fixed_s), rows(self.prior_mean), rows(self.prior_weight))
-
-    @property
-    def size(self) -> int:
-        """N, the number of charts."""
-        return self.M.shape[0]
-
-    def params(self, idx, theta) -> dict:
-        """The model's parameters of charts ``idx`` at LM coordinates ``theta`` (len(idx), p).
-
-        Parameters
-        ----------
-        idx : array_like of int, (k,)
-            Chart indices.
-        theta : ndarray, (k, p)
-            LM coordinates (u = C^e0 for C).
-
-        Returns
-        -------
-        dict
-            name -> (k,) values for :meth:`sca.model.ChartModel.predict` (C in mg m^-3).
-        """
-        out = {k: v[idx] for k, v in self.fixed.items()}
-        for name in self.free:
-            cols = [j for j, n in enumerate(self.names) if n == name]
-            if len(cols) > 1:
-                out[name] = theta[:, cols]
-            elif cols[0] == self.chl_col:
-                out[name] = chl_from_u(theta[:, cols[0]], self.model.e0)
-            else:
-                out[name] = theta[:, cols[0]]
-        return out
-
-    def column_scales(self, idx, chl) -> np.ndarray:
-        """(k, p) factors taking the model's dG/dtheta (data units, C in mg m^-3) to the
-        problem's: 1 / scale, times dC/du for C."""
-        out = np.repeat((1.0 / self.scale[idx])[:, None], len(self.names), axis=1)
-        if self.chl_col >= 0:
-            out[:, self.chl_col] *= du_chain(chl, self.model.e0)
-        return out
-
-
-def evaluate(prob: Problem, idx, theta, grad: bool = True, attenuation: bool = True):
-    """Objective, variable-projection gradient and Gauss-Newton matrix of charts ``idx``.
+def evaluate(prob: Problem, idx, theta, grad: bool = True) -> Evaluation:
+    """The objective, half gradient and Gauss-Newton matrix of units ``idx`` of any problem
+    (:meth:`sca.problem.Problem.evaluate`: its layout's data terms and the priors).
 
     Parameters
     ----------
-    prob : Problem
-        The charts.
+    prob : sca.problem.Problem
+        The units.
     idx : array_like of int, (k,)
-        The charts evaluated.
+        The units evaluated.
     theta : ndarray, (k, p)
-        Their nonlinear parameters, LM coordinates (u = C^e0 for C).
+        Their parameters (theta's coordinates: u = C^e0 for C).
     grad : bool, optional
         Also the gradient and Gauss-Newton matrix (default True).
-    attenuation : bool, optional
-        Also the attenuation k (default True; else k may be None).
 
     Returns
     -------
-    f : ndarray, (k,)
-        Weighted sum of squares (chi^2 where the noise is known; scaled units otherwise).
-    g : ndarray, (k, p), or None
-        J^T r, half the gradient of f (None without ``grad``).
-    H : ndarray, (k, p, p), or None
-        J^T J, the Gauss-Newton matrix (None without ``grad``).
-    gain : ndarray, (k,)
-        The closed-form gain (1 where it is known).
-    s : ndarray, (k, m)
-        The closed-form backscatter (scaled units).
-    ssr : ndarray, (k,)
-        Unweighted sum of squares (scaled units).
-    k : ndarray, (k, q), or None
-        The attenuation exp(-(depth + distance) c) (None without ``attenuation`` where the
-        charts are evaluated by :func:`sca.projection.project_pieces`).
-
-    Notes
-    -----
-    Where the problem is :func:`fused` the signal and its Jacobian rows are
-    :meth:`sca.model.ChartModel.predict`'s, computed chart by chart in compiled code from
-    :meth:`forward.WaterTerms.optical_depth`'s (weight, spectrum) pieces
-    (:func:`sca.projection.project_pieces`; ``tests/test_fused.py`` checks them against
-    ``predict``).
-
-    References
-    ----------
-    L. Kaufman, "A variable projection method for solving separable nonlinear least squares
-    problems", BIT 15 (1975) 49-57.
+    sca.problem.Evaluation
     """
-    mdl = prob.model
-    m, n = mdl.m, mdl.n
-    params = prob.params(idx, theta)
-    if fused(prob):
-        return _evaluate_pieces(prob, idx, theta, params, grad, attenuation)
-    pred = mdl.predict(params, prob.free if grad else (), chl_floor=TINY, jacobian=grad)
-    inv = (1.0 / prob.scale[idx])[:, None]
-    fs = None if prob.fixed_s is None else prob.fixed_s[idx]
-    JR = np.zeros((len(idx), 0, m * n))
-    col_scale = np.zeros((len(idx), 0))
-    if grad:
-        col_scale = prob.column_scales(idx, params.get("chl"))
-        JR = pred.jacobian_rows
-    f, g, H, gain, s, ssr = project(pred.signal * inv, JR, prob.M[idx], prob.W2[idx], fs,
-                                    prob.free_gain, m, n, grad, col_scale)
-    f, g, H = _with_priors(prob, idx, theta, f, g, H, grad)
-    return f, g, H, gain, s, ssr, pred.attenuation
-
-
-#: The names :func:`sca.projection.project_pieces` evaluates (everything of the chart model
-#: that reaches it through the optical depth's pieces; the camera's curves and free Water
-#: constants go through :meth:`sca.model.ChartModel.predict`): forward's piece table's names.
-FUSED_NAMES = TABLE_NAMES
-
-
-def fused(prob: Problem) -> bool:
-    """True where :func:`evaluate` computes the charts from the optical depth's pieces
-    (:func:`sca.projection.project_pieces`): every free and fixed name in :data:`FUSED_NAMES`,
-    one phytoplankton shape.
-
-    Parameters
-    ----------
-    prob : Problem
-        The charts.
-
-    Returns
-    -------
-    bool
-    """
-    return (set(prob.names) <= set(FUSED_NAMES) and set(prob.fixed) <= set(FUSED_NAMES)
-            and not prob.model.terms.free_only)
-
-
-def _evaluate_pieces(prob, idx, theta, params, grad, attenuation):
-    """:func:`evaluate` of a :func:`fused` problem."""
-    mdl = prob.model
-    wrt = prob.free if grad else ()
-    weights, spectra, dweights = mdl.terms.optical_depth(
-        params["chl"], params.get("cdom", 0.0), params["depth"], params["distance"], wrt=wrt,
-        floor=TINY, stacked=True)
-    k_ = len(idx)
-    weights = np.broadcast_to(weights, (k_, spectra.shape[0]))
-    dW = np.zeros((k_, 0, spectra.shape[0])) if not grad else \
-        np.stack([np.broadcast_to(dweights[n], weights.shape) for n in prob.names], axis=1)
-    col_scale = prob.column_scales(idx, params.get("chl")) if grad else np.zeros((k_, 0))
-    f, g, H, gain, s, ssr, k = project_pieces(
-        weights, dW, spectra, mdl.Bt, prob.inv_scale, prob.M, prob.W2, prob.fixed_s,
-        prob.free_gain, mdl.m, mdl.n, grad, col_scale, attenuation, rows=idx)
-    f, g, H = _with_priors(prob, idx, theta, f, g, H, grad)
-    return f, g, H, gain, s, ssr, (k if attenuation else None)
-
-
-def _with_priors(prob, idx, theta, f, g, H, grad):
-    """f, g, H plus the budget's Gaussian priors f + sum w (theta - mu)^2 (g and H None
-    without ``grad``)."""
-    if prob.prior_mean is not None:
-        pw = prob.prior_weight[idx]
-        d = theta - prob.prior_mean[idx]
-        f = f + np.einsum("ip,ip->i", pw, d * d)
-        if grad:
-            g = g + pw * d
-            H = H + pw[:, :, None] * np.eye(theta.shape[1])
-    if not grad:
-        g = H = None
-    return f, g, H
+    return prob.evaluate(idx, theta, grad)
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -467,31 +239,8 @@ def _step(g, H, mu, theta, lower, hold):
                       SINGULAR_PIVOT)
 
 
-def compiled_driver(prob: Problem, n: int) -> bool:
-    """True where :func:`levenberg_marquardt`, by default, fits ``n`` charts of ``prob``
-    chart by chart in compiled code (:func:`sca.fusedlm.fit_fused`): a problem it can fit
-    (:func:`sca.fusedlm.compiled_fit`), fewer than :data:`sca.projection.SERIAL_BELOW` charts or
-    a grid coarser than :data:`sca.fusedlm.BLAS_FROM` wavelengths (BLAS over many charts at once
-    beats chart-by-chart on fine grids).
-
-    Parameters
-    ----------
-    prob : Problem
-    n : int
-        Charts fitted together.
-
-    Returns
-    -------
-    bool
-    """
-    from .fusedlm import BLAS_FROM, compiled_fit  # (fusedlm imports this module)
-
-    return (n < SERIAL_BELOW or prob.model.wavelengths.size < BLAS_FROM) and compiled_fit(prob)
-
-
 def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_exact,
-                        atol=None, hold=None, compiled: bool | None = None,
-                        final: dict | None = None, rows=None):
+                        atol=None, hold=None, rows=None):
     """Projected Levenberg-Marquardt of every chart from ``theta0`` (N, p), LM coordinates.
 
     Parameters
@@ -510,19 +259,6 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         Absolute predicted decrease at which a chart stops (profile points; default 0).
     hold : ndarray of bool, (N, p), optional
         Coordinates held where they are (profile points; default none).
-    compiled : bool or None, optional
-        True: fit :func:`sca.fusedlm.compiled_fit` problems chart by chart in compiled code
-        (:func:`sca.fusedlm.fit_fused`). False: the driver below, one iteration of every chart
-        at a time (any problem; on fine grids its projections of many charts at once by one
-        BLAS product are faster). Default None: compiled for fewer than
-        :data:`sca.projection.SERIAL_BELOW` charts or grids coarser than
-        :data:`sca.fusedlm.BLAS_FROM` wavelengths. Both drivers call the same step and
-        acceptance (:func:`_step_one`, :func:`_judge_one`) and reach the same optimum; their
-        rounding differs, which can move an acceptance or a stop by one iteration.
-    final : dict, optional
-        The compiled driver fills it with 'g', 'H', 'gain', 's', 'ssr' and 'k' at the returned
-        points (what :func:`evaluate` returns there, without evaluating them again); the
-        Python driver leaves it empty.
     rows : array_like of int, (N,), optional
         The charts of ``prob`` that the rows of ``theta0`` are (default 0..N-1): a subset
         fitted without copying its data (the profile points).
@@ -546,12 +282,6 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
     H. B. Nielsen, "Damping parameter in Marquardt's method", IMM-REP-1999-05, Technical
     University of Denmark (1999) (the damping update).
     """
-    from .fusedlm import compiled_fit, fit_fused  # (fusedlm imports this module)
-
-    if compiled_driver(prob, len(theta0)) if compiled is None else (
-            compiled and compiled_fit(prob)):
-        return fit_fused(prob, theta0, max_iter=max_iter, tol=tol, f_exact=f_exact, atol=atol,
-                         hold=hold, final=final, rows=rows)
     N, p = theta0.shape
     theta = np.array(theta0, float)
     hold = np.zeros((N, p), bool) if hold is None else np.asarray(hold, bool)
@@ -564,7 +294,8 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         return theta, f, iters, code
     rows = np.arange(N) if rows is None else np.asarray(rows, np.int64)
     f_exact = np.asarray(f_exact, float)
-    fa, g, H, *_ = evaluate(prob, rows, theta, True, False)
+    ev = evaluate(prob, rows, theta, True)
+    fa, g, H = ev.f, ev.g, ev.H
     f[:] = fa
     done = fa <= f_exact
     code[done] = 1
@@ -585,8 +316,8 @@ def levenberg_marquardt(prob: Problem, theta0, *, max_iter: int, tol: float, f_e
         gn = np.zeros_like(g)
         Hn = np.zeros_like(H)
         if ti.size:
-            fn[trial], gn[trial], Hn[trial], *_ = evaluate(prob, rows[ti], tn[trial], True,
-                                                           False)
+            ev = evaluate(prob, rows[ti], tn[trial], True)
+            fn[trial], gn[trial], Hn[trial] = ev.f, ev.g, ev.H
         ok, mu[active], fin = _judge_many(fa, fn, stat, g, H, th, tn, mu[active], float(tol),
                                           f_exact[active])
         acc = active[ok]

@@ -28,6 +28,7 @@ import numpy as np
 from forward.imaging import ChartSetup
 from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
+from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
 from .projection import linear_part_stats
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
@@ -70,8 +71,6 @@ COND_MAX = 1e14
 #: Lower bound of a channel-balance error beta (the channel's sensitivity 1 + beta stays
 #: positive).
 BALANCE_MIN = -0.99
-#: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
-TINY = np.finfo(float).tiny
 
 
 def check_names(name: str, names, allowed=PARAMS) -> tuple:
@@ -176,65 +175,8 @@ def _pool() -> ThreadPoolExecutor:
                               thread_name_prefix="uw3p-predict")
 
 
-# ---------------------------------------------------------- the batch's coordinate for C
-# Levenberg-Marquardt iterates in u = C^e0 (e0 = eq 10's exponent): every C-dependent term is
-# smooth in u at C = 0, where d/dC is infinite. A change of variable, not physics.
-def u_from_chl(chl, e0):
-    """The batch's coordinate u = max(C, 0)^e0 of C.
-
-    Parameters
-    ----------
-    chl : float or array_like
-        C, mg m^-3 (negative values count as 0).
-    e0 : float
-        The exponent of eq 10 (``Water.phyto_exponent``, 0.627 in the paper), > 0.
-
-    Returns
-    -------
-    ndarray
-        u, same shape as ``chl`` (units (mg m^-3)^e0).
-    """
-    return np.maximum(np.asarray(chl, float), 0.0) ** e0
-
-
-def chl_from_u(u, e0):
-    """C = u^(1 / e0) from the batch's coordinate u (inverse of :func:`u_from_chl`).
-
-    Parameters
-    ----------
-    u : float or array_like
-        u = C^e0; values <= 0 (and NaN) give C = 0.
-    e0 : float
-        The exponent of eq 10 (``Water.phyto_exponent``), > 0.
-
-    Returns
-    -------
-    ndarray or numpy.float64
-        C, mg m^-3, same shape as ``u`` (a scalar for a scalar ``u``).
-    """
-    # fmax: 0 for u <= 0 and for NaN; one expression on scalars and arrays alike, so that
-    # numba compiles this function (sca.fusedlm) without allocating
-    return np.fmax(u, 0.0) ** (1.0 / e0)
-
-
-def du_chain(chl, e0):
-    """dC/du = C^(1 - e0) / e0 at C, the chain-rule factor of the coordinate u = C^e0.
-
-    Evaluated at max(C, :data:`TINY`), so that dM/dC dC/du is finite at C = 0.
-
-    Parameters
-    ----------
-    chl : float or array_like
-        C, mg m^-3.
-    e0 : float
-        The exponent of eq 10 (``Water.phyto_exponent``), > 0.
-
-    Returns
-    -------
-    ndarray
-        dC/du, same shape as ``chl`` (units (mg m^-3)^(1 - e0)).
-    """
-    return np.maximum(chl, TINY) ** (1.0 - e0) / e0
+# The coordinate u = C^e0 of the fits (every C-dependent term is smooth in u at C = 0, where
+# d/dC is infinite) is the inference layer's (sca.problem): a change of variable, not physics.
 
 
 @dataclass
@@ -348,6 +290,10 @@ class ChartModel:
         self._indicators.setflags(write=False)
         #: the exponent of eq 10: the batch's coordinate u = C^e0 (see :func:`du_chain`)
         self.e0 = float(water.phyto_exponent)
+        #: the model on its full grid (itself, or the model a :meth:`reduced` copy came from)
+        self.full = self
+        #: the quadrature rule of a :meth:`reduced` model (None on the full grid)
+        self.rule = None
 
     def scaled(self, factor: float) -> "ChartModel":
         """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest
@@ -359,6 +305,38 @@ class ChartModel:
             new.__dict__.pop(name, None)
         new._dt_source = (self, factor)
         return new
+
+    @functools.cached_property
+    def _reduced(self) -> "ChartModel":
+        from .quadrature import quadrature_rule
+
+        rule = quadrature_rule(self)
+        if rule is None or self.full is not self:
+            return self
+        new = copy.copy(self)
+        new.__dict__.pop("BDt", None)
+        new.__dict__.pop("_reduced", None)
+        new.wavelengths = self.wavelengths[rule.index]
+        new.terms = self.terms.subset(rule.index)
+        new.T, new.t440 = new.terms.T, new.terms.t440
+        new.B = rule.B
+        new.Bt = np.ascontiguousarray(rule.B.T)
+        new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T)
+        new._dt_source = None
+        new.rule = rule
+        return new
+
+    def reduced(self) -> "ChartModel":
+        """This model on the nodes of its certified spectral quadrature
+        (:mod:`sca.quadrature`): the same parameters and outputs, eq 1's integral on every 5th
+        wavelength with fitted weights; itself where its grid is not reduced (coarse grids).
+
+        Returns
+        -------
+        ChartModel
+            Its ``full`` is this model, ``rule`` the :class:`sca.quadrature.QuadratureRule`.
+        """
+        return self._reduced
 
     @functools.cached_property
     def Dt(self) -> np.ndarray:

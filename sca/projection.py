@@ -3,10 +3,7 @@ M = gain G + s 1^T in closed form, and the Kaufman Jacobian, objective, gradient
 Gauss-Newton matrix of the nonlinear parameters.
 
 It contains no physics: it receives the model function's columns (the unit-gain signal G and
-its derivatives dG/dtheta, from :meth:`sca.model.ChartModel.predict`) or, in
-:func:`project_pieces`, the optical depth's (weight, spectrum) pieces from
-:meth:`forward.WaterTerms.optical_depth` and the chart model's B (then G = B exp(-tau) and
-dG = -B (exp(-tau) dtau) chart by chart, as ``predict`` computes them), the measurements and
+its derivatives dG/dtheta, from :meth:`sca.model.ChartModel.predict`), the measurements and
 their weights, so numba's on-disk cache (keyed on this file) holds no numbers. For each chart,
 with weights w = 1 / sigma^2 per value:
 
@@ -28,9 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compiled import KERNEL_LOCK, njit, prange
+from .compiled import KERNEL_LOCK, njit, prange, twins
 
-__all__ = ["LINEAR_SERIAL_BELOW", "SERIAL_BELOW", "grid_best", "linear_part_stats", "project", "project_pieces"]
+__all__ = ["LINEAR_SERIAL_BELOW", "SERIAL_BELOW", "grid_best", "linear_part_stats", "project"]
 
 
 #: Rows of the work matrix of :func:`_active_set` and :func:`_project_one`: per channel the
@@ -102,8 +99,7 @@ def _linear_one(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, i, wk, s, act):  # 
     return gain
 
 
-@njit(parallel=True, cache=True)
-def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
+def _linear_all(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
     K, m = sw.shape
     gain = np.empty(K)
     s = np.empty((K, m))
@@ -114,18 +110,8 @@ def _linear_many(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cov
     return gain, s, act
 
 
-# The serial twin of _linear_many (and _project_serial of _project): numba's cache is keyed on
-# the Python function, so one function compiled both ways would share one cache entry.
-@njit(cache=True)
-def _linear_serial(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain):  # pragma: no cover
-    K, m = sw.shape
-    gain = np.empty(K)
-    s = np.empty((K, m))
-    act = np.empty((K, m))
-    wk = np.empty((SX, m))
-    for i in range(K):
-        gain[i] = _linear_one(sw, sM, sG, sGG, sGM, fs, has_fs, free_gain, i, wk, s, act)
-    return gain, s, act
+#: The closed-form (gain, s) of many charts, serial and parallel from one source.
+_linear_serial, _linear_many = twins(_linear_all)
 
 
 #: numba's fast-math flags of the compiled columns: fused multiply-add only. Not 'reassoc',
@@ -308,8 +294,7 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
     return fi, si, gi
 
 
-@njit(parallel=True, cache=True)
-def _project(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+def _project_all(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
     N, p = M.shape[0], nr - 1
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
@@ -322,16 +307,8 @@ def _project(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: n
     return f, g, H, gain, s, ssr
 
 
-@njit(cache=True)
-def _project_serial(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
-    N, p = M.shape[0], nr - 1
-    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
-    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
-    wk = _scratch(m, p)
-    for i in range(N):
-        f[i], ssr[i], gain[i] = _project_one(GJ, i * nr, CS, M, W2, fs, i, has_fs, free_gain,
-                                             m, n, grad, p, s, g, H, i, wk)
-    return f, g, H, gain, s, ssr
+#: The projection of many charts, serial and parallel from one source.
+_project_serial, _project = twins(_project_all)
 
 
 def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool = True,
@@ -376,134 +353,6 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
         return _project_serial(*args)
     with KERNEL_LOCK:
         return _project(*args)
-
-
-@njit(cache=True, fastmath=FAST)
-def _columns_one(weights, dweights, i, spectra, inv_scale, grad, tau, KD,
-                 o):  # pragma: no cover
-    """Chart i's k = exp(-weights[i] @ spectra) (row ``o`` of ``KD``, times ``inv_scale``; k
-    itself left in row 0 of ``tau``) and dk_a = -k (dweights[i, a] @ spectra) (rows o + 1 ..
-    o + p, unit scale). Sums of products and an exponential: no physics."""
-    P, q = spectra.shape
-    rows = dweights.shape[1] + 1 if grad else 1
-    for a in range(rows):
-        for l in range(q):
-            tau[a, l] = 0.0
-        for t in range(P):
-            w = weights[i, t] if a == 0 else dweights[i, a - 1, t]
-            if w != 0.0:
-                for l in range(q):
-                    tau[a, l] += w * spectra[t, l]
-    for l in range(q):
-        kl = np.exp(-tau[0, l])
-        tau[0, l] = kl
-        KD[o, l] = kl * inv_scale
-        for a in range(1, rows):
-            KD[o + a, l] = -kl * tau[a, l]
-
-
-@njit(cache=True)
-def _fused_block(lo, hi, rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs,
-                 free_gain, m, n, grad, want_k, f, ssr, gain, g, H, s, kout):  # pragma: no cover
-    """Charts lo..hi-1 of :func:`_fused`: their k and dk rows, projected onto the chart by one
-    matrix product (BLAS) for the whole block, then each chart's variable projection."""
-    p, q = dweights.shape[1], spectra.shape[1]
-    nr = p + 1 if grad else 1
-    tau = np.empty((p + 1, q))
-    KD = np.empty(((hi - lo) * nr, q))
-    for i in range(lo, hi):
-        o = (i - lo) * nr
-        _columns_one(weights, dweights, i, spectra, inv_scale[rows[i]], grad, tau, KD, o)
-        if want_k:
-            for l in range(q):
-                kout[i, l] = tau[0, l]
-    GJ = np.dot(KD, Bt)  # (rows of every chart) x (m n): G = B k inv_scale and B dk_a
-    wk = _scratch(m, p)
-    for i in range(lo, hi):
-        f[i], ssr[i], gain[i] = _project_one(GJ, (i - lo) * nr, CS, M, W2, fs, rows[i], has_fs,
-                                             free_gain, m, n, grad, p, s, g, H, i, wk)
-
-
-@njit(parallel=True, cache=True)
-def _fused(rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain, m, n,
-           grad, want_k):  # pragma: no cover
-    N, p, q = weights.shape[0], dweights.shape[1], spectra.shape[1]
-    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
-    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
-    kout = np.empty((N if want_k else 0, q))
-    blocks = (N + PROJECT_BLOCK - 1) // PROJECT_BLOCK
-    for b in prange(blocks):
-        _fused_block(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK), rows, weights, dweights,
-                     spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain, m, n, grad,
-                     want_k, f, ssr, gain, g, H, s, kout)
-    return f, g, H, gain, s, ssr, kout
-
-
-@njit(cache=True)
-def _fused_serial(rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs, free_gain,
-                  m, n, grad, want_k):  # pragma: no cover
-    N, p, q = weights.shape[0], dweights.shape[1], spectra.shape[1]
-    f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
-    g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
-    kout = np.empty((N if want_k else 0, q))
-    _fused_block(0, N, rows, weights, dweights, spectra, Bt, inv_scale, CS, M, W2, fs, has_fs,
-                 free_gain, m, n, grad, want_k, f, ssr, gain, g, H, s, kout)
-    return f, g, H, gain, s, ssr, kout
-
-
-def project_pieces(weights, dweights, spectra, Bt, inv_scale, M, W2, fixed_s, free_gain: bool,
-                   m: int, n: int, grad: bool = True, col_scale=None, attenuation: bool = False,
-                   rows=None):
-    """:func:`project` of signals given as (weight, spectrum) pieces of the optical depth.
-
-    For every chart, tau = weights @ spectra, k = exp(-tau), G = (k @ Bt) inv_scale and
-    dG/dtheta_a = -(k (dweights_a @ spectra)) @ Bt; then :func:`project`. The pieces are
-    :meth:`forward.WaterTerms.optical_depth`'s (``stacked=True``) and ``Bt`` the chart model's
-    (:class:`sca.model.ChartModel`): this computes :meth:`sca.model.ChartModel.predict`'s
-    signal and Jacobian rows chart by chart in compiled code, without the whole batch's
-    temporaries, and knows no term of c(x).
-
-    Parameters
-    ----------
-    weights : ndarray, (N, P)
-        The pieces' weights of each chart's tau.
-    dweights : ndarray, (N, p, P)
-        The weights of d tau / d theta_a on the same spectra.
-    spectra : ndarray, (P, q)
-        The pieces' spectra.
-    Bt : ndarray, (q, m n)
-        The chart model's B transposed (vec(G) = B k).
-    inv_scale : ndarray, (N,) or (K,)
-        Factors of G (1 / the data's scale).
-    M, W2, fixed_s, free_gain, m, n, grad, col_scale :
-        As :func:`project` (``col_scale`` multiplies the unit-scale rows dG/dtheta). ``M``,
-        ``W2`` and ``fixed_s`` may hold K >= N charts (see ``rows``).
-    attenuation : bool
-        Also return k (else an empty (0, q) array).
-    rows : array_like of int, (N,), optional
-        The rows of ``inv_scale``, ``M``, ``W2`` and ``fixed_s`` that chart i reads (default
-        0..N-1): a subset of charts without copying their data.
-
-    Returns
-    -------
-    f, g (N, p), H (N, p, p), gain (N,), s (N, m), ssr (N,) as :func:`project`, and k (N, q)
-    (``attenuation``) or (0, q).
-    """
-    N = weights.shape[0]
-    p = dweights.shape[1]
-    has_fs = fixed_s is not None
-    rows = np.arange(N) if rows is None else np.ascontiguousarray(rows, np.int64)
-    fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((np.shape(M)[0], m))
-    CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
-    args = (rows, np.ascontiguousarray(weights, float), np.ascontiguousarray(dweights, float),
-            np.ascontiguousarray(spectra, float), np.ascontiguousarray(Bt, float),
-            np.ascontiguousarray(inv_scale, float), CS, np.ascontiguousarray(M, float),
-            np.ascontiguousarray(W2, float), fs, has_fs, bool(free_gain), int(m), int(n),
-            bool(grad), bool(attenuation))
-    if N < SERIAL_BELOW:
-        return _fused_serial(*args)
-    with KERNEL_LOCK:
-        return _fused(*args)
 
 
 #: :func:`_active_set` compiled into its caller (the start grid calls it for every chart and

@@ -10,11 +10,10 @@ and every derivative come from :meth:`forward.WaterTerms.path_coefficient` with 
 :data:`forward.water.DIFFUSE_TERMS` (the 'split' path model's way down): no formula is restated
 here. mu_d itself enters as K_d(mu) = K_d(mu_0) mu_0 / mu (the chain rule of 1 / mu).
 
-:class:`KdModel` has the interface of :class:`sca.model.ChartModel` that :mod:`sca.lm` needs
-(one "channel" of q "patches", the K_d values, at unit gain and zero backscatter), so
-:func:`fit_spectrum` fits C and a_CDOM(440) with the package's Levenberg-Marquardt engine and
-its profile-likelihood intervals (:mod:`sca.intervals`), the nuisance parameters carrying
-Gaussian priors as in :mod:`sca.budget`.
+:class:`SpectrumProblem` is the inference layer's layout of N spectra (:mod:`sca.problem`: the
+residual of each band, no linear unknowns), so :func:`fit_spectrum` fits C and a_CDOM(440) with
+the package's one Levenberg-Marquardt (:mod:`sca.lm`) and its profile-likelihood intervals
+(:mod:`sca.intervals`), the nuisance parameters carrying Gaussian priors as in :mod:`sca.budget`.
 
 The error model of one spectrum, fixed before any comparison with in-situ data (DECISIONS.md,
 "Real water"): independent relative errors per band, sqrt(sigma_rel^2 + model_error^2), with
@@ -46,8 +45,9 @@ from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, Water, resolve_wate
 from .assess import goodness, profile_delta
 from .budget import DEFAULT_UNCERTAIN
 from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
-from .lm import Problem, evaluate, levenberg_marquardt
-from .model import Prediction, chl_from_u, u_from_chl, upper_cap
+from .lm import evaluate, levenberg_marquardt
+from .model import lower_bound, upper_cap
+from .problem import TINY, Evaluation, Problem, chl_from_u, u_from_chl
 
 __all__ = [
     "KD_MODEL_ERROR",
@@ -59,6 +59,7 @@ __all__ = [
     "RELIABLE_P",
     "KdFit",
     "KdModel",
+    "SpectrumProblem",
     "fit_spectrum",
 ]
 
@@ -106,8 +107,6 @@ class KdModel:
         The bands, nm.
     terms : forward.WaterTerms
         The water's terms on the bands.
-    m, n : int
-        1 and q: the shape :mod:`sca.lm` sees (one channel of q values).
     e0 : float
         The exponent of eq 10 (the engine iterates C in u = C^e0).
 
@@ -120,7 +119,6 @@ class KdModel:
         self.water = resolve_water(water)
         self.wavelengths = wavelength_grid(wavelengths)
         self.terms = self.water.on_grid(self.wavelengths)
-        self.m, self.n = 1, self.wavelengths.size
         self.e0 = float(self.water.phyto_exponent)
 
     def kd(self, params: dict, free=(), *, chl_floor: float = 0.0):
@@ -171,30 +169,63 @@ class KdModel:
             d["downwelling_cosine"] = -kd / mu
         return kd, d
 
-    def predict(self, params: dict, free=(), *, chl_floor: float = 0.0,
-                jacobian: bool = True) -> Prediction:
-        """K_d as a :class:`sca.model.Prediction` (the interface :mod:`sca.lm` calls).
 
-        Parameters
-        ----------
-        params, free, chl_floor :
-            As :meth:`kd`.
-        jacobian : bool
-            False: values only.
+class SpectrumProblem(Problem):
+    """N measured K_d spectra as an inference problem (:class:`sca.problem.Problem`): the
+    whitened residual of every band, no linear unknowns.
 
-        Returns
-        -------
-        sca.model.Prediction
-            ``values`` = ``signal`` = ``coefficient`` = ``attenuation`` = K_d (S + (q,)); the
-            Jacobian's columns in the order of ``free``.
-        """
-        free = tuple(free) if jacobian else ()
-        kd, d = self.kd(params, free, chl_floor=chl_floor)
-        if not jacobian:
-            return Prediction(kd, kd, kd, kd, None, ())
-        rows = np.stack([np.broadcast_to(d[n], kd.shape) for n in free], axis=-2) if free \
-            else np.zeros(kd.shape[:-1] + (0, kd.shape[-1]))
-        return Prediction(kd, kd, kd, kd, np.swapaxes(rows, -1, -2), free, rows)
+    Parameters
+    ----------
+    model : KdModel
+        The K_d model on the spectra's bands.
+    M : ndarray, (N, q)
+        Measured K_d / scale (0 where a band is missing).
+    W2 : ndarray, (N, q)
+        Weights (scale / sigma)^2 (0 where a band is missing).
+    scale : ndarray, (N,)
+        Each spectrum's largest value, m^-1.
+    names : tuple of str
+        Free names (:data:`KD_PARAMS`).
+    prior_mean, prior_weight : ndarray, (N, p), optional
+        The nuisances' Gaussian priors.
+    """
+
+    def __init__(self, model: KdModel, M, W2, scale, names, prior_mean=None,
+                 prior_weight=None):
+        self.model = model
+        self.M, self.W2 = np.asarray(M, float), np.asarray(W2, float)
+        self.scale = np.asarray(scale, float)
+        super().__init__(names, {}, prior_mean, prior_weight)
+
+    def lower_bound(self, name: str) -> float:
+        return 0.0 if name == "downwelling_cosine" else lower_bound(name, self.model.water)
+
+    def power(self, name: str) -> float:
+        return self.model.e0 if name == "chl" else 0.0
+
+    @property
+    def size(self) -> int:
+        return self.M.shape[0]
+
+    def rows(self, idx) -> dict:
+        return {"M": self.M[idx], "W2": self.W2[idx], "scale": self.scale[idx]}
+
+    def data_terms(self, idx, theta, params, chain, grad: bool) -> Evaluation:
+        """chi^2 of the bands, its half gradient and Gauss-Newton matrix; ``extras``: 'kd'
+        (k, q), the fitted K_d in m^-1."""
+        kd, d = self.model.kd(params, self.free if grad else (), chl_floor=TINY)
+        inv = 1.0 / self.scale[idx][:, None]
+        w2 = self.W2[idx]
+        r = self.M[idx] - kd * inv
+        f = np.einsum("iq,iq->i", w2, r * r)
+        g = H = None
+        if grad:
+            cols = [self.free.index(n) for n in self.names]
+            J = np.stack([d[self.free[c]] for c in cols], axis=1) * inv[:, None, :] \
+                * chain[:, :, None]  # (k, p, q)
+            g = -np.einsum("ipq,iq->ip", J, w2 * r)
+            H = np.einsum("ipq,irq->ipr", J * w2[:, None, :], J)
+        return Evaluation(f, g, H, {"kd": kd})
 
 
 @dataclass
@@ -334,9 +365,8 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     mean = {k: float(getattr(model.water, k)) for k in nuis}
     prior_mean = np.tile([0.0, 0.0] + [mean[k] for k in nuis], (N, 1))
     prior_weight = np.tile([0.0, 0.0] + [1.0 / uncertain[k] ** 2 for k in nuis], (N, 1))
-    prob = Problem(model, M, W2, scale, names, {}, free_gain=False, fixed_s=np.zeros((N, 1)),
-                   prior_mean=prior_mean if nuis else None,
-                   prior_weight=prior_weight if nuis else None)
+    prob = SpectrumProblem(model, M, W2, scale, names, prior_mean=prior_mean if nuis else None,
+                           prior_weight=prior_weight if nuis else None)
     theta0 = prior_mean.copy()
     theta0[:, 0], theta0[:, 1] = _start(model, M * scale[:, None], W2 / scale[:, None] ** 2,
                                         mean)
@@ -344,7 +374,8 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     theta, f, _, code = levenberg_marquardt(prob, theta0, max_iter=MAX_ITER, tol=TOL,
                                             f_exact=f_exact)
     idx = np.arange(N)
-    f, _, H, *_ = evaluate(prob, idx, theta, True)
+    ev = evaluate(prob, idx, theta, True)
+    f, H = ev.f, ev.H
     dof = valid.sum(axis=1) - 2
     _, p_value = goodness(f, dof, True)
     values = prob.params(idx, theta)

@@ -18,7 +18,8 @@ from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags
     profile_delta
 from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
-from .lm import LM_TOL, STATUS, Problem, evaluate, levenberg_marquardt
+from .charts import ChartProblem
+from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .results import Estimate
 
@@ -77,8 +78,8 @@ def _covariance(est, st, dof):
     return cov
 
 
-def _problem(est, st, priors: bool = True) -> Problem:
-    """The fit as a one-chart :class:`sca.lm.Problem` (the model already in the data's units),
+def _problem(est, st, priors: bool = True) -> ChartProblem:
+    """The fit as a one-chart :class:`sca.charts.ChartProblem` (the model already in the data's units),
     with the budget's nuisances after the free names and their Gaussian priors (``priors``
     False: the paper's model, the free names alone)."""
     priors = _priors(est, st) if priors else {}
@@ -95,8 +96,9 @@ def _problem(est, st, priors: bool = True) -> Problem:
         if k in est.fixed:
             fixed[k] = np.array([est.fixed[k]])
     fixed = {k: v for k, v in fixed.items() if k not in names}
-    return Problem(st.mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
-                   est.free_gain, None if st.s_fixed is None else st.s_fixed[None], mean, weight)
+    return ChartProblem(st.mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
+                        est.free_gain, None if st.s_fixed is None else st.s_fixed[None], mean,
+                        weight)
 
 
 def _theta(est, st, prob) -> np.ndarray:
@@ -158,7 +160,8 @@ def _take_point(est, st, prob, theta, f) -> dict:
     """Set ``st``'s point to LM coordinates ``theta`` (1, p) of ``prob`` with objective ``f``
     (1,): the free names, w on eq 17, the closed-form gain and backscatter. Returns the
     model's parameters there (name -> (1,) values, nuisances included)."""
-    _, _, _, gain, s, _, _ = evaluate(prob, np.arange(1), theta, False)
+    ev = evaluate(prob, np.arange(1), theta, False)
+    gain, s = ev.extras["gain"], ev.extras["s"]
     values = prob.params(np.arange(1), theta)
     x = dict(st.x)
     for n in est.spec.names:
@@ -217,7 +220,8 @@ def _profile(est, st, dof):
     prob = _problem(est, st)
     names = est.spec.names
     theta = _theta(est, st, prob)
-    f, _, H, *_ = evaluate(prob, np.arange(1), theta, True)
+    ev = evaluate(prob, np.arange(1), theta, True)
+    f, H = ev.f, ev.H
     Mw = st.wt * st.Mv
     delta = profile_delta(st.noise_known, f, np.array([dof]), np.array([Mw @ Mw]))
     caps = np.array([upper_cap(n, est.water) for n in prob.names])

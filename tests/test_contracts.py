@@ -20,7 +20,8 @@ import forward
 import sca
 from forward.water import COEFFICIENT_PARAMS
 from sca import batch as sca_batch
-from sca.lm import Problem, evaluate
+from sca.charts import ChartProblem as Problem
+from sca.lm import evaluate
 from sca.lsq import residual_functions
 
 WL = forward.wavelength_grid()
@@ -176,7 +177,8 @@ def test_every_estimator_path_equals_the_model_function(name):
     # the batch's evaluation: its objective is the model's residual at the closed-form s
     prob = Problem(mdl, st_.Mv[None], (st_.wt ** 2)[None], np.ones(1), ("chl", "cdom", "cdom_slope"),
                    {"depth": np.array([6.0]), "distance": np.array([2.0])})
-    f, g, H, gain, s, *_ = evaluate(prob, np.arange(1), np.array([[1.3 ** mdl.e0, 0.2, 0.016]]))
+    ev = evaluate(prob, np.arange(1), np.array([[1.3 ** mdl.e0, 0.2, 0.016]]))
+    f, g, H, gain, s = ev.f, ev.g, ev.H, ev.extras["gain"], ev.extras["s"]
     pred = mdl.predict({"chl": 1.3, "cdom": 0.2, "depth": 6.0, "distance": 2.0,
                         "backscatter": s[0], "cdom_slope": 0.016}, jacobian=False)
     r = st_.wt * (st_.Mv - pred.values)
@@ -187,7 +189,7 @@ def test_every_estimator_path_equals_the_model_function(name):
         hi, lo = th.copy(), th.copy()
         hi[0, j] += h
         lo[0, j] -= h
-        d = (evaluate(prob, np.arange(1), hi, False)[0] - evaluate(prob, np.arange(1), lo, False)[0]) / (2 * h)
+        d = (evaluate(prob, np.arange(1), hi, False).f - evaluate(prob, np.arange(1), lo, False).f) / (2 * h)
         assert g[0, j] == pytest.approx(d[0] / 2, rel=1e-4, abs=1e-8 * f[0])
 
 

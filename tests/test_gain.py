@@ -8,7 +8,8 @@ import pytest
 import forward
 import sca
 from sca import batch as sca_batch
-from sca.lm import Problem, evaluate
+from sca.charts import ChartProblem as Problem
+from sca.lm import evaluate
 from sca.model import ChartModel, linear_part
 
 DN = 1234.5  # an arbitrary unit: raw counts per model unit
@@ -103,7 +104,8 @@ def test_free_gain_evaluation_equals_finite_differences_of_forward(chl, cdom):
     prob = Problem(mdl, (M / scale).reshape(1, -1), w2.reshape(1, -1), np.array([scale]),
                    ("chl", "cdom"), {"depth": np.array([6.0]), "distance": np.array([2.0])},
                    free_gain=True)
-    f, g, H, gain, *_ = evaluate(prob, np.arange(1), np.array([[u, cdom]]), True)
+    ev = evaluate(prob, np.arange(1), np.array([[u, cdom]]), True)
+    f, g, H, gain = ev.f, ev.g, ev.H, ev.extras["gain"]
     f_ref, gain_ref = profiled(u, cdom)
     assert f[0] == pytest.approx(f_ref, rel=1e-9) and gain[0] == pytest.approx(gain_ref, rel=1e-9)
     hu, ha = 1e-6 * u, 1e-6 * cdom

@@ -174,11 +174,10 @@ def test_interval_coverage_on_a_small_grid(grid_charts):
 
 
 def test_batch_and_single_agree(grid_charts, monkeypatch):
-    """The batch's verdicts and intervals are the single fits'. With 18 charts (72 interval
-    ends) the batch finds its ends by Newton's method and each single chart by the compiled
-    bracketing search: two searches, each stopping where sqrt(P - f_hat) is within ROOT_TOL of
-    sqrt(delta), so in the fit's coordinates (u = C^e0 for C) their ends agree to a few
-    ROOT_TOL of the interval's width (as in test_newton_ends_agree_with_the_search_alone)."""
+    """The batch's verdicts and intervals are the single fits'. Both find their ends by the one
+    profile-likelihood method (Newton's, then the bracketing search), each stopping where
+    sqrt(P - f_hat) is within ROOT_TOL of sqrt(delta), so in the fit's coordinates (u = C^e0
+    for C) their ends agree to a few ROOT_TOL of the interval's width."""
     import sca.intervals as iv
 
     charts = grid_charts[::7]
@@ -211,7 +210,6 @@ def test_batch_and_single_agree(grid_charts, monkeypatch):
                 assert np.isfinite(width) and np.all(np.isfinite(batch_ci))
                 np.testing.assert_allclose(batch_ci, single_ci, rtol=0,
                                            atol=3 * iv.ROOT_TOL * width)
-    assert not newton_rows  # the single fits searched alone
 
 
 def test_gn_and_profile_agree_where_the_problem_is_nearly_linear():
@@ -288,23 +286,6 @@ def test_newton_ends_agree_with_the_search_alone(monkeypatch, uncertain, n, step
     assert new.intervals["cdom"][n, 0] == old.intervals["cdom"][n, 0] == 0.0
 
 
-def test_few_charts_of_the_exact_model_use_the_search_alone(monkeypatch):
-    """Where the profile points are fitted chart by chart in compiled code (one chart of the
-    exact model), Newton's method is not tried (each of its steps would be a Python round)."""
-    import sca.intervals as iv
-
-    def fail(*args, **kwargs):
-        raise AssertionError("Newton's method was tried")
-
-    monkeypatch.setattr(iv, "_vm_ends", fail)
-    s = sim()
-    assert fit(s).reliable
-    M, S = s.rgb[None], s.rgb_sigma[None]
-    b = sca.estimate_batch(M, depth=np.array([s.depth]), distance=np.array([s.distance]),
-                           sigma=S, uncertain={})
-    assert b.reliable[0]
-
-
 def test_newton_steps_must_not_be_negative():
     import sca.intervals as iv
 
@@ -321,13 +302,13 @@ def _stub_ends(monkeypatch, objective, theta_hat, H_hat, side, limit, limit_code
     import types
 
     import sca.intervals as iv
+    from sca.problem import Evaluation
 
     calls = []
 
-    def evaluate(prob, idx, theta, grad=True, attenuation=True):
+    def evaluate(prob, idx, theta, grad=True):
         calls.append(theta.copy())
-        f, g, H = objective(theta)
-        return f, g, H, None, None, None, None
+        return Evaluation(*objective(theta))
 
     monkeypatch.setattr(iv, "evaluate", evaluate)
     prob = types.SimpleNamespace(lower=np.asarray(lower, float))

@@ -1,0 +1,249 @@
+"""The inference layer's problem: N independent units of a penalised least-squares fit.
+
+A problem knows no physics. Each unit (one chart of a batch, one dive, one K_d spectrum) has
+free parameters theta (columns named by :attr:`Problem.names`; a name of several values, such
+as a camera's per-channel ``balance``, repeats), and the objective
+
+    f(theta) = ||r(theta)||^2 + sum_j w_j (theta_j - mu_j)^2,
+
+r the unit's whitened residual (the layout's :meth:`Problem.data_terms`: its model function
+called by name, its noise, its closed-form linear unknowns) and the Gaussian priors of the
+uncertainty budget (:attr:`Problem.prior_mean`, :attr:`Problem.prior_weight`; added here, the one
+place they are). A column may be iterated in a power coordinate u = x^e (C in u = C^e0, eq 10's
+exponent: every C term is smooth in u at C = 0; :attr:`Problem.powers`): :meth:`Problem.params`
+and the chain rule :meth:`Problem.chain` are the one place it is undone.
+
+Everything that fits, bounds or assesses a problem takes one of these: the Levenberg-Marquardt of
+:mod:`sca.lm`, the profile-likelihood ends of :mod:`sca.intervals` and the covariance of
+:func:`sca.model.covariance` (Cramér-Rao bounds included). The layouts are
+:class:`sca.charts.ChartProblem` (a chart, or a batch of them), :class:`sca.diveproblem.DiveProblem`
+(the photographs of a dive, sharing the water) and :class:`sca.spectral.SpectrumProblem` (a
+measured K_d spectrum).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["Evaluation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
+
+#: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
+TINY = np.finfo(float).tiny
+
+
+def u_from_chl(chl, e0):
+    """The coordinate u = max(x, 0)^e0 of a power-coordinate parameter (C: eq 10's exponent).
+
+    Parameters
+    ----------
+    chl : float or array_like
+        The parameter (e.g. C, mg m^-3; negative values count as 0).
+    e0 : float
+        The exponent (> 0; ``Water.phyto_exponent``, 0.627 in the paper, for C).
+
+    Returns
+    -------
+    ndarray
+        u, same shape as ``chl``.
+    """
+    return np.maximum(np.asarray(chl, float), 0.0) ** e0
+
+
+def chl_from_u(u, e0):
+    """x = u^(1 / e0): the inverse of :func:`u_from_chl`.
+
+    Parameters
+    ----------
+    u : float or array_like
+        The coordinate; values <= 0 (and NaN) give 0.
+    e0 : float
+        The exponent, > 0.
+
+    Returns
+    -------
+    ndarray or numpy.float64
+        x, same shape as ``u`` (a scalar for a scalar ``u``).
+    """
+    return np.fmax(u, 0.0) ** (1.0 / e0)
+
+
+def du_chain(chl, e0):
+    """dx/du = x^(1 - e0) / e0 at x, the chain-rule factor of the coordinate u = x^e0.
+
+    Evaluated at max(x, :data:`TINY`), so that a derivative times it is finite at x = 0.
+
+    Parameters
+    ----------
+    chl : float or array_like
+        x (e.g. C, mg m^-3).
+    e0 : float
+        The exponent, > 0.
+
+    Returns
+    -------
+    ndarray
+        dx/du, same shape as ``chl``.
+    """
+    return np.maximum(chl, TINY) ** (1.0 - e0) / e0
+
+
+@dataclass
+class Evaluation:
+    """What :meth:`Problem.evaluate` returns for units ``idx``.
+
+    Attributes
+    ----------
+    f : ndarray, (k,)
+        The objective (chi^2 where the noise is known, plus the priors' terms).
+    g : ndarray, (k, p) or None
+        J^T r + W (theta - mu): half the gradient of f (None without ``grad``).
+    H : ndarray, (k, p, p) or None
+        J^T J + diag W: the Gauss-Newton matrix (None without ``grad``).
+    extras : dict
+        The layout's by-products (a chart's closed-form gain and backscatter, its unweighted
+        sum of squares, its attenuation, ...).
+    """
+
+    f: np.ndarray
+    g: np.ndarray | None
+    H: np.ndarray | None
+    extras: dict = field(default_factory=dict)
+
+
+class Problem:
+    """N units of a penalised least-squares fit (a base class: a layout supplies the data).
+
+    Parameters
+    ----------
+    names : sequence of str
+        Free parameters, in the order of theta's columns (a name of k values repeats k times).
+    fixed : dict
+        name -> (N,) or (N, k) values of every other parameter the layout's model needs.
+    prior_mean : ndarray, (N, p), optional
+        Centre of each column's Gaussian prior, in theta's coordinates (None: no priors).
+    prior_weight : ndarray, (N, p), optional
+        1 / sd^2 of each column's prior (0: none on that column).
+
+    Attributes
+    ----------
+    lower : ndarray, (p,)
+        Lower bound of each column (:meth:`lower_bound`).
+    powers : ndarray, (p,)
+        The exponent e of a column iterated in u = x^e, 0 for its own coordinate
+        (:meth:`power`).
+    free : tuple of str
+        The distinct names, in column order.
+
+    Notes
+    -----
+    A layout sets its own attributes (those :meth:`lower_bound`, :meth:`power` and
+    :attr:`size` read) before calling ``Problem.__init__``.
+    """
+
+    def __init__(self, names, fixed, prior_mean=None, prior_weight=None):
+        self.names = tuple(names)
+        self.fixed = dict(fixed)
+        self.prior_mean, self.prior_weight = prior_mean, prior_weight
+        self.lower = np.array([self.lower_bound(n) for n in self.names], float)
+        self.powers = np.array([self.power(n) for n in self.names], float)
+        self.free = tuple(dict.fromkeys(self.names))
+        if (prior_mean is None) != (prior_weight is None):
+            raise ValueError("prior_mean, prior_weight: give both or neither")
+        if prior_mean is not None:
+            shape = (self.size, len(self.names))
+            for name in ("prior_mean", "prior_weight"):
+                a = np.asarray(getattr(self, name), float)
+                if a.shape != shape:
+                    raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+                setattr(self, name, a)
+
+    # ------------------------------------------------------------------ a layout's choices
+    def lower_bound(self, name: str) -> float:
+        """The lower bound of parameter ``name`` (default: none)."""
+        return -np.inf
+
+    def power(self, name: str) -> float:
+        """The exponent e of ``name``'s coordinate u = x^e, or 0 (its own coordinate)."""
+        return 0.0
+
+    @property
+    def size(self) -> int:
+        """N, the number of units."""
+        raise NotImplementedError
+
+    def rows(self, idx) -> dict:
+        """The layout's own per-unit arrays of units ``idx`` (for :meth:`subset`)."""
+        raise NotImplementedError
+
+    def data_terms(self, idx, theta, params, chain, grad: bool) -> Evaluation:
+        """The data's part of the objective of units ``idx``: ||r||^2, J^T r and J^T J in
+        theta's coordinates (``chain`` (k, p): the factor of each column, :meth:`chain`)."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ the generic part
+    def subset(self, idx) -> "Problem":
+        """The units ``idx`` as a problem of their own."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        new.__dict__.update(self.rows(idx))
+        new.fixed = {k: np.asarray(v)[idx] for k, v in self.fixed.items()}
+        for name in ("prior_mean", "prior_weight"):
+            a = getattr(self, name)
+            setattr(new, name, None if a is None else a[idx])
+        return new
+
+    def params(self, idx, theta) -> dict:
+        """The model's parameters of units ``idx`` at ``theta`` (k, p): name -> (k,) or (k, c)
+        values in their own units (power coordinates undone), the fixed ones included."""
+        out = {k: np.asarray(v)[idx] for k, v in self.fixed.items()}
+        for name in self.free:
+            cols = [j for j, n in enumerate(self.names) if n == name]
+            if len(cols) > 1:
+                out[name] = theta[:, cols]
+            elif self.powers[cols[0]] > 0:
+                out[name] = chl_from_u(theta[:, cols[0]], self.powers[cols[0]])
+            else:
+                out[name] = theta[:, cols[0]]
+        return out
+
+    def chain(self, params) -> np.ndarray:
+        """(k, p) factors d x / d theta of every column: 1, or dx/du for a power coordinate."""
+        k = len(next(iter(params.values()))) if params else 0
+        out = np.ones((k, len(self.names)))
+        for j in np.flatnonzero(self.powers > 0):
+            out[:, j] = du_chain(np.asarray(params[self.names[j]], float), self.powers[j])
+        return out
+
+    def evaluate(self, idx, theta, grad: bool = True) -> Evaluation:
+        """Objective, half gradient and Gauss-Newton matrix of units ``idx`` at ``theta``.
+
+        Parameters
+        ----------
+        idx : array_like of int, (k,)
+            The units.
+        theta : ndarray, (k, p)
+            Their parameters (theta's coordinates).
+        grad : bool, optional
+            Also g and H (default True).
+
+        Returns
+        -------
+        Evaluation
+        """
+        idx = np.asarray(idx, np.int64)
+        theta = np.asarray(theta, float)
+        params = self.params(idx, theta)
+        chain = self.chain(params) if grad else None
+        ev = self.data_terms(idx, theta, params, chain, grad)
+        if self.prior_mean is not None:
+            pw = self.prior_weight[idx]
+            d = theta - self.prior_mean[idx]
+            ev.f = ev.f + np.einsum("ip,ip->i", pw, d * d)
+            if grad:
+                ev.g = ev.g + pw * d
+                ev.H = ev.H + pw[:, :, None] * np.eye(theta.shape[1])
+        if not grad:
+            ev.g = ev.H = None
+        return ev

@@ -1,0 +1,253 @@
+"""Eq 1's integral on a few nodes: the certified spectral quadrature of the chart model.
+
+The chart model's signals are linear functionals of the path attenuation k(lambda):
+vec(G) = B k with B = (P (x) R) diag(i) on the model's grid (1 nm: q = 301), and the camera
+curves' shift D k likewise (:class:`sca.model.ChartModel`). k = exp(-tau) is smooth enough that
+its values on a 5 nm lattice (:data:`QUADRATURE_STEP_NM`, r = 61 nodes of the grid) determine
+B k to a few parts in 10^5: a quadrature rule B_r (m n x r) with B k ~ B_r k[nodes] for every
+water the estimators meet. The rule's weights are not an interpolation formula (the pure-water
+table has kinks every 10 nm that a spline through 5 nm nodes misses by 1 %) but a weighted
+least-squares fit, output by output, of the full-grid integrals of snapshots of k drawn over
+:data:`SNAPSHOT_DOMAIN` (every path model; C, a_CDOM, depth, distance, the CDOM and NAP slopes
+and the two chlorophyll-specific scales over their ranges; charts brighter than
+:data:`DARKEST`), each output weighted by 1 / (its value + :data:`WEIGHT_FLOOR` of the chart's brightest
+value): the error is relative, as the sensor's noise is.
+
+The rule is **certified twice**: on independent validation snapshots when it is built (its
+``error``, the largest relative error; ``tests/test_quadrature.py`` holds it below
+:data:`CERTIFIED_ERROR`), and at every fit's optimum by the estimators, which compare the reduced
+prediction with the full grid's and refit on the full grid where they differ by more than
+:data:`CERTIFY_SIGMA` of a patch's standard deviation (DECISIONS.md, "Spectral quadrature").
+
+A rule depends only on the setup's numbers (P, i, R, grid): it is cached in-process by their
+content (never by object identity), so it cannot outlive the numbers it was built from.
+
+References
+----------
+Blasinski & Farrell, eqs 1, 14 and 15 (the discrete model). P. J. Davis & P. Rabinowitz, Methods
+of Numerical Integration, 2nd ed., Academic Press (1984), sec. 2.5 (quadrature rules fitted to a
+class of integrands).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from forward.water import PAPER_WATER, PATH_MODELS, resolve_water
+
+__all__ = ["CERTIFIED_ERROR", "CERTIFY_SIGMA", "QUADRATURE_STEP_NM", "SNAPSHOT_DOMAIN",
+           "SNAPSHOTS", "QuadratureRule", "quadrature_nodes", "quadrature_rule",
+           "reduction_error"]
+
+#: Spacing of the quadrature's nodes, nm (every 5th point of the 1 nm grid). Measured on
+#: validation snapshots of :data:`SNAPSHOT_DOMAIN` (DECISIONS.md): 10 nm leaves 1e-2 relative
+#: error, 6 nm 2.5e-4, 5 nm 5e-5, 3 nm 5e-6.
+QUADRATURE_STEP_NM = 5.0
+#: Snapshots of k per path model for the fit of the weights (and as many for validation).
+SNAPSHOTS = 800
+#: Snapshots whose brightest value is below this (model units: a white reflector in air = 1)
+#: are left out: a chart 10^4 times darker than in air is beyond a camera's range (and is
+#: flagged ``dark`` long before).
+DARKEST = 1e-4
+#: The domain of the snapshots: log-uniform C (mg m^-3) and a_CDOM(440) (m^-1) with a tenth at
+#: exactly 0, uniform depth and distance (m), and the budget's nuisances: the slopes of eqs 6-7
+#: (nm^-1) uniform over the water's value +/- the half-width given, the scales of eqs 8 and 10
+#: log-uniform over the factor given.
+SNAPSHOT_DOMAIN = {"chl": (1e-3, 100.0), "cdom": (1e-4, 5.0), "depth": (0.0, 30.0),
+                   "distance": (0.0, 10.0), "cdom_slope": 0.01, "nap_slope": 0.01,
+                   "phyto_scale": 4.0, "nap_scale": 4.0}
+#: Relative weight floor: an output's error counts relative to its value plus this fraction of
+#: the snapshot's brightest value (a black patch in a bright chart is not held to 1e-5 of
+#: nothing).
+WEIGHT_FLOOR = 1e-3
+#: The largest relative error (of value + 1e-4 of the brightest value) a rule may show on its
+#: validation snapshots (the test of the rule; 5 nm measures 5e-5).
+CERTIFIED_ERROR = 2e-4
+#: At an optimum the reduced prediction must agree with the full grid's within this many
+#: standard deviations of every patch value (the issue's 0.05 sigma); else the fit is redone
+#: on the full grid.
+CERTIFY_SIGMA = 0.05
+#: Grids with at most this many points are not reduced (a 10 nm grid is already coarse).
+MIN_REDUCED = 80
+
+
+def quadrature_nodes(wavelengths, step_nm: float = QUADRATURE_STEP_NM) -> np.ndarray | None:
+    """The indices of the quadrature's nodes in a grid: every k-th point (k = step / the grid's
+    median spacing, rounded), the last point always; None where the grid is not worth reducing
+    (at most :data:`MIN_REDUCED` points, or k < 2).
+
+    Parameters
+    ----------
+    wavelengths : array_like, (q,)
+        The model grid, nm (increasing).
+    step_nm : float, optional
+        The nodes' spacing, nm.
+
+    Returns
+    -------
+    ndarray of int, (r,), or None
+    """
+    wl = np.asarray(wavelengths, float)
+    if wl.size <= MIN_REDUCED:
+        return None
+    k = int(round(step_nm / float(np.median(np.diff(wl)))))
+    if k < 2:
+        return None
+    idx = np.arange(0, wl.size, k)
+    return idx if idx[-1] == wl.size - 1 else np.append(idx, wl.size - 1)
+
+
+@dataclass(frozen=True, eq=False)
+class QuadratureRule:
+    """B k ~ B_r k[index] and D k ~ D_r k[index] on one setup's grid.
+
+    Attributes
+    ----------
+    index : ndarray of int, (r,)
+        The nodes (indices into the full grid).
+    B : ndarray, (m n, r)
+        The signals' weights (unit gain, model units).
+    D : ndarray, (m n, r)
+        The camera curves' shift's weights (per nm).
+    error : float
+        Largest relative error of B_r on the validation snapshots.
+    """
+
+    index: np.ndarray
+    B: np.ndarray
+    D: np.ndarray
+    error: float
+
+
+def _snapshots(model, rng, count):
+    """k (rows) on the full grid for ``count`` draws of each path model, the charts darker
+    than :data:`DARKEST` left out."""
+    rows = []
+    lo_c, hi_c = SNAPSHOT_DOMAIN["chl"]
+    lo_a, hi_a = SNAPSHOT_DOMAIN["cdom"]
+    for pm in PATH_MODELS:
+        water = resolve_water(PAPER_WATER, path_model=pm)
+        terms = water.on_grid(model.wavelengths)
+        chl = np.where(rng.random(count) < 0.1, 0.0,
+                       10 ** rng.uniform(np.log10(lo_c), np.log10(hi_c), count))
+        cdom = np.where(rng.random(count) < 0.1, 0.0,
+                        10 ** rng.uniform(np.log10(lo_a), np.log10(hi_a), count))
+        depth = rng.uniform(*SNAPSHOT_DOMAIN["depth"], count)
+        distance = rng.uniform(*SNAPSHOT_DOMAIN["distance"], count)
+        values = {}
+        for name in ("cdom_slope", "nap_slope"):
+            v = float(getattr(water, name))
+            values[name] = np.maximum(v + rng.uniform(-1, 1, count) * SNAPSHOT_DOMAIN[name], 0.0)
+        for name in ("phyto_scale", "nap_scale"):
+            f = SNAPSHOT_DOMAIN[name]
+            values[name] = float(getattr(water, name)) * f ** rng.uniform(-1, 1, count)
+        tau, _ = terms.optical_depth(chl, cdom, depth, distance, values=values)
+        rows.append(np.exp(-tau))
+    K = np.concatenate(rows)
+    return K[np.abs(K @ model.Bt).max(axis=1) >= DARKEST]
+
+
+def _fit(K, Y, YD, index):
+    """Weighted least squares of every output (rows of the result) on the nodes' values."""
+    scale = np.maximum(np.abs(Y).max(axis=1, keepdims=True), 1e-300)
+    X, Yn, YDn = K[:, index] / scale, Y / scale, YD / scale
+    W2 = (1.0 / (np.abs(Yn) + WEIGHT_FLOOR)) ** 2  # (S, mn)
+    # one orthonormal basis of the nodes' values: every output's normal equations in it are
+    # well conditioned (the nodes' values are strongly correlated)
+    U, s, Vt = np.linalg.svd(X, full_matrices=False)
+    A = np.matmul(U.T[None] * W2.T[:, None, :], U[None])  # (mn, r, r)
+    coef = [np.linalg.solve(A, np.einsum("so,si->oi", W2 * T, U)[..., None])[..., 0]
+            for T in (Yn, YDn)]
+    return [(c / s) @ Vt for c in coef]
+
+
+def _fingerprint(setup) -> str:
+    """The setup's numbers (grid, P, i, R) as one hash: the rule's cache key."""
+    h = hashlib.sha256()
+    for a in (setup.wavelengths, setup.sensitivities, setup.illuminant, setup.reflectances):
+        h.update(np.ascontiguousarray(a, float).tobytes())
+        h.update(str(np.shape(a)).encode())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=16)
+def _rule(key, setup_ref) -> QuadratureRule | None:
+    from .model import ChartModel
+
+    setup = setup_ref()
+    index = quadrature_nodes(setup.wavelengths)
+    if index is None:
+        return None
+    model = ChartModel(setup, water=PAPER_WATER)  # the domain is the paper's water's
+    rng = np.random.default_rng(20161)  # fixed: the same rule on every run and machine
+    K = _snapshots(model, rng, SNAPSHOTS)
+    B_r, D_r = _fit(K, K @ model.Bt, K @ model.Dt, index)
+    Kv = _snapshots(model, rng, SNAPSHOTS)
+    Yv = Kv @ model.Bt
+    err = np.abs(Kv[:, index] @ B_r.T - Yv) / (
+        np.abs(Yv) + 1e-4 * np.abs(Yv).max(axis=1, keepdims=True))
+    for a in (B_r, D_r, index):
+        a.setflags(write=False)
+    return QuadratureRule(index, B_r, D_r, float(err.max()))
+
+
+class _Ref:
+    """A strong reference passed through the cache without being part of its key."""
+
+    def __init__(self, obj):
+        self.obj = obj
+
+    def __call__(self):
+        return self.obj
+
+    def __hash__(self):
+        return 0
+
+    def __eq__(self, other):
+        return isinstance(other, _Ref)
+
+
+def quadrature_rule(model) -> QuadratureRule | None:
+    """The quadrature rule of a chart model's setup (cached by the setup's content).
+
+    Parameters
+    ----------
+    model : sca.ChartModel
+        A model on its full grid.
+
+    Returns
+    -------
+    QuadratureRule or None
+        None where the grid is not reduced (:func:`quadrature_nodes`).
+    """
+    if quadrature_nodes(model.wavelengths) is None:
+        return None
+    return _rule(_fingerprint(model.setup), _Ref(model.setup))
+
+
+def reduction_error(full, reduced, params, sigma) -> np.ndarray:
+    """How far a reduced model's prediction is from the full grid's, in standard deviations.
+
+    Parameters
+    ----------
+    full, reduced : sca.ChartModel
+        The model on its full grid and :meth:`sca.ChartModel.reduced`.
+    params : dict
+        The parameters (leading shape S), as :meth:`sca.ChartModel.predict`.
+    sigma : array_like, broadcastable to S + (m n,)
+        The values' standard deviations (data units of the models).
+
+    Returns
+    -------
+    ndarray, S
+        max over the values of |reduced - full| / sigma.
+    """
+    a = full.predict(params, jacobian=False).values
+    b = reduced.predict(params, jacobian=False).values
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(b - a) / np.asarray(sigma, float)
+    return np.nanmax(np.where(np.isfinite(ratio), ratio, np.inf), axis=-1)
