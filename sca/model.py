@@ -33,7 +33,7 @@ from .projection import linear_part_stats
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "linear_part", "linear_part_stats", "covariance", "profiled_covariance", "chl_from_u", "u_from_chl",
+           "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "chl_from_u", "u_from_chl",
            "du_chain"]
 
 #: Geometry of the path (eqs 3, 14), m.
@@ -646,6 +646,34 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
     F = np.swapaxes(J, -1, -2) @ J
     if prior_weight is not None:
         F = F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
+    return covariance_from_information(F, sigma2, cond_max=cond_max)
+
+
+def covariance_from_information(F, sigma2=1.0, *, cond_max: float = COND_MAX):
+    """sigma^2 F^-1: the one rule by which an information matrix is inverted.
+
+    F is scaled to unit diagonal (Jacobi) before it is inverted, so whether it counts as
+    singular does not depend on the parameters' units; singular (undetermined) problems give
+    infinite variances.
+
+    Parameters
+    ----------
+    F : array_like, (..., p, p)
+        Information matrices (J^T J plus the priors' weights: an evaluation's Gauss-Newton
+        matrix, :meth:`sca.problem.Problem.evaluate`).
+    sigma2 : float or array_like, broadcastable to the leading shape ``...``
+        Noise variance in the units of the whitening (1 where the noise is known).
+    cond_max : float, optional
+        Largest condition number of the unit-diagonal F that is inverted (default
+        :data:`COND_MAX`).
+
+    Returns
+    -------
+    ndarray, (..., p, p)
+        The covariance; every entry ``inf`` where F is singular, ill-conditioned, non-finite
+        or has a zero column.
+    """
+    F = np.asarray(F, float)
     out = np.full(F.shape, np.inf)
     flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
     if F.shape[-1]:

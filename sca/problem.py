@@ -199,21 +199,26 @@ class Problem:
         values in their own units (power coordinates undone), the fixed ones included."""
         out = {k: np.asarray(v)[idx] for k, v in self.fixed.items()}
         for name in self.free:
-            cols = [j for j, n in enumerate(self.names) if n == name]
-            if len(cols) > 1:
-                out[name] = theta[:, cols]
-            elif self.powers[cols[0]] > 0:
-                out[name] = chl_from_u(theta[:, cols[0]], self.powers[cols[0]])
-            else:
-                out[name] = theta[:, cols[0]]
+            cols = self.columns(name)
+            x = theta[:, cols]
+            power = self.powers[cols]
+            if np.any(power > 0):
+                x = np.where(power > 0, chl_from_u(x, np.where(power > 0, power, 1.0)), x)
+            out[name] = x if len(cols) > 1 else x[:, 0]
         return out
+
+    def columns(self, name: str) -> list:
+        """The columns of theta that hold ``name`` (in order)."""
+        return [j for j, n in enumerate(self.names) if n == name]
 
     def chain(self, params) -> np.ndarray:
         """(k, p) factors d x / d theta of every column: 1, or dx/du for a power coordinate."""
         k = len(next(iter(params.values()))) if params else 0
         out = np.ones((k, len(self.names)))
-        for j in np.flatnonzero(self.powers > 0):
-            out[:, j] = du_chain(np.asarray(params[self.names[j]], float), self.powers[j])
+        for name in {self.names[j] for j in np.flatnonzero(self.powers > 0)}:
+            cols = self.columns(name)
+            x = np.asarray(params[name], float).reshape(k, len(cols))
+            out[:, cols] = du_chain(x, self.powers[cols])
         return out
 
     def evaluate(self, idx, theta, grad: bool = True) -> Evaluation:

@@ -182,7 +182,7 @@ def _scratch(m, p):  # pragma: no cover
 
 
 @njit(cache=True, fastmath=FAST)
-def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s, g, H, i,
+def _project_one(GJ, o, CS, GF, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s, g, H, i,
                  wk):  # pragma: no cover
     """One chart of :func:`project`: its unit-gain signal G is row ``o`` of ``GJ`` and its
     p columns dG/dtheta rows o + 1 .. o + p; it reads row ``row`` of ``M``, ``W2`` and ``fs``
@@ -253,7 +253,7 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
             H[i, a, b] = (a0 + a1) + (a2 + a3)
     # the columns x_a = gain CS_a dG_a, centred over the active channels
     for a in range(p):
-        fa = gi * CS[i, a]
+        fa = (gi if GF[a] else 1.0) * CS[i, a]
         ga = 0.0
         for ch in range(m):
             ga += wk[XR + a, ch]
@@ -265,7 +265,7 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
             for ch in range(m):
                 if wk[ACT, ch] > 0.0:
                     hab -= wk[XS + a, ch] * wk[XS + b, ch] / wk[SW, ch]
-            hab *= fa * gi * CS[i, b]
+            hab *= fa * (gi if GF[b] else 1.0) * CS[i, b]
             H[i, a, b] = hab
             H[i, b, a] = hab
     if free_gain and gi > 0.0:  # project the columns off the centred G (the gain's column)
@@ -284,7 +284,7 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
                     acc += wk[XG + a, ch]
                     if wk[ACT, ch] > 0.0:
                         acc -= wk[SG, ch] * wk[XS + a, ch] / wk[SW, ch]
-                wk[CV, a] = gi * CS[i, a] * acc / gg
+                wk[CV, a] = (gi if GF[a] else 1.0) * CS[i, a] * acc / gg
             for a in range(p):
                 g[i, a] += wk[CV, a] * gcr
                 for b in range(a + 1):
@@ -294,7 +294,7 @@ def _project_one(GJ, o, CS, M, W2, fs, row, has_fs, free_gain, m, n, grad, p, s,
     return fi, si, gi
 
 
-def _project_all(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
+def _project_all(GJ, nr, CS, GF, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragma: no cover
     N, p = M.shape[0], nr - 1
     f, ssr, gain = np.empty(N), np.empty(N), np.empty(N)
     g, H, s = np.zeros((N, p)), np.zeros((N, p, p)), np.empty((N, m))
@@ -302,7 +302,7 @@ def _project_all(GJ, nr, CS, M, W2, fs, has_fs, free_gain, m, n, grad):  # pragm
     for b in prange(blocks):
         wk = _scratch(m, p)
         for i in range(b * PROJECT_BLOCK, min(N, (b + 1) * PROJECT_BLOCK)):
-            f[i], ssr[i], gain[i] = _project_one(GJ, i * nr, CS, M, W2, fs, i, has_fs,
+            f[i], ssr[i], gain[i] = _project_one(GJ, i * nr, CS, GF, M, W2, fs, i, has_fs,
                                                  free_gain, m, n, grad, p, s, g, H, i, wk)
     return f, g, H, gain, s, ssr
 
@@ -312,7 +312,7 @@ _project_serial, _project = twins(_project_all)
 
 
 def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool = True,
-            col_scale=None):
+            col_scale=None, gain_free_rows=None):
     """The variable projection of N charts (see the module docstring).
 
     Parameters
@@ -333,6 +333,9 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
         Also the gradient and Gauss-Newton matrix (else zeros).
     col_scale : ndarray, (N, p), optional
         Factors of the rows of ``JR`` (a change of units or coordinates; default ones).
+    gain_free_rows : array_like of bool, (p,), optional
+        Rows of ``JR`` that are derivatives of the prediction itself, not of the unit-gain
+        signal (an additive term: not multiplied by the gain; default none).
 
     Returns
     -------
@@ -344,10 +347,11 @@ def project(G, JR, M, W2, fixed_s, free_gain: bool, m: int, n: int, grad: bool =
     fs = np.ascontiguousarray(fixed_s, float) if has_fs else np.zeros((N, m))
     p = JR.shape[1]
     CS = np.ones((N, p)) if col_scale is None else np.ascontiguousarray(col_scale, float)
+    GF = np.ones(p, np.bool_) if gain_free_rows is None else ~np.asarray(gain_free_rows, bool)
     # each chart's G and its p rows dG/dtheta, one after another
     GJ = np.concatenate([np.asarray(G, float)[:, None, :], np.asarray(JR, float)], axis=1)
     args = (np.ascontiguousarray(GJ.reshape(N * (p + 1), GJ.shape[2])), p + 1, CS,
-            np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
+            np.ascontiguousarray(GF), np.ascontiguousarray(M, float), np.ascontiguousarray(W2, float), fs, has_fs,
             bool(free_gain), int(m), int(n), bool(grad))
     if N < SERIAL_BELOW:
         return _project_serial(*args)
