@@ -293,3 +293,35 @@ def test_bench_writes_to_a_folder_of_its_own_and_refuses_a_file(tmp_path):
     f.write_text("x")
     code, out, err = run(["bench", "--out", str(f)])
     assert code == 2 and "--out" in err
+
+
+@pytest.fixture(scope="module")
+def small_photo(tmp_path_factory):
+    """A small rendered RAW (DNG) of the chart underwater and its corners as --corners text."""
+    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+
+    width, height = 240, 160
+    corners = default_corners(width, height)
+    scene = Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000, width=width,
+                  height=height, seed=2)
+    path = write_dng(render_mosaic(scene, corners), tmp_path_factory.mktemp("photo") / "uw.dng")
+    return path, " ".join(f"{x:.2f},{y:.2f}" for x, y in corners)
+
+
+@pytest.mark.parametrize("option,entry,value", [
+    (["--depth-sd", "1"], "depth", 1.0),
+    (["--distance-sd", "0.2"], "distance", 0.2),
+    (["--uncertain", "cdom_slope=0.003"], "cdom_slope", 0.003),
+])
+def test_measure_budget_options_on_a_photo(small_photo, tmp_path, option, entry, value):
+    """Each budget option (without --exact) measures one photo with that entry over the
+    default budget (issue 35: they ended in an AttributeError)."""
+    from sca.budget import DEFAULT_UNCERTAIN
+
+    path, corners = small_photo
+    code, out, err = run(["measure", path, "--corners", corners, "--depth", "5", "--distance",
+                          "1.5", "--tiff", "none", "--out", str(tmp_path / "m"), *option])
+    assert code in (0, 1), err  # measured (no profile: not reliable)
+    assert "chl (C)" in out
+    inputs = json.loads((tmp_path / "m" / "measurement.json").read_text())["inputs"]
+    assert inputs["uncertain"] == DEFAULT_UNCERTAIN | {entry: value}
