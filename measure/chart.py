@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
-           "sample_patches", "orientations", "grey_row_ok", "ORIENTATIONS", "CLIP_SIGMA",
-           "MIN_PIXELS", "GREY_STEP_SE", "MAX_BOX_PIXELS"]
+           "sample_patches", "orientations", "grey_row_ok", "corners_outside", "ORIENTATIONS",
+           "CORNER_PATCHES", "CLIP_SIGMA", "MIN_PIXELS", "GREY_STEP_SE", "MAX_BOX_PIXELS"]
 
 #: Iterative clipping of a patch's pixels at this many robust standard deviations (MAD x
 #: MAD_TO_SD)
@@ -93,6 +93,8 @@ LAYOUTS = {"patches": ChartLayout(), "card": ChartLayout(margin_x=0.17, margin_y
 #: the chart rotated 180°, mirrored left-right, mirrored top-bottom
 ORIENTATIONS = {"as given": (0, 1, 2, 3), "rotated 180°": (2, 3, 0, 1),
                 "mirrored left-right": (1, 0, 3, 2), "mirrored top-bottom": (3, 2, 1, 0)}
+#: the patch each corner is next to, in the corners' order
+CORNER_PATCHES = (1, 6, 24, 19)
 
 
 def parse_corners(text) -> np.ndarray:
@@ -171,10 +173,29 @@ def _apply(H, pts):
     return q[:, :2] / q[:, 2:3]
 
 
+def corners_outside(corners, size) -> list:
+    """Which corners lie outside the image.
+
+    Parameters
+    ----------
+    corners : numpy.ndarray, (4, 2)
+        Pixels (x right, y down).
+    size : tuple of int
+        The image's (width, height), pixels.
+
+    Returns
+    -------
+    list of int
+        1-based indices of the corners outside pixel centres 0..W-1, 0..H-1 (empty: all in).
+    """
+    W, H = size
+    return [i + 1 for i, (x, y) in enumerate(corners) if not (0 <= x <= W - 1 and 0 <= y <= H - 1)]
+
+
 def _check_geometry(corners, size):
     """Refuse corners outside the image or not a convex quadrilateral in order."""
     W, H = size
-    bad = [i + 1 for i, (x, y) in enumerate(corners) if not (0 <= x <= W - 1 and 0 <= y <= H - 1)]
+    bad = corners_outside(corners, size)
     if bad:
         raise ValueError(f"corners: corner(s) {bad} lie outside the image ({W} x {H} pixels)")
     cross = []

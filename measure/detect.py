@@ -55,7 +55,7 @@ import numpy as np
 
 from forward import spectra
 
-from .chart import LAYOUTS, ChartLayout, orientations
+from .chart import CORNER_PATCHES, LAYOUTS, ChartLayout, corners_outside, orientations
 
 __all__ = [
     "ADAPTIVE_BLOCKS",
@@ -181,6 +181,28 @@ class Detection:
                 "colour_r2": round(float(self.colour_r2), 4),
                 "runner_up_r2": round(float(self.runner_up_r2), 4),
                 "pitch_px": round(float(self.pitch), 2)}
+
+    def check_in_frame(self, size) -> None:
+        """Refuse a chart that the frame cuts: measuring needs every patch in the photo.
+
+        Parameters
+        ----------
+        size : tuple of int
+            The photo's (width, height), pixels.
+
+        Raises
+        ------
+        ValueError
+            Naming ``image``, when a corner found lies outside the photo (the detector
+            extrapolates the grid from the patches it sees).
+        """
+        bad = corners_outside(self.corners, size)
+        if bad:
+            near = ", ".join(str(CORNER_PATCHES[i - 1]) for i in bad)
+            raise ValueError(f"image: the chart found lies partly outside the frame (its corners "
+                             f"next to patch {near} fall beyond the {size[0]} x {size[1]} "
+                             "pixels); every patch must be in the photo: take it again with "
+                             "the whole chart inside the frame")
 
 
 def reference_rgb() -> np.ndarray:

@@ -367,8 +367,9 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     ------
     ValueError
         Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
-        ``light_field``, ``mode``, ...) when it is wrong; :class:`measure.ChartNotFound` (``no chart
-        found``, with the reason) when ``corners`` is None and the photo shows no chart.
+        ``light_field``, ``mode``, ...) when it is wrong (``image`` when ``corners`` is None and
+        the chart found lies partly outside the frame); :class:`measure.ChartNotFound` (``no
+        chart found``, with the reason) when ``corners`` is None and the photo shows no chart.
 
     References
     ----------
@@ -394,6 +395,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     budget = budget_for(uncertain, profile)
     if corners is None:
         found = find_chart(photo, lay)
+        found.check_in_frame(photo.size)
         corners, chart = found.corners, found.to_dict()
     else:
         chart = {"corners": parse_corners(corners).tolist(), "detected": False}

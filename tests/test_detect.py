@@ -163,6 +163,29 @@ def test_measure_chartless_raw_is_an_error(tmp_path, patches):
         measure.measure(path, depth=5.0, distance=1.0)
 
 
+def test_chart_partly_outside_the_frame_is_said_so(tmp_path, patches):
+    """A chart cut by the frame's right edge, no --corners given: the detector's corners lie
+    beyond the image; the error names the image and the cause (issue 35: it blamed --corners,
+    which the user had not given), in measure.measure, uw3p measure and uw3p calibrate."""
+    from uw3p.cli import main
+
+    size = (300, 450)
+    corners = card_corners(size, width_fraction=0.45, centre=(0.85, 0.5))
+    scene = render_scene(patches, corners, size=size, seed=7, exposure=0.5)
+    assert scene["grid_corners"][:, 0].max() > size[1]  # the patch grid itself is cut
+    path = write_dng(tmp_path / "cut.dng", scene["image"])
+    with pytest.raises(ValueError, match=r"^image: the chart found lies partly outside the "
+                                         r"frame .*next to patch 6, 24") as exc:
+        measure.measure(path, depth=8.0, distance=1.5, light_field="none", uncertain={})
+    assert "--corners" not in str(exc.value) and "whole chart" in str(exc.value)
+    for argv in (["measure", path, "--depth", "8", "--distance", "1.5", "--exact", "--out",
+                  str(tmp_path / "m")], ["calibrate", path, "--out", str(tmp_path / "p.json")]):
+        out, err = io.StringIO(), io.StringIO()
+        assert main(argv, out, err) == 2
+        assert err.getvalue().startswith(f"uw3p {argv[0]}: error: image: the chart found lies "
+                                         "partly outside the frame"), err.getvalue()
+
+
 def test_calibrate_cli_without_corners(tmp_path):
     """uw3p calibrate finds the chart in air and reports the corners it used."""
     from uw3p.cli import main
