@@ -29,8 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
-           "sample_patches", "orientations", "grey_row_ok", "ORIENTATIONS", "CLIP_SIGMA",
-           "MIN_PIXELS", "GREY_STEP_SE", "MAX_BOX_PIXELS"]
+           "sample_patches", "orientations", "grey_row_ok", "corners_outside", "pose",
+           "describe_pose", "ORIENTATIONS",
+           "CORNER_PATCHES", "CLIP_SIGMA", "MIN_PIXELS", "GREY_STEP_SE", "MAX_BOX_PIXELS"]
 
 #: Iterative clipping of a patch's pixels at this many robust standard deviations (MAD x
 #: MAD_TO_SD)
@@ -93,6 +94,8 @@ LAYOUTS = {"patches": ChartLayout(), "card": ChartLayout(margin_x=0.17, margin_y
 #: the chart rotated 180°, mirrored left-right, mirrored top-bottom
 ORIENTATIONS = {"as given": (0, 1, 2, 3), "rotated 180°": (2, 3, 0, 1),
                 "mirrored left-right": (1, 0, 3, 2), "mirrored top-bottom": (3, 2, 1, 0)}
+#: the patch each corner is next to, in the corners' order
+CORNER_PATCHES = (1, 6, 24, 19)
 
 
 def parse_corners(text) -> np.ndarray:
@@ -171,10 +174,74 @@ def _apply(H, pts):
     return q[:, :2] / q[:, 2:3]
 
 
+def corners_outside(corners, size) -> list:
+    """Which corners lie outside the image.
+
+    Parameters
+    ----------
+    corners : numpy.ndarray, (4, 2)
+        Pixels (x right, y down).
+    size : tuple of int
+        The image's (width, height), pixels.
+
+    Returns
+    -------
+    list of int
+        1-based indices of the corners outside pixel centres 0..W-1, 0..H-1 (empty: all in).
+    """
+    W, H = size
+    return [i + 1 for i, (x, y) in enumerate(corners) if not (0 <= x <= W - 1 and 0 <= y <= H - 1)]
+
+
+def pose(corners) -> dict:
+    """How the chart lies in the photo: turned, and seen in a mirror or not.
+
+    Parameters
+    ----------
+    corners : array_like, (4, 2)
+        Pixels (x right, y down) next to patch 1, 6, 24, 19, or those patches' centres.
+
+    Returns
+    -------
+    dict
+        ``rotation_deg``: degrees clockwise on screen, in (-180, 180], by which the upright
+        chart (patch 1 top left, patch 6 top right) is turned, after the mirror when there is
+        one; ``mirrored``: the chart is seen in a mirror image (its columns reversed: patch 6
+        left of patch 1 before the turn; patch 1 -> 6 -> 24 runs anticlockwise).
+    """
+    c = np.asarray(corners, float)
+    row, down = c[1] - c[0], c[2] - c[1]
+    mirrored = bool(row[0] * down[1] - row[1] * down[0] < 0)
+    if mirrored:
+        row = -row  # the mirror image's own row runs from patch 6 to patch 1
+    rot = round(float(np.degrees(np.arctan2(row[1], row[0]))), 1)
+    return {"rotation_deg": rot + 360.0 if rot <= -180.0 else rot, "mirrored": mirrored}
+
+
+def describe_pose(p: dict) -> str:
+    """:func:`pose` in words: ``'rotated 177° clockwise, mirrored'``, ``'not rotated, not
+    mirrored'``.
+
+    Parameters
+    ----------
+    p : dict
+        ``rotation_deg`` and ``mirrored`` (:func:`pose`).
+
+    Returns
+    -------
+    str
+        The turn to the nearest degree and whether the chart is mirrored.
+    """
+    deg = round(p["rotation_deg"])
+    turn = ("not rotated" if deg == 0 else "rotated 180°" if abs(deg) == 180 else
+            f"rotated {abs(deg)}° {'clockwise' if deg > 0 else 'anticlockwise'}")
+    return f"{turn}, {'mirrored' if p['mirrored'] else 'not mirrored'}"
+
+
 def _check_geometry(corners, size):
     """Refuse corners outside the image or not a convex quadrilateral in order."""
     W, H = size
-    bad = [i + 1 for i, (x, y) in enumerate(corners) if not (0 <= x <= W - 1 and 0 <= y <= H - 1)]
+    bad = corners_outside(corners, size)
     if bad:
         raise ValueError(f"corners: corner(s) {bad} lie outside the image ({W} x {H} pixels)")
     cross = []

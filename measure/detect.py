@@ -55,7 +55,7 @@ import numpy as np
 
 from forward import spectra
 
-from .chart import LAYOUTS, ChartLayout, orientations
+from .chart import CORNER_PATCHES, LAYOUTS, ChartLayout, corners_outside, orientations, pose
 
 __all__ = [
     "ADAPTIVE_BLOCKS",
@@ -143,10 +143,9 @@ class Detection:
         Pixels of the photo (x right, y down), next to patch 1, 6, 24, 19, at the layout's
         corners (the patch grid's for 'patches', the card's for 'card').
     orientation : dict
-        ``rotation_deg``: direction of the row patch 1 -> 6 on screen, degrees clockwise from
-        the +x axis; ``mirrored``: the chart is seen in a mirror image (patch 1 -> 6 -> 24 runs
-        anticlockwise); ``grey_row``: True/False when the grey-row test ran on a Photo (None on
-        an RGB array).
+        ``rotation_deg`` (degrees clockwise on screen) and ``mirrored`` (a mirror image: patch
+        1 -> 6 -> 24 runs anticlockwise), :func:`measure.chart.pose`; ``grey_row``: True/False
+        when the grey-row test ran on a Photo (None on an RGB array).
     confidence : float
         0-1: min(1, found / (24 FULL_SHARE)) x R^2 (module docstring).
     method : str
@@ -181,6 +180,28 @@ class Detection:
                 "colour_r2": round(float(self.colour_r2), 4),
                 "runner_up_r2": round(float(self.runner_up_r2), 4),
                 "pitch_px": round(float(self.pitch), 2)}
+
+    def check_in_frame(self, size) -> None:
+        """Refuse a chart that the frame cuts: measuring needs every patch in the photo.
+
+        Parameters
+        ----------
+        size : tuple of int
+            The photo's (width, height), pixels.
+
+        Raises
+        ------
+        ValueError
+            Naming ``image``, when a corner found lies outside the photo (the detector
+            extrapolates the grid from the patches it sees).
+        """
+        bad = corners_outside(self.corners, size)
+        if bad:
+            near = ", ".join(str(CORNER_PATCHES[i - 1]) for i in bad)
+            raise ValueError(f"image: the chart found lies partly outside the frame (its corners "
+                             f"next to patch {near} fall beyond the {size[0]} x {size[1]} "
+                             "pixels); every patch must be in the photo: take it again with "
+                             "the whole chart inside the frame")
 
 
 def reference_rgb() -> np.ndarray:
@@ -516,15 +537,6 @@ def _corners_of(assigned, pts, best, layout, factor, scale, offset):
     return corners, centres, int(count)
 
 
-def _describe(centres):
-    """rotation (degrees clockwise of the row 1 -> 6) and mirrored."""
-    row = centres[5] - centres[0]
-    down = centres[23] - centres[5]
-    rot = float(np.degrees(np.arctan2(row[1], row[0])))
-    mirrored = bool(row[0] * down[1] - row[1] * down[0] < 0)
-    return {"rotation_deg": round(rot, 1), "mirrored": mirrored}
-
-
 def _layout(layout) -> ChartLayout:
     if not isinstance(layout, ChartLayout):
         if layout not in LAYOUTS:
@@ -599,7 +611,7 @@ def find_chart(image, layout="patches") -> Detection:
     if isinstance(image, Photo):
         corners, centres, grey, changed = _grey_row(image, corners, centres, lay)
         method += "+grey-row" if changed else ""
-    orient = _describe(centres) | {"grey_row": grey}
+    orient = pose(centres[[0, 5, 23, 18]]) | {"grey_row": grey}
     conf = min(1.0, count / (24 * FULL_SHARE)) * max(0.0, best[0])
     return Detection(corners, orient, float(conf), method, count, float(best[0]), float(runner),
                      float(np.mean(np.hypot(*np.diff(centres.reshape(4, 6, 2), axis=1).T))),

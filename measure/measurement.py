@@ -28,8 +28,10 @@ from .chart import (
     LAYOUTS,
     ChartLayout,
     PatchSample,
+    describe_pose,
     orientations,
     parse_corners,
+    pose,
     sample_patches,
 )
 from .detect import find_chart
@@ -69,7 +71,10 @@ class Measurement:
     sample : PatchSample
         The sampled patch values (raw units) in the chosen orientation.
     orientation : str
-        A name of :data:`measure.chart.ORIENTATIONS`.
+        Corners given: how they were used, a name of :data:`measure.chart.ORIENTATIONS` ('as
+        given', or the order the grey row chose). A chart found: ``'detected: '`` and its
+        pose in the photo (:func:`measure.chart.describe_pose`, e.g. 'detected: rotated 177°
+        clockwise, mirrored').
     corners : numpy.ndarray, (4, 2)
         The corners in pixels, in the chosen order.
     gains, offset : numpy.ndarray, (3,)
@@ -367,8 +372,9 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     ------
     ValueError
         Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
-        ``light_field``, ``mode``, ...) when it is wrong; :class:`measure.ChartNotFound` (``no chart
-        found``, with the reason) when ``corners`` is None and the photo shows no chart.
+        ``light_field``, ``mode``, ...) when it is wrong (``image`` when ``corners`` is None and
+        the chart found lies partly outside the frame); :class:`measure.ChartNotFound` (``no
+        chart found``, with the reason) when ``corners`` is None and the photo shows no chart.
 
     References
     ----------
@@ -394,12 +400,15 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     budget = budget_for(uncertain, profile)
     if corners is None:
         found = find_chart(photo, lay)
+        found.check_in_frame(photo.size)
         corners, chart = found.corners, found.to_dict()
     else:
         chart = {"corners": parse_corners(corners).tolist(), "detected": False}
     cands = orientations(photo, corners, lay)
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
                                                              distance, water, budget, mode)
+    if chart["detected"]:  # how the chart lies, not how the detector's corners were used
+        name = f"detected: {describe_pose(pose(c))}"
     fit_setup, field_report = setup, {"model": "none"}
     if light_field != "none":
         M, sig = _data(sample)

@@ -293,3 +293,82 @@ def test_bench_writes_to_a_folder_of_its_own_and_refuses_a_file(tmp_path):
     f.write_text("x")
     code, out, err = run(["bench", "--out", str(f)])
     assert code == 2 and "--out" in err
+
+
+@pytest.fixture(scope="module")
+def small_photo(tmp_path_factory):
+    """A small rendered RAW (DNG) of the chart underwater and its corners as --corners text."""
+    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+
+    width, height = 240, 160
+    corners = default_corners(width, height)
+    scene = Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000, width=width,
+                  height=height, seed=2)
+    path = write_dng(render_mosaic(scene, corners), tmp_path_factory.mktemp("photo") / "uw.dng")
+    return path, " ".join(f"{x:.2f},{y:.2f}" for x, y in corners)
+
+
+@pytest.mark.parametrize("option,entry,value", [
+    (["--depth-sd", "1"], "depth", 1.0),
+    (["--distance-sd", "0.2"], "distance", 0.2),
+    (["--uncertain", "cdom_slope=0.003"], "cdom_slope", 0.003),
+])
+def test_measure_budget_options_on_a_photo(small_photo, tmp_path, option, entry, value):
+    """Each budget option (without --exact) measures one photo with that entry over the
+    default budget (issue 35: they ended in an AttributeError)."""
+    from sca.budget import DEFAULT_UNCERTAIN
+
+    path, corners = small_photo
+    code, out, err = run(["measure", path, "--corners", corners, "--depth", "5", "--distance",
+                          "1.5", "--tiff", "none", "--out", str(tmp_path / "m"), *option])
+    assert code in (0, 1), err  # measured (no profile: not reliable)
+    assert "chl (C)" in out
+    inputs = json.loads((tmp_path / "m" / "measurement.json").read_text())["inputs"]
+    assert inputs["uncertain"] == DEFAULT_UNCERTAIN | {entry: value}
+
+
+def usage_error(capsys, argv):
+    """(exit status, stderr) of a command line that argparse refuses."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    return exc.value.code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv,typo,suggestion", [
+    (["measure", "X", "--metdata", "d.csv", "--out", "o"], "--metdata", "--metadata"),
+    (["measure", "X", "--metdata", "d.csv"], "--metdata", "--metadata"),  # --out missing too
+    (["estimate", "m.csv", "--depth", "5", "--distance", "1", "--attenuaton", "k.csv"],
+     "--attenuaton", "--attenuation"),
+    (["calibrate", "air.dng", "--out", "p.json", "--cornrs", "1,1 9,1 9,5 1,5"], "--cornrs",
+     "--corners"),
+    (["simulate", "--chl", "1", "--cdom", "0.1", "--depth", "5", "--distance", "1",
+      "--no-nosie"], "--no-nosie", "--no-noise"),
+    (["simulate", "--chl", "1", "--cdom", "0.1", "--depth", "5", "--distance", "1",
+      "--sed=3"], "--sed=3", "--seed"),
+])
+def test_misspelled_option_gets_did_you_mean(capsys, argv, typo, suggestion):
+    """issue 35: the subcommand's usage and the closest valid option, exit 2."""
+    code, err = usage_error(capsys, argv)
+    assert code == 2
+    assert f"uw3p {argv[0]}: error: unrecognized arguments: {typo} (did you mean {suggestion}?)" \
+        in err
+    assert err.startswith(f"usage: uw3p {argv[0]} ")
+
+
+def test_option_of_another_subcommand_says_whose_it_is(capsys):
+    code, err = usage_error(capsys, ["estimate", "m.csv", "--depth", "5", "--distance", "1",
+                                     "--metadata", "d.csv"])
+    assert code == 2 and err.startswith("usage: uw3p estimate ")
+    assert "unrecognized arguments: --metadata (an option of uw3p measure) d.csv" in err
+
+
+def test_misspelled_subcommand_or_choice_gets_did_you_mean(capsys):
+    code, err = usage_error(capsys, ["mesure", "X", "--out", "o"])
+    assert code == 2 and err.startswith("usage: uw3p [-h]")
+    assert "uw3p: error: argument command: invalid choice: 'mesure', did you mean 'measure'?" \
+        in err
+    code, err = usage_error(capsys, ["measure", "X", "--out", "o", "--tiff", "nnone"])
+    assert code == 2 and err.startswith("usage: uw3p measure ")
+    assert "argument --tiff: invalid choice: 'nnone', did you mean 'none'? (choose from" in err
+    code, err = usage_error(capsys, ["zzz"])  # nothing close: argparse's own message
+    assert code == 2 and "invalid choice: 'zzz' (choose from" in err and "mean" not in err

@@ -2,7 +2,9 @@
 a renderer that shares no code with forward) and on a real underwater JPEG; measure.measure and
 uw3p calibrate without corners."""
 
+import csv
 import io
+import json
 from pathlib import Path
 
 import numpy as np
@@ -147,7 +149,9 @@ def test_measure_without_corners_samples_as_with_true_ones(dive):
     found = measure.measure(path, depth=8.0, distance=1.5, light_field="none")
     true = measure.measure(path, corners=scene["grid_corners"], depth=8.0, distance=1.5,
                            light_field="none")
-    assert found.orientation == true.orientation == "as given"
+    assert true.orientation == "as given"
+    assert found.orientation.startswith("detected: rotated") and \
+        found.orientation.endswith(", not mirrored")
     chart = found.inputs["chart"]
     assert chart["detected"] is True and chart["method"].startswith("grid")
     assert true.inputs["chart"]["detected"] is False
@@ -161,6 +165,62 @@ def test_measure_chartless_raw_is_an_error(tmp_path, patches):
     path = write_dng(tmp_path / "empty.dng", scene["image"])
     with pytest.raises(ValueError, match="no chart found"):
         measure.measure(path, depth=5.0, distance=1.0)
+
+
+def test_chart_partly_outside_the_frame_is_said_so(tmp_path, patches):
+    """A chart cut by the frame's right edge, no --corners given: the detector's corners lie
+    beyond the image; the error names the image and the cause (issue 35: it blamed --corners,
+    which the user had not given), in measure.measure, uw3p measure and uw3p calibrate."""
+    from uw3p.cli import main
+
+    size = (300, 450)
+    corners = card_corners(size, width_fraction=0.45, centre=(0.85, 0.5))
+    scene = render_scene(patches, corners, size=size, seed=7, exposure=0.5)
+    assert scene["grid_corners"][:, 0].max() > size[1]  # the patch grid itself is cut
+    path = write_dng(tmp_path / "cut.dng", scene["image"])
+    with pytest.raises(ValueError, match=r"^image: the chart found lies partly outside the "
+                                         r"frame .*next to patch 6, 24") as exc:
+        measure.measure(path, depth=8.0, distance=1.5, light_field="none", uncertain={})
+    assert "--corners" not in str(exc.value) and "whole chart" in str(exc.value)
+    for argv in (["measure", path, "--depth", "8", "--distance", "1.5", "--exact", "--out",
+                  str(tmp_path / "m")], ["calibrate", path, "--out", str(tmp_path / "p.json")]):
+        out, err = io.StringIO(), io.StringIO()
+        assert main(argv, out, err) == 2
+        assert err.getvalue().startswith(f"uw3p {argv[0]}: error: image: the chart found lies "
+                                         "partly outside the frame"), err.getvalue()
+
+
+def test_detected_chart_rotated_and_mirrored_is_reported_so(tmp_path, patches):
+    """A chart turned 177° and seen in a mirror, no --corners: the detector finds it, and the
+    orientation reported (Measurement, measurement.json, the command's print, summary.csv)
+    says so; 'as given' is for corners given and used as given (issue 35)."""
+    from uw3p.cli import main
+
+    size = (300, 450)
+    corners = card_corners(size, width_fraction=0.5, rotation_deg=177.0, mirrored=True)
+    scene = render_scene(patches, corners, size=size, seed=7, exposure=0.5)
+    path = write_dng(tmp_path / "turned.dng", scene["image"])
+    said = "detected: rotated 177° clockwise, mirrored"
+    m = measure.measure(path, depth=8.0, distance=1.5, light_field="none", uncertain={})
+    assert np.max(np.hypot(*(m.corners - scene["grid_corners"]).T)) / scene["pitch"] < CORNER_PITCH
+    assert m.orientation == said
+    assert m.inputs["chart"]["orientation"]["mirrored"] is True
+    assert abs(m.inputs["chart"]["orientation"]["rotation_deg"] - 177) < 1
+    given = measure.measure(path, corners=scene["grid_corners"], depth=8.0, distance=1.5,
+                            light_field="none", uncertain={})
+    assert given.orientation == "as given"
+    out, err = io.StringIO(), io.StringIO()
+    assert main(["measure", path, "--depth", "8", "--distance", "1.5", "--exact", "--tiff",
+                 "none", "--out", str(tmp_path / "m")], out, err) in (0, 1), err.getvalue()
+    assert f"orientation      {said}\n" in out.getvalue()
+    assert json.loads((tmp_path / "m" / "measurement.json").read_text())["orientation"] == said
+    folder = tmp_path / "dive"
+    folder.mkdir()
+    (folder / "turned.dng").write_bytes(Path(path).read_bytes())
+    res = measure.measure_dive(folder, out=tmp_path / "d", depth=8.0, distance=1.5,
+                               scheduler="synchronous", light_field="none", uncertain={})
+    with open(res.summary, newline="", encoding="utf-8") as f:
+        assert [r["orientation"] for r in csv.DictReader(f)] == [said]
 
 
 def test_calibrate_cli_without_corners(tmp_path):

@@ -112,6 +112,34 @@ def test_headerless_semicolon_decimal_comma(tmp_path, sim):
     assert sd is None
 
 
+def test_quoted_cells_may_hold_line_breaks(tmp_path, sim):
+    """A spreadsheet cell with line breaks (Alt+Enter), blank lines included, is one cell,
+    in the header as in the rows (issue 35: the header was split into lines before the csv
+    module saw it, and a blank line inside a quoted chart id was dropped)."""
+    rows = _rows(sim)
+    rows[0][0] = "patch\n"  # a header cell ending in a line break
+    M, sd = patchfile.read_patch_csv(_write(tmp_path / "h.csv", rows))
+    np.testing.assert_array_equal(M, sim.rgb)
+    rows = _batch_rows([("dive 3\n\nnorth", 1.0, 0.1, 5.0), ("dive 3\nnorth", 3.0, 0.5, 10.0)])
+    ids, M, *_ = patchfile.read_batch_csv(_write(tmp_path / "b.csv", rows))
+    assert ids == ["dive 3\n\nnorth", "dive 3\nnorth"] and M.shape == (2, 3, 24)
+    rows[30][2] = "x"  # the line named is the row's own, after the rows of three lines
+    with pytest.raises(ValueError, match="line 84: 'x' in red is not a number"):
+        patchfile.read_batch_csv(_write(tmp_path / "b.csv", rows))
+
+
+def test_a_trailing_separator_adds_no_column(tmp_path, sim):
+    """An Excel-style trailing separator on every line: ignored with a header or without
+    one; a value under it is refused, never silently dropped (issue 35)."""
+    for header in (True, False):
+        rows = [r[:4] + [""] for r in _rows(sim)[0 if header else 1:]]
+        M, sd = patchfile.read_patch_csv(_write(tmp_path / "t.csv", rows))
+        np.testing.assert_array_equal(M, sim.rgb)
+        rows[5][4] = "0.7"
+        with pytest.raises(ValueError, match=r"line 6: '0.7' in column 5, which has no name"):
+            patchfile.read_patch_csv(_write(tmp_path / "t.csv", rows))
+
+
 # --------------------------------------------------------------------------- columns by name
 def test_channel_order_comes_from_the_header(tmp_path, sim):
     ref = patchfile.read_patch_csv(_write(tmp_path / "rgb.csv", _rows(sim)))

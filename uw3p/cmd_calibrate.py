@@ -76,7 +76,8 @@ def run(args, out, err) -> int:
     ------
     ValueError
         Bad input (an unreadable image, corners whose grey row does not fall from white to
-        black, an unwritable ``--out``); the message names the argument or file;
+        black, a chart found partly outside the frame, an unwritable ``--out``); the message
+        names the argument or file;
         :class:`measure.ChartNotFound` (``no chart found``) when no chart is found.
     """
     import measure
@@ -90,6 +91,7 @@ def run(args, out, err) -> int:
     corners = args.corners
     if corners is None:
         found = measure.find_chart(photo, measure.LAYOUTS[args.layout])
+        found.check_in_frame(photo.size)
         corners = found.corners
         err.write(f"chart found: corners {_corner_text(corners)} (confidence "
                   f"{found.confidence:.2f}; give --corners to override)\n")

@@ -9,8 +9,9 @@ The conventions (the README's command-line section says the same):
   first line is honoured. Fields may be quoted (``"dive 3, north"``).
 * **Decimal comma**: in a semicolon- or tab-separated file, numbers may be written ``0,25``.
 * Lines starting with ``#`` before the header (comments), blank lines and rows of empty
-  fields are skipped; a column with an empty name (a spreadsheet's trailing separator) is
-  ignored.
+  fields are skipped; a column with an empty name (a spreadsheet's trailing separator; in a
+  file without a header, empty fields that end the first row) is ignored, and a value in it
+  refused. A quoted field may hold line breaks (the csv module reads the file whole).
 * **Columns by name**, in any order and any case (spaces and ``-`` read as ``_``): ``patch``
   (1..n, rows in any order); the channels ``red``, ``green``, ``blue`` (or ``R``, ``G``,
   ``B``; ``ch0``, ``ch1``, ... for a camera with other channels); optionally the standard
@@ -50,6 +51,10 @@ BLOCK_ROWS = 65536
 DELIMITERS = ",;\t"
 #: Bytes read to detect the encoding and the separator.
 SAMPLE_BYTES = 65536
+#: Rows of that sample that the separator must split alike.
+SNIFF_ROWS = 50
+#: A spreadsheet's separator hint, the file's first line (``sep=;``).
+SEP_LINE = re.compile(r"\s*sep=(.)\s*")
 _CH = re.compile(r"^ch(\d+)$")
 
 
@@ -80,25 +85,35 @@ def _encoding(head: bytes, p, name) -> str:
     return "utf-8-sig"
 
 
-def _skip(line: str, top: bool = True) -> bool:
-    """Whether a physical line carries no data: blank, only separators, or (at the top of the
-    file, before the first row) a ``#`` comment."""
+def _skip(line: str) -> bool:
+    """Whether a physical line before the file's first row carries no data: blank, only
+    separators, a ``#`` comment or a spreadsheet's ``sep=`` hint."""
     s = line.strip()
-    return not s or (top and s.startswith("#")) or not s.strip(DELIMITERS + " ")
+    return not s or s.startswith("#") or not s.strip(DELIMITERS + " ") or bool(_hint(line))
 
 
-def _data_lines(fh, count=None):
-    """The lines of ``fh`` that carry data (see :func:`_skip`); the cheap first-character test
-    lets nearly every data line through without a strip. ``count``: a one-element list set to
-    the physical line number of the line last read (for error messages)."""
-    top = True
-    for i, line in enumerate(fh, 1):
-        if count is not None:
-            count[0] = i
-        c = line[:1]
-        if c.isalnum() or (c and c in '"-+.') or not _skip(line, top):
-            top = False
+def _hint(line: str):
+    """The match of a ``sep=`` line (its group 1 the separator), or None."""
+    return SEP_LINE.fullmatch(line.rstrip("\r\n"))
+
+
+def _lines(fh, skipped=None):
+    """The physical lines of ``fh`` (its line breaks kept, for the csv module) from the first
+    that carries data (:func:`_skip`); ``skipped``: a one-element list set to the number of
+    lines skipped before it (for error messages)."""
+    it = iter(fh)
+    for i, line in enumerate(it):
+        if not _skip(line):
+            if skipped is not None:
+                skipped[0] = i
             yield line
+            yield from it
+            return
+
+
+def _has_data(row) -> bool:
+    """Whether a parsed row holds a value (not a blank line or a row of empty fields)."""
+    return bool(row and row[0].strip()) or any(f.strip() for f in row)
 
 
 class _Table:
@@ -117,20 +132,15 @@ class _Table:
         text = head.decode(self.encoding, errors="ignore")
         if self.encoding == "utf-8-sig" and text.startswith("\ufeff"):
             text = text[1:]
-        lines = [ln for ln in text.splitlines()[:-1 if len(head) == SAMPLE_BYTES else None]
-                 if not _skip(ln)]
-        if not lines:
+        # lines split as the csv module will read the file (line breaks inside quoted cells
+        # are the csv module's to join); the sample's last line may be cut
+        lines = list(io.StringIO(text, newline=""))[:-1 if len(head) == SAMPLE_BYTES else None]
+        hint = next(filter(None, map(_hint, itertools.takewhile(_skip, lines))), None)
+        lines = list(_lines(lines))
+        self.delimiter = hint.group(1) if hint else self._sniff(lines)
+        first = next(filter(_has_data, csv.reader(lines, delimiter=self.delimiter)), None)
+        if first is None:
             raise ValueError(f"{name}: {p} has no rows")
-        self.sep_line = False
-        m = re.fullmatch(r"\s*sep=(.)\s*", lines[0])
-        if m:  # a spreadsheet's separator hint
-            self.sep_line, self.delimiter = True, m.group(1)
-            lines = lines[1:]
-            if not lines:
-                raise ValueError(f"{name}: {p} has no rows")
-        else:
-            self.delimiter = self._sniff(lines)
-        first = next(csv.reader([lines[0]], delimiter=self.delimiter))
         # a decimal comma: only where the comma cannot be the separator
         self.decimal_comma = self.delimiter != ","
         self.header = None if _numeric_row(first, self.decimal_comma) else first
@@ -139,18 +149,20 @@ class _Table:
 
     @staticmethod
     def _sniff(lines):
-        """The separator: the first of tab, semicolon, comma that splits every sample line
+        """The separator: the first of tab, semicolon, comma that splits every sample row
         (quotes respected, csv module) into the same number (>= 2) of fields. Tab and
         semicolon go first: their files may hold decimal commas, while a comma-separated file
         has no unquoted semicolon on every line."""
-        sample = lines[:50]
+        def rows(d):
+            return list(itertools.islice(filter(_has_data, csv.reader(lines, delimiter=d)),
+                                         SNIFF_ROWS))
         for d in ("\t", ";", ","):
-            widths = {len(r) for r in csv.reader(sample, delimiter=d)}
+            widths = {len(r) for r in rows(d)}
             if len(widths) == 1 and widths.pop() >= 2:
                 return d
-        # ragged whichever the separator: the one splitting the first line most (the reader
+        # ragged whichever the separator: the one splitting the first row most (the reader
         # then names the ragged line)
-        return max(DELIMITERS, key=lambda d: len(next(csv.reader([lines[0]], delimiter=d))))
+        return max(DELIMITERS, key=lambda d: len((rows(d) or [[]])[0]))
 
     def rows(self, progress=None):
         """Iterate the data rows (lists of str), the header included; ``progress``: a tqdm
@@ -159,11 +171,8 @@ class _Table:
         if progress is not None:
             raw = io.BufferedReader(_Counted(raw, progress))
         fh = io.TextIOWrapper(raw, encoding=self.encoding, newline="")
-        lines = _data_lines(fh)
-        if self.sep_line:
-            next(lines, None)
         try:
-            yield from csv.reader(lines, delimiter=self.delimiter)
+            yield from filter(_has_data, csv.reader(_lines(fh), delimiter=self.delimiter))
         except csv.Error as exc:
             raise ValueError(f"{self.name}: {self.path} is not valid CSV: {exc}") from None
         except UnicodeDecodeError as exc:
@@ -174,16 +183,20 @@ class _Table:
             fh.close()
 
     def line_of(self, k: int) -> int:
-        """The physical line number (1-based) of data row ``k`` (0 = the first row after the
-        header, or the first row of a file without one); used for error messages only."""
-        count = [0]
+        """The physical line number (1-based) where data row ``k`` starts (0 = the first row
+        after the header, or the first row of a file without one); used for error messages
+        only."""
+        skipped = [0]
         with open(self.path, encoding=self.encoding, newline="") as fh:
-            reader = csv.reader(_data_lines(fh, count), delimiter=self.delimiter)
-            skip = int(self.sep_line) + (self.header is not None)
-            for j, _ in enumerate(reader):
-                if j == k + skip:
-                    break
-        return count[0]
+            reader = csv.reader(_lines(fh, skipped), delimiter=self.delimiter)
+            target, j, end = k + (self.header is not None), 0, 0
+            for row in reader:
+                start, end = end + 1, reader.line_num
+                if _has_data(row):
+                    if j == target:
+                        return skipped[0] + start
+                    j += 1
+        return skipped[0] + end
 
     def where(self, k: int) -> str:
         return f"{self.path} line {self.line_of(k)}"
@@ -298,18 +311,30 @@ def _columns(table: _Table, batch: bool):
 
 
 # --------------------------------------------------------------------------- reading
+def _unnamed(table: _Table) -> list:
+    """The columns without a name (a spreadsheet's trailing separator): the header's empty
+    names, or in a file without a header the first row's trailing empty fields."""
+    if table.header is not None:
+        return [i for i, h in enumerate(table.header) if not h.strip()]
+    width = len(table.first)
+    while width and not table.first[width - 1].strip():
+        width -= 1
+    return list(range(width, len(table.first)))
+
+
 def _read(table: _Table, columns: dict, id_col, progress=None):
     """Read every data row: (ids, codes, values) -- the chart ids in order of first appearance
     (or None), the chart index of every row (or None), and the requested numeric columns
-    ({key: (R,) float array}); each block of rows converted column by column."""
+    ({key: (R,) float array}); each block of rows converted column by column. A value in a
+    column without a name (:func:`_unnamed`) is refused, never dropped."""
     rows = table.rows(progress)
     try:
-        return _read_rows(table, rows, columns, id_col)
+        return _read_rows(table, rows, columns, id_col, _unnamed(table))
     finally:
         rows.close()
 
 
-def _read_rows(table, rows, columns, id_col):
+def _read_rows(table, rows, columns, id_col, unnamed=()):
     name = table.name
     if table.header is not None:
         next(rows)
@@ -329,6 +354,12 @@ def _read_rows(table, rows, columns, id_col):
             raise ValueError(f"{name}: {table.where(done + k)} has {len(block[k])} fields, "
                              f"{'the header' if table.header else 'the first row'} {width}")
         cols = list(zip(*block))
+        for j in unnamed:
+            k = next((i for i, x in enumerate(cols[j]) if x.strip()), None)
+            if k is not None:
+                raise ValueError(f"{name}: {table.where(done + k)}: {cols[j][k]!r} in column "
+                                 f"{j + 1}, which has no name (a value the file does not name "
+                                 "is not read): name the column or remove the value")
         if id_col is not None:
             get = ids.setdefault
             codes.append(np.fromiter((get(c, len(ids)) for c in map(str.strip, cols[id_col])),
@@ -449,7 +480,7 @@ def read_patch_csv(path, *, name: str = "measurements"):
     """
     table = _Table(path, name)
     if table.header is None:
-        width = len(table.first)
+        width = len(table.first) - len(_unnamed(table))
         if width < 2:
             raise ValueError(f"{name}: {table.path} needs a patch column and one column per "
                              "channel")
