@@ -56,11 +56,14 @@ from .model import (
 )
 from .pathmodels import candidates, combine_batch
 from .projection import grid_best
+from .quadrature import CERTIFY_SIGMA, reduction_error
 
 __all__ = [
     "CHUNK",
     "DEFAULT_ENGINE",
+    "DEFAULT_QUADRATURE",
     "ENGINES",
+    "QUADRATURES",
     "INIT_CDOM",
     "INIT_CHL",
     "STATUS",
@@ -76,11 +79,14 @@ INIT_CDOM = np.concatenate([[0.0], np.logspace(-3, np.log10(3.0), 6)])
 CHUNK = 65536
 #: Values per block of the free-gain start search (charts x grid points x m n).
 START_BLOCK = 2_000_000
-#: The engine: the model function's columns (or, for C, a_CDOM and the path only, the optical
-#: depth's (weight, spectrum) pieces, :func:`sca.lm.fused`) and the compiled, physics-free
-#: variable projection (:mod:`sca.projection`).
+#: The engine: the model function's columns and the compiled, physics-free variable projection
+#: (:mod:`sca.projection`).
 ENGINES = ("numba",)
 DEFAULT_ENGINE = "numba"
+#: ``quadrature=``: eq 1's integral on the certified 5 nm quadrature (:mod:`sca.quadrature`),
+#: or on the grid as given.
+QUADRATURES = ("reduced", "full")
+DEFAULT_QUADRATURE = "reduced"
 
 
 @dataclass
@@ -251,7 +257,8 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    cdom_slope: float | None = None, fix=None, free=(), intervals: bool = True,
                    max_iter: int = 100, tol: float = LM_TOL, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE, gain: str = "known",
-                   uncertain=None, path_models=None) -> BatchEstimate:
+                   uncertain=None, path_models=None,
+                   quadrature: str = DEFAULT_QUADRATURE) -> BatchEstimate:
     """Estimate the water of a stack of charts ``rgb_stack`` (N, m, n).
 
     Parameters
@@ -283,8 +290,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     tol : float
         Relative decrease at which a chart stops.
     engine : {'numba'}
-        The one engine: the model function's columns, or the optical depth's (weight,
-        spectrum) pieces (:func:`sca.lm.fused`), projected by compiled code
+        The one engine: the model function's columns projected by compiled code
         (:mod:`sca.projection`).
     gain : {'known', 'free'}
         'free': M = gain G + s with one unknown gain per chart (a photograph's exposure).
@@ -298,6 +304,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         ratio, and where several fit about equally well its intervals span them (flag
         ``path-model-span``). Default: all of :data:`forward.water.PATH_MODELS` where a budget
         applies, else only the water's.
+    quadrature : {'reduced', 'full'}
+        'reduced' (default): eq 1's integral on the certified 5 nm quadrature
+        (:mod:`sca.quadrature`) where the grid is fine, every chart's optimum checked against
+        the full grid and refitted on it where they differ by more than
+        :data:`sca.quadrature.CERTIFY_SIGMA` of a value's noise; 'full': the grid as given.
 
     Returns
     -------
@@ -321,7 +332,9 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
           "camera": camera, "illuminant": illuminant, "reflectances": reflectances,
           "wavelengths": wavelengths, "basis": basis, "fix": fix, "free": free,
           "intervals": intervals, "max_iter": max_iter, "tol": tol, "setup": setup,
-          "engine": engine, "gain": gain, "uncertain": uncertain}
+          "engine": engine, "gain": gain, "uncertain": uncertain, "quadrature": quadrature}
+    if quadrature not in QUADRATURES:
+        raise ValueError(f"quadrature: must be one of {QUADRATURES}, got {quadrature!r}")
     if len(models) == 1:
         return _estimate_batch(rgb_stack, water=water, **kw)
     results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
@@ -333,7 +346,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
 
 def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, illuminant,
                     reflectances, wavelengths, basis, water, fix, free, intervals, max_iter, tol,
-                    setup, engine, gain, uncertain) -> BatchEstimate:
+                    setup, engine, gain, uncertain, quadrature) -> BatchEstimate:
     """:func:`estimate_batch` under one path model (``water``'s)."""
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -382,10 +395,11 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
 
     def rows(a, i):
         return None if a is None else a[i:i + CHUNK]
-    parts = [_solve_chunk(mdl, spec, M[i:i + CHUNK], rows(sig, i),
-                          {k: v[i:i + CHUNK] for k, v in geometry.items()}, scale[i:i + CHUNK],
-                          int(max_iter), tol, bool(intervals),
-                          None if budget is None else budget.rows(slice(i, i + CHUNK)))
+    parts = [_solve_certified(mdl, spec, M[i:i + CHUNK], rows(sig, i),
+                              {k: v[i:i + CHUNK] for k, v in geometry.items()},
+                              scale[i:i + CHUNK], int(max_iter), tol, bool(intervals),
+                              None if budget is None else budget.rows(slice(i, i + CHUNK)),
+                              quadrature == "reduced")
              for i in range(0, N, CHUNK)] or [_empty(mdl, spec)]
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]
            if key not in ("values", "intervals", "budget")}
@@ -446,7 +460,7 @@ def _empty(mdl, spec):
             "fit_rms": z, "dof": np.zeros(0, int), "chi2_dof": z, "chi2_p": z,
             "gain_ci": np.zeros((0, 2)), "ci_codes": np.zeros((0, 4), int),
             "values": {n: z for n in names}, "intervals": {n: np.zeros((0, 2)) for n in names},
-            "budget": {}}
+            "budget": {}, "quadrature": z, "ssr": z}
 
 
 def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> ChartProblem:
@@ -545,6 +559,66 @@ def start_grid(prob: ChartProblem, geometry):
     return C[best].copy(), A[best].copy()
 
 
+def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
+                     reduce: bool):
+    """:func:`_solve_chunk` on the model's certified quadrature (``reduce``, where its grid is
+    reduced), each optimum checked against the full grid (:func:`sca.quadrature.reduction_error`
+    in units of the sensor's noise) and the charts where they differ by more than
+    :data:`sca.quadrature.CERTIFY_SIGMA` solved again on the full grid; the attenuation k of
+    every chart on the full grid. Adds 'quadrature' (N,): the largest reduction error at the
+    optimum (0 where the full grid was used)."""
+    small = mdl.reduced() if reduce else mdl
+    res = _solve_chunk(small, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget)
+    N = M.shape[0]
+    params = _solution_params(res, geometry, spec, scale)
+    res["quadrature"] = np.zeros(N)
+    if small is not mdl:
+        # the sensor's noise, or the noise the residual shows where that is smaller (a fit far
+        # better than its noise, or an exact one, is held to its own residual: the full grid)
+        shown = (np.sqrt(res["ssr"] / M[0].size) * scale)[:, None]
+        noise = shown if sig is None else np.minimum(sig.reshape(N, -1), shown)
+        err = reduction_error(mdl, small, params, noise)
+        res["quadrature"] = err
+        bad = np.flatnonzero(~(err <= CERTIFY_SIGMA))
+        if bad.size:
+            redo = _solve_chunk(mdl, spec, M[bad], None if sig is None else sig[bad],
+                                {k: v[bad] for k, v in geometry.items()}, scale[bad], max_iter,
+                                tol, intervals, None if budget is None else budget.rows(bad))
+            _replace_rows(res, redo, bad)
+            res["quadrature"][bad] = 0.0
+            params = _solution_params(res, geometry, spec, scale)
+        res["k"] = mdl.predict(params, jacobian=False).attenuation
+    return res
+
+
+def _solution_params(res, geometry, spec, scale) -> dict:
+    """The model's parameters at each chart's solution (data units)."""
+    params = dict(geometry)
+    params.update({k: v for k, v in res["values"].items()})
+    for k in ("chl", "cdom"):
+        if k in spec.fixed:
+            params[k] = np.full(scale.size, spec.fixed[k])
+    params["gain"] = res["gain"]
+    params["backscatter"] = res["s"] * scale[:, None]
+    return params
+
+
+def _replace_rows(res, redo, rows) -> None:
+    """Charts ``rows`` of ``res`` replaced by ``redo``'s (in place; nested dicts too)."""
+    for key, val in redo.items():
+        if isinstance(val, dict):
+            if key == "budget":
+                for name, v in val.items():
+                    res[key][name]["sd"][rows] = v["sd"]
+                    for src, share in v["shares"].items():
+                        res[key][name]["shares"][src][rows] = share
+            else:
+                for name, v in val.items():
+                    res[key][name][rows] = v
+        elif key != "k":
+            res[key][rows] = val
+
+
 def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget=None):
     """Levenberg-Marquardt (and the intervals) on one chunk of charts: a dict of results, s
     and f in the chunk's scaled units."""
@@ -571,7 +645,7 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     ev = evaluate(prob, idx, theta, True)
     f, H = ev.f, ev.H
     gain, s, ssr, k = (ev.extras[n] for n in ("gain", "s", "ssr", "k"))
-    res = {"s": s, "k": k, "f": f, "it": it, "code": code, "gain": gain}
+    res = {"s": s, "k": k, "f": f, "it": it, "code": code, "gain": gain, "ssr": ssr}
     res["fit_rms"] = np.sqrt(ssr / np.einsum("ij,ij->i", prob.M, prob.M))
     n_s = np.zeros(N, dtype=int) if not spec.free_s else np.sum(s > 0, axis=1)
     dof = mdl.m * mdl.n - len(spec.names) - n_s - int(spec.free_gain)

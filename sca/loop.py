@@ -165,7 +165,11 @@ class Estimator:
                  reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
                  path_model: str | None = None, cdom_slope: float | None = None, fix=None,
                  free=(), setup: ChartSetup | None = None, gain: str = "known",
-                 uncertain=None):
+                 uncertain=None, quadrature: str = "reduced"):
+        if quadrature not in ("reduced", "full"):
+            raise ValueError(f"quadrature: must be 'reduced' or 'full', got {quadrature!r}")
+        #: the inference layer's model: the certified quadrature or the full grid
+        self.quadrature = quadrature
         self.depth = validate.scalar("depth", depth)
         self.distance = validate.scalar("distance", distance)
         self.setup = setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -286,9 +290,12 @@ class Estimator:
         wt = np.ones(M.size) if sig is None else scale / self.budget.noise_sd(M, sig).ravel()
         Mv = M.ravel() / scale
         Mw = wt * Mv
-        return _FitState(mdl=self.model.scaled(scale), Mv=Mv, wt=wt, noise_known=sig is not None,
+        mdl = self.model.scaled(scale)
+        return _FitState(mdl=mdl, Mv=Mv, wt=wt, noise_known=sig is not None,
                          scale=scale, s_fixed=s_fixed, f_exact=EXACT_FIT * float(Mw @ Mw),
-                         wt_photon=None if sig is None else scale / sig.ravel())
+                         wt_photon=None if sig is None else scale / sig.ravel(),
+                         fit_mdl=mdl.reduced() if self.quadrature == "reduced"
+                         and self.model.z == 1 else mdl)
 
     def initial_point(self, st, x0=None) -> dict:
         """Deterministic start: a coarse grid search over (C, a_CDOM) with w on eq 17 and the
@@ -696,6 +703,11 @@ class _FitState:
     wt_photon: np.ndarray | None = None
     #: the budget's nuisance values at the fit (name -> float, or (m,) for 'balance')
     nuisance: dict = field(default_factory=dict)
+    #: the model the inference layer fits (:meth:`sca.ChartModel.reduced`, or ``mdl`` itself
+    #: where the quadrature is full or its certificate failed at the optimum)
+    fit_mdl: ChartModel | None = None
+    #: the largest reduction error at the optimum, in sds of the values (0: the full grid)
+    quadrature_error: float = 0.0
 
     def stop(self, status: str, converged: bool) -> bool:
         self.status, self.converged = status, converged
@@ -730,7 +742,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
              tol: float = 1e-10, fix=None, free=(), x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
              setup: ChartSetup | None = None, gain: str = "known", uncertain=None,
-             path_models=None) -> Estimate:
+             path_models=None, quadrature: str = "reduced") -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -793,6 +805,13 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         likelihood ratio, and where several fit about equally well the intervals span them
         (flag ``path-model-span``). Default: all of :data:`forward.water.PATH_MODELS` where a
         budget applies (``sigma`` given, ``uncertain`` not ``{}``), else only the water's.
+    quadrature : {'reduced', 'full'}
+        The grid of the Levenberg-Marquardt fits, the budget's refinement and the intervals:
+        'reduced' (default) eq 1's integral on the certified 5 nm quadrature
+        (:mod:`sca.quadrature`; the optimum checked against the full grid, and refitted on it
+        where they differ by more than :data:`sca.quadrature.CERTIFY_SIGMA` of a value's
+        noise), 'full' the grid as given. The convex loops ('safeguarded', 'paper') always
+        run on the grid as given.
 
     Returns
     -------
@@ -812,7 +831,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     """
     kw = dict(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
               reflectances=reflectances, wavelengths=wavelengths, basis=basis, fix=fix,
-              free=free, setup=setup, gain=gain, uncertain=uncertain)
+              free=free, setup=setup, gain=gain, uncertain=uncertain, quadrature=quadrature)
     est = Estimator(water=water, path_model=path_model, cdom_slope=cdom_slope, **kw)
     fit = dict(sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
     return over_path_models(est, path_models, sigma, lambda e: e.fit(rgb, **fit), kw)

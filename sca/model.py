@@ -20,6 +20,7 @@ from __future__ import annotations
 import copy
 import functools
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -168,6 +169,11 @@ def upper_cap(name: str, water: Water) -> float:
     return np.inf
 
 
+def _in_pool() -> bool:
+    """True in a thread of :func:`_pool` (a block is never split again there)."""
+    return threading.current_thread().name.startswith("uw3p-predict")
+
+
 @functools.lru_cache(maxsize=1)
 def _pool() -> ThreadPoolExecutor:
     """Threads for the blocks of a large prediction (one per core; stateless, thread-safe)."""
@@ -294,16 +300,21 @@ class ChartModel:
         self.full = self
         #: the quadrature rule of a :meth:`reduced` model (None on the full grid)
         self.rule = None
+        #: the factor this model's signals are divided by (:meth:`scaled`)
+        self._factor = 1.0
 
     def scaled(self, factor: float) -> "ChartModel":
         """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest
-        and keeps a reference to this model (its Dt, when needed, is this model's / factor)."""
+        and keeps a reference to this model (its Dt, when needed, is this model's / factor).
+        It is its own full-grid model: its :meth:`reduced` is this model's, scaled."""
         new = copy.copy(self)
         new.B = self.B / factor
         new.Bt = np.ascontiguousarray(new.B.T)
-        for name in ("Dt", "BDt"):  # computed for the copy when it needs them, not copied
+        for name in ("Dt", "BDt", "_reduced"):  # computed for the copy when needed
             new.__dict__.pop(name, None)
         new._dt_source = (self, factor)
+        new.full, new.rule = new, None
+        new._factor = self._factor * factor
         return new
 
     @functools.cached_property
@@ -319,9 +330,9 @@ class ChartModel:
         new.wavelengths = self.wavelengths[rule.index]
         new.terms = self.terms.subset(rule.index)
         new.T, new.t440 = new.terms.T, new.terms.t440
-        new.B = rule.B
-        new.Bt = np.ascontiguousarray(rule.B.T)
-        new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T)
+        new.B = rule.B / self._factor
+        new.Bt = np.ascontiguousarray(new.B.T)
+        new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T / self._factor)
         new._dt_source = None
         new.rule = rule
         return new
@@ -397,12 +408,16 @@ class ChartModel:
         free = check_names("free", free) if jacobian else ()
         n_lead = self._batch_size(params)
         size = max(PREDICT_BLOCK_MIN, PREDICT_BLOCK_VALUES // self.wavelengths.size)
-        if n_lead > size:  # in blocks: the temporaries stay in the cache
+        if n_lead > size and not _in_pool():  # in blocks: the temporaries stay in the cache
             def block(i):
-                return self.predict(self._rows_of(params, n_lead, slice(i, i + size)),
-                                    free, chl_floor=chl_floor, jacobian=jacobian)
+                return self._predict(self._rows_of(params, n_lead, slice(i, i + size)),
+                                     free, chl_floor, jacobian)
             # numpy releases the GIL in its array loops and BLAS: blocks run on every core
             return Prediction.concatenate(list(_pool().map(block, range(0, n_lead, size))))
+        return self._predict(params, free, chl_floor, jacobian)
+
+    def _predict(self, params, free, chl_floor, jacobian) -> Prediction:
+        """:meth:`predict` of one block of charts (``free`` checked)."""
         unknown = set(params) - set(PARAMS)
         if unknown:
             raise ValueError(f"params: unknown parameter(s) {sorted(unknown)}")

@@ -19,8 +19,10 @@ The rule is **certified twice**: on independent validation snapshots when it is 
 prediction with the full grid's and refit on the full grid where they differ by more than
 :data:`CERTIFY_SIGMA` of a patch's standard deviation (DECISIONS.md, "Spectral quadrature").
 
-A rule depends only on the setup's numbers (P, i, R, grid): it is cached in-process by their
-content (never by object identity), so it cannot outlive the numbers it was built from.
+A rule depends only on the setup's numbers (P, i, R, grid), the paper's water and this module's
+settings: it is cached by their content (never by object identity), in-process and on disk
+(:func:`cache_dir`; the install step builds the default camera's), so it cannot outlive the
+numbers it was built from. Building one takes about half a second.
 
 References
 ----------
@@ -33,22 +35,25 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
+import tempfile
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from forward.water import PAPER_WATER, PATH_MODELS, resolve_water
 
-__all__ = ["CERTIFIED_ERROR", "CERTIFY_SIGMA", "QUADRATURE_STEP_NM", "SNAPSHOT_DOMAIN",
-           "SNAPSHOTS", "QuadratureRule", "quadrature_nodes", "quadrature_rule",
-           "reduction_error"]
+__all__ = ["CACHE_ENV", "CERTIFIED_ERROR", "CERTIFY_SIGMA", "QUADRATURE_STEP_NM",
+           "SNAPSHOT_DOMAIN", "SNAPSHOTS", "QuadratureRule", "cache_dir", "quadrature_nodes",
+           "quadrature_rule", "reduction_error"]
 
 #: Spacing of the quadrature's nodes, nm (every 5th point of the 1 nm grid). Measured on
 #: validation snapshots of :data:`SNAPSHOT_DOMAIN` (DECISIONS.md): 10 nm leaves 1e-2 relative
 #: error, 6 nm 2.5e-4, 5 nm 5e-5, 3 nm 5e-6.
 QUADRATURE_STEP_NM = 5.0
 #: Snapshots of k per path model for the fit of the weights (and as many for validation).
-SNAPSHOTS = 800
+SNAPSHOTS = 1200
 #: Snapshots whose brightest value is below this (model units: a white reflector in air = 1)
 #: are left out: a chart 10^4 times darker than in air is beyond a camera's range (and is
 #: flagged ``dark`` long before).
@@ -68,8 +73,8 @@ WEIGHT_FLOOR = 1e-3
 #: validation snapshots (the test of the rule; 5 nm measures 5e-5).
 CERTIFIED_ERROR = 2e-4
 #: At an optimum the reduced prediction must agree with the full grid's within this many
-#: standard deviations of every patch value (the issue's 0.05 sigma); else the fit is redone
-#: on the full grid.
+#: standard deviations of every patch value (the sensor's, or the residual's RMS where that is
+#: smaller: a noise-free chart is fitted exactly); else the fit is redone on the full grid.
 CERTIFY_SIGMA = 0.05
 #: Grids with at most this many points are not reduced (a 10 nm grid is already coarse).
 MIN_REDUCED = 80
@@ -167,18 +172,76 @@ def _fit(K, Y, YD, index):
 
 def _fingerprint(setup) -> str:
     """The setup's numbers (grid, P, i, R) as one hash: the rule's cache key."""
-    h = hashlib.sha256()
+    h = hashlib.sha256(_settings_key().encode())
     for a in (setup.wavelengths, setup.sensitivities, setup.illuminant, setup.reflectances):
         h.update(np.ascontiguousarray(a, float).tobytes())
         h.update(str(np.shape(a)).encode())
     return h.hexdigest()
 
 
+#: The environment variable naming the folder of the rules' disk cache (default
+#: ``$XDG_CACHE_HOME/uw3p/quadrature``, else ``~/.cache/uw3p/quadrature``); empty: no disk cache.
+CACHE_ENV = "UW3P_CACHE_DIR"
+
+
+def cache_dir() -> Path | None:
+    """The folder of the rules' disk cache (:data:`CACHE_ENV`), or None (no disk cache)."""
+    given = os.environ.get(CACHE_ENV)
+    if given is not None:
+        return Path(given) / "quadrature" if given else None
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "uw3p" / "quadrature"
+
+
+@functools.lru_cache(maxsize=1)
+def _settings_key() -> str:
+    """What else a rule depends on: this module's source (its settings and method) and the
+    paper's water (the snapshots' domain)."""
+    h = hashlib.sha256(Path(__file__).read_bytes())
+    h.update(PAPER_WATER._fingerprint().encode())
+    return h.hexdigest()
+
+
+def _load(path: Path) -> QuadratureRule | None:
+    try:
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in ("index", "B", "D", "error")}
+    except (OSError, ValueError, KeyError):
+        return None
+    for a in arrays.values():
+        a.setflags(write=False)
+    return QuadratureRule(arrays["index"], arrays["B"], arrays["D"], float(arrays["error"]))
+
+
+def _save(path: Path, rule: QuadratureRule) -> None:
+    """Written whole or not at all; an unwritable cache is no cache."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, index=rule.index, B=rule.B, D=rule.D, error=rule.error)
+        os.replace(tmp, path)
+    except OSError:
+        return
+
+
 @functools.lru_cache(maxsize=16)
 def _rule(key, setup_ref) -> QuadratureRule | None:
+    folder = cache_dir()
+    path = None if folder is None else folder / f"{key}.npz"
+    if path is not None and path.is_file():
+        rule = _load(path)
+        if rule is not None:
+            return rule
+    rule = _build(setup_ref())
+    if path is not None and rule is not None:
+        _save(path, rule)
+    return rule
+
+
+def _build(setup) -> QuadratureRule | None:
     from .model import ChartModel
 
-    setup = setup_ref()
     index = quadrature_nodes(setup.wavelengths)
     if index is None:
         return None

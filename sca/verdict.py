@@ -21,6 +21,7 @@ from .intervals import BOUND_OPEN, profile_intervals
 from .charts import ChartProblem
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
+from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
 
 __all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
@@ -96,7 +97,7 @@ def _problem(est, st, priors: bool = True) -> ChartProblem:
         if k in est.fixed:
             fixed[k] = np.array([est.fixed[k]])
     fixed = {k: v for k, v in fixed.items() if k not in names}
-    return ChartProblem(st.mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
+    return ChartProblem(st.fit_mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
                         est.free_gain, None if st.s_fixed is None else st.s_fixed[None], mean,
                         weight)
 
@@ -173,12 +174,13 @@ def _take_point(est, st, prob, theta, f) -> dict:
     return values
 
 
-def _refine(est, st):
+def _refine(est, st, always: bool = False):
     """With the budget's priors: move C, a_CDOM, the free names and every nuisance from the
     loop's point to the penalised optimum (chi^2 + the priors' terms) with the one
-    Levenberg-Marquardt engine; ``st`` is updated (x, f, nuisance, status)."""
+    Levenberg-Marquardt engine; ``st`` is updated (x, f, nuisance, status). ``always``: also
+    without priors (the optimum on another model of the same data)."""
     prob = _problem(est, st)
-    if prob.prior_mean is None:
+    if prob.prior_mean is None and not always:
         return
     theta, f, _, code = levenberg_marquardt(prob, _theta(est, st, prob), max_iter=REFINE_MAX_ITER,
                                             tol=REFINE_TOL, f_exact=np.array([st.f_exact]))
@@ -188,6 +190,28 @@ def _refine(est, st):
     if code[0] > 2:
         st.converged = False
         st.status = f"{st.status}; budget refinement: {STATUS[int(code[0])]}"
+
+
+def _certify(est, st):
+    """The reduced quadrature's certificate at the optimum (:mod:`sca.quadrature`): where the
+    reduced prediction differs from the full grid's by more than CERTIFY_SIGMA of a value's
+    noise, the fit (and what follows: the intervals) is moved to the full grid."""
+    if st.fit_mdl is st.mdl:
+        return
+    params = _params(est, st, st.x)
+    params.update(gain=st.x["gain"], backscatter=np.asarray(st.x["s"], float))
+    # the sensor's noise, or the noise the residual shows where that is smaller (a fit far
+    # better than its noise, or an exact one, is held to its own residual: the full grid)
+    pred = st.fit_mdl.predict(params, jacobian=False).values
+    shown = np.sqrt(np.mean((st.Mv - pred) ** 2))
+    noise = np.full(st.Mv.size, shown)
+    if st.noise_known:
+        noise = np.minimum(noise, 1.0 / (st.wt_photon if st.wt_photon is not None else st.wt))
+    st.quadrature_error = float(reduction_error(st.mdl, st.fit_mdl, params, noise))
+    if not st.quadrature_error <= CERTIFY_SIGMA:
+        st.fit_mdl = st.mdl
+        st.quadrature_error = 0.0
+        _refine(est, st, always=True)
 
 
 def _shares(est, st, x) -> dict:
@@ -276,6 +300,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
     _refine(est, st)
+    _certify(est, st)
     mdl, x = st.mdl, st.x
     names = est.spec.names
     n_s = 0 if not est.free_s else int(np.sum(np.asarray(x["s"]) > 0))

@@ -1,4 +1,5 @@
 import os
+import tempfile
 
 import matplotlib
 from hypothesis import settings
@@ -12,6 +13,9 @@ settings.register_profile("uw3p", derandomize=True, deadline=None, max_examples=
 settings.register_profile("stress", derandomize=False, deadline=None, max_examples=300,
                           print_blob=True)
 settings.load_profile(os.environ.get("UW3P_HYPOTHESIS", "uw3p"))
+
+# the quadrature rules' disk cache (sca.quadrature.cache_dir) of a test run is its own
+os.environ.setdefault("UW3P_CACHE_DIR", tempfile.mkdtemp(prefix="uw3p-test-cache-"))
 
 
 #: Tests that take about a minute alone (a compile of the kernels in a private cache): run

@@ -1,4 +1,6 @@
-"""The batched solver reaches the same optimum as the sca loop (correctness, not speed)."""
+"""The batched solver reaches the same optimum as the sca loop (correctness, not speed): both on
+the full grid (``quadrature='full'``: the same model; the certified quadrature is tested against
+it in tests/test_quadrature.py)."""
 
 import itertools
 import warnings
@@ -26,14 +28,15 @@ def charts():
 
 
 def _reference(M, depth, distance):
-    return [sca.estimate(M[i], depth=depth[i], distance=distance[i], uncertain={}) for i in range(len(M))]
+    return [sca.estimate(M[i], depth=depth[i], distance=distance[i], uncertain={},
+                         quadrature="full") for i in range(len(M))]
 
 
 @pytest.mark.slow
 def test_noise_free_same_optimum_as_sca(charts):
     stacks, depth, distance = charts
     M = stacks[False]
-    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={})
+    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={}, quadrature="full")
     ref = _reference(M, depth, distance)
     assert b.converged.all(), set(b.status[~b.converged])
     for i, e in enumerate(ref):
@@ -47,7 +50,7 @@ def test_noise_free_same_optimum_as_sca(charts):
 def test_noisy_objective_equal_or_lower_than_sca(charts):
     stacks, depth, distance = charts
     M = stacks[True]
-    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={})
+    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={}, quadrature="full")
     ref = _reference(M, depth, distance)
     obj = np.array([e.objective for e in ref])
     # wherever the loop converges, the batch converges too, to an equal or lower objective
@@ -57,7 +60,8 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
     ok = b.objective <= obj * (1 + 1e-9)
     assert np.all(ok | ~loop_ok), np.max(b.objective / obj - 1)
     # a chart's result does not depend on the rest of the batch
-    few = sca.estimate_batch(M[:3], depth=depth[:3], distance=distance[:3], uncertain={})
+    few = sca.estimate_batch(M[:3], depth=depth[:3], distance=distance[:3], uncertain={},
+                           quadrature="full")
     np.testing.assert_allclose(few.objective, b.objective[:3], rtol=1e-12)
 
 
@@ -66,10 +70,12 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
 def test_batch_reaches_the_loops_optimum(charts, noise):
     """The batch (variable projection + LM) and the cvxpy loop minimise the same objective."""
     stacks, depth, distance = charts
-    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, uncertain={})
+    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, uncertain={},
+                           quadrature="full")
     assert b.converged.sum() >= len(CASES) - 2
     for i in range(0, len(b), 3):
-        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]), uncertain={})
+        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]),
+                         uncertain={}, quadrature="full")
         if b.converged[i] and e.converged:
             # equal objective (noise-free ones are at rounding level: compared absolutely)
             assert b.objective[i] <= e.objective * (1 + 1e-6) + 1e-20, i
@@ -92,7 +98,8 @@ def test_benchmark_charts_reach_the_loops_optimum(step_nm):
 def test_fields_shapes_and_fixed_backscatter():
     sim = forward.simulate_chart(2.0, 0.3, 5.0, 0.05, noise=False, backscatter=False)
     M = np.stack([sim.rgb, sim.rgb])
-    b = sca.estimate_batch(M, depth=5.0, distance=0.05, fix={"backscatter": 0}, uncertain={})
+    b = sca.estimate_batch(M, depth=5.0, distance=0.05, fix={"backscatter": 0}, uncertain={},
+                           quadrature="full")
     assert b.chl.shape == (2,) and b.backscatter.shape == (2, 3) and b.attenuation.shape == (2, 301)
     assert b.w.shape == (2, 1) and len(b) == 2
     np.testing.assert_array_equal(b.backscatter, 0.0)

@@ -27,9 +27,10 @@ def draws():
 
 def test_single_fits_recover_the_slope_with_an_interval(chart):
     fits = {"loop": sca.estimate(chart.rgb, depth=D, distance=R, sigma=chart.rgb_sigma,
-                                 free=("cdom_slope",), uncertain={}),
+                                 free=("cdom_slope",), uncertain={}, quadrature="full"),
             "scipy": sca.estimate_least_squares(chart.rgb, depth=D, distance=R,
-                                                sigma=chart.rgb_sigma, free=("cdom_slope",), uncertain={})}
+                                                sigma=chart.rgb_sigma, free=("cdom_slope",),
+                                                uncertain={}, quadrature="full")}
     ref = fits["loop"]
     assert ref.reliable and set(ref.values) == {"chl", "cdom", "cdom_slope"}
     lo, hi = ref.intervals["cdom_slope"]
@@ -39,7 +40,7 @@ def test_single_fits_recover_the_slope_with_an_interval(chart):
         assert e.values["cdom_slope"] == pytest.approx(ref.values["cdom_slope"], rel=1e-6), name
         assert e.intervals["cdom_slope"] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-5)
     b = sca.estimate_batch(chart.rgb[None], depth=D, distance=R, sigma=chart.rgb_sigma,
-                           free=("cdom_slope",), uncertain={})
+                           free=("cdom_slope",), uncertain={}, quadrature="full")
     assert b.values["cdom_slope"][0] == pytest.approx(ref.values["cdom_slope"], rel=1e-6)
     assert b.intervals["cdom_slope"][0] == pytest.approx(ref.intervals["cdom_slope"], rel=1e-4)
 

@@ -247,16 +247,17 @@ def test_one_chart_and_one_photo_need_no_cvxpy_nor_scipy_stats():
 
 
 def test_lm_mode_is_the_loops_optimum():
-    """sca.estimate(mode='lm') (the batch's engine on one chart) and the DPP loop agree: C and
-    a_CDOM, their intervals and the verdict, with and without the budget."""
+    """sca.estimate(mode='lm') (the batch's engine on one chart) and the DPP loop agree on the
+    same grid: C and a_CDOM, their intervals and the verdict, with and without the budget."""
     import sca
 
     for c, a, d, r, unc in ((1.0, 0.1, 5.0, 1.5, None), (20.0, 0.5, 10.0, 5.0, {}),
                             (0.05, 2.0, 1.0, 0.5, None)):
         sim = forward.simulate_chart(c, a, d, r, seed=3)
-        loop = sca.estimate(sim.rgb, depth=d, distance=r, sigma=sim.rgb_sigma, uncertain=unc)
+        loop = sca.estimate(sim.rgb, depth=d, distance=r, sigma=sim.rgb_sigma, uncertain=unc,
+                            quadrature="full")
         lm = sca.estimate(sim.rgb, depth=d, distance=r, sigma=sim.rgb_sigma, uncertain=unc,
-                          mode="lm")
+                          mode="lm", quadrature="full")
         assert loop.converged and lm.converged and lm.mode == "lm"
         assert lm.objective <= loop.objective * (1 + 1e-9)
         assert lm.chl == pytest.approx(loop.chl, rel=1e-5)
