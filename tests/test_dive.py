@@ -230,7 +230,7 @@ def test_cli_ctrl_c_exits_130_with_a_summary(tmp_path, shots, monkeypatch, capsy
     def job(j):  # Ctrl-C while the first photo is measured
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(dive, "_run_job", job)
+    monkeypatch.setattr(dive.worker, "run_job", job)
     out = tmp_path / "out"
     code = main(["measure", str(d), "--metadata", str(d / "dive.csv"), "--profile",
                  str(shots["profile"]), "--exact", "--scheduler", "synchronous", "--tiff",

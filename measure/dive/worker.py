@@ -1,0 +1,48 @@
+"""What a worker does for one photo of a dive (:func:`run_job`): measure it and write its
+folder."""
+
+from __future__ import annotations
+
+import os
+
+from ..output import strict_json
+
+__all__ = ["run_job"]
+
+
+def _budget(options, inputs) -> dict | None:
+    """``uncertain=`` for one photo: the options' budget with the row's sds over it."""
+    sds = {k: inputs[f"{k}_sd_m"] for k in ("depth", "distance")
+           if inputs.get(f"{k}_sd_m") is not None}
+    if not sds:
+        return options.get("uncertain")
+    from ..camera import load_profile
+    from ..measurement import budget_for
+
+    prof = options.get("profile")
+    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    return budget_for(options.get("uncertain"), prof) | sds
+
+
+def run_job(job: dict) -> dict:
+    """One photo, in a worker: measure, write its folder; returns (status, record or error)."""
+    from ..measurement import measure
+    from ..output import write_outputs
+
+    inputs, options = job["inputs"], job["options"]
+    try:
+        meas = measure(job["image"], corners=inputs["corners"], depth=inputs["depth_m"],
+                       distance=inputs["distance_m"], uncertain=_budget(options, inputs),
+                       **{k: v for k, v in options.items() if k != "uncertain"})
+        meas.inputs.update({k: inputs[k] for k in ("depth_source", "distance_source",
+                                                   "corners_source", "time")})
+        meas.inputs["command"] = job["command"]
+        write_outputs(meas, job["out"], version=job["version"], report=job["report"],
+                      tiff=job["tiff"],
+                      overwrite=True, marker={"key": job["key"]})
+        record = strict_json(meas.to_dict(job["version"]))
+        return {"status": "measured", "record": record}
+    except ValueError as exc:
+        return {"status": "error", "error": str(exc)}
+    except Exception as exc:  # noqa: BLE001 - a failure is reported in the row, never hidden
+        return {"status": "error", "error": f"failed: {type(exc).__name__}: {exc}"}
