@@ -18,7 +18,6 @@ in a fresh folder, interrupted after the first photo (as Ctrl-C) and rerun.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import sys
@@ -27,6 +26,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from measure.csvsafe import safe_writer
 
 from . import independent_world as iw
 from . import scene
@@ -93,7 +94,7 @@ def render_dive_folder(folder: Path, dive: dict, size, rng) -> dict:
     scene.write_dng(folder / "DIVE_blue_water.dng", img["image"])
     rows.append({"image": "DIVE_blue_water.dng", "depth_m": "6.000", "distance_m": "1.500"})
     with open(folder / "dive.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=["image", "depth_m", "distance_m"])
+        w = safe_writer(fh, fieldnames=["image", "depth_m", "distance_m"])
         w.writeheader()
         w.writerows(rows)
     return {"photos": names, "chartless": "DIVE_blue_water.dng"}
