@@ -371,3 +371,21 @@ def test_a_frame_without_a_chart_is_an_error_row(tmp_path, shots):
     assert by["blank.tif"]["status"] == "error" and "no chart" in by["blank.tif"]["error"]
     assert by["blank.tif"]["corners_source"] == "detected" and res.code == 2
     assert not (tmp_path / "out" / "blank").exists()
+
+
+# --------------------------------------------------------------------------- issue 35
+def test_metadata_quoted_newlines_and_a_trailing_comma(tmp_path):
+    f = tmp_path / "m.csv"
+    f.write_text('image,depth_m,distance_m,corners,\n'
+                 'a.dng,5,1.5,"1,1 9,1\n9,5 1,5",\n'
+                 'b.dng,6,1.5,,\n', encoding="utf-8")
+    rows = dive.read_metadata(f)
+    assert sorted(rows) == ["a.dng", "b.dng"]
+    assert rows["a.dng"]["corners"] == "1,1 9,1\n9,5 1,5" and rows["b.dng"]["depth_m"] == 6.0
+    assert rows["b.dng"]["line"] == 4  # the line the row starts on
+    f.write_text("image,depth_m,distance_m,,colour\n")
+    with pytest.raises(ValueError, match=r"unknown column\(s\) colour$"):
+        dive.read_metadata(f)
+    f.write_text("image,depth_m,distance_m,\na.dng,5,1.5,oops\n")
+    with pytest.raises(ValueError, match="line 2: .*no column name"):
+        dive.read_metadata(f)

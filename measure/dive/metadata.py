@@ -48,7 +48,9 @@ def read_metadata(path) -> dict:
     Columns (by name, any order; UTF-8 with or without a byte-order mark): ``image`` (file name
     relative to the folder), ``depth_m``, ``distance_m`` (m) and optionally ``depth_sd_m``,
     ``distance_sd_m`` (m) and ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels). An empty cell
-    means "not given here": the EXIF depth or the default applies (corners: detected).
+    means "not given here": the EXIF depth or the default applies (corners: detected). A quoted
+    cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
+    are ignored when their cells are empty.
 
     Parameters
     ----------
@@ -59,50 +61,71 @@ def read_metadata(path) -> dict:
     -------
     dict
         image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m' (floats or None),
-        'corners' (str or None), 'line' (int)}.
+        'corners' (str or None), 'line' (int: the line the row starts on)}.
 
     Raises
     ------
     ValueError
-        Naming ``metadata`` and the line: a missing file or column, an unknown column, a value
-        that is not a positive number, an empty or repeated image name.
+        Naming ``metadata`` and the line: a missing file or column, an unknown or repeated
+        column, a value that is not a positive number, a value under no column name, an empty
+        or repeated image name, a malformed CSV.
     """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        with open(p, encoding="utf-8-sig", newline="") as fh:
+            return _rows(p, fh)
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"metadata: cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
             from None
-    reader = csv.DictReader(text.splitlines())
-    header = [h.strip() for h in (reader.fieldnames or [])]
-    missing = [c for c in METADATA_COLUMNS if c not in header]
-    if missing:
-        raise ValueError(f"metadata: {p} line 1: missing column(s) {', '.join(missing)} (needs "
-                         f"{', '.join(METADATA_COLUMNS)}; optional {', '.join(METADATA_OPTIONAL)})")
-    unknown = [c for c in header if c not in METADATA_COLUMNS + METADATA_OPTIONAL]
-    if unknown:
-        raise ValueError(f"metadata: {p} line 1: unknown column(s) {', '.join(unknown)}")
-    rows = {}
-    for n, raw in enumerate(reader, start=2):
-        if None in raw:
-            raise ValueError(f"metadata: {p} line {n}: more cells than columns")
-        cell = {k.strip(): (v or "") for k, v in raw.items()}
-        if not any(v.strip() for v in cell.values()):
-            continue
-        where = f"metadata: {p} line {n}"
-        name = cell["image"].strip()
-        if not name:
-            raise ValueError(f"{where}: image is empty")
-        if name in rows:
-            raise ValueError(f"{where}: image {name!r} repeats line {rows[name]['line']}")
-        corners = cell.get("corners", "").strip() or None
-        rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
-                      "distance_m": _number(cell["distance_m"], "distance_m", where),
-                      "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
-                                            positive=False),
-                      "distance_sd_m": _number(cell.get("distance_sd_m", ""), "distance_sd_m",
-                                               where, positive=False),
-                      "corners": corners, "line": n}
+
+
+def _rows(p: Path, fh) -> dict:
+    """The rows of an open metadata CSV (:func:`read_metadata`)."""
+    reader = csv.reader(fh)
+    try:
+        header = [h.strip() for h in next(reader, [])]
+        named = [(i, h) for i, h in enumerate(header) if h]
+        names = [h for _, h in named]
+        missing = [c for c in METADATA_COLUMNS if c not in names]
+        if missing:
+            raise ValueError(f"metadata: {p} line 1: missing column(s) {', '.join(missing)} "
+                             f"(needs {', '.join(METADATA_COLUMNS)}; optional "
+                             f"{', '.join(METADATA_OPTIONAL)})")
+        unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL]
+        if unknown:
+            raise ValueError(f"metadata: {p} line 1: unknown column(s) {', '.join(unknown)}")
+        repeated = sorted({c for c in names if names.count(c) > 1})
+        if repeated:
+            raise ValueError(f"metadata: {p} line 1: column(s) {', '.join(repeated)} repeat")
+        rows = {}
+        start = reader.line_num + 1
+        for raw in reader:
+            n, start = start, reader.line_num + 1
+            where = f"metadata: {p} line {n}"
+            if len(raw) > len(header):
+                raise ValueError(f"{where}: more cells than columns")
+            raw = raw + [""] * (len(header) - len(raw))
+            stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
+            if stray:
+                raise ValueError(f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
+                                 "column name in line 1")
+            cell = {h: raw[i] for i, h in named}
+            if not any(v.strip() for v in cell.values()):
+                continue
+            name = cell["image"].strip()
+            if not name:
+                raise ValueError(f"{where}: image is empty")
+            if name in rows:
+                raise ValueError(f"{where}: image {name!r} repeats line {rows[name]['line']}")
+            rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
+                          "distance_m": _number(cell["distance_m"], "distance_m", where),
+                          "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
+                                                positive=False),
+                          "distance_sd_m": _number(cell.get("distance_sd_m", ""),
+                                                   "distance_sd_m", where, positive=False),
+                          "corners": cell.get("corners", "").strip() or None, "line": n}
+    except csv.Error as exc:
+        raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
     return rows
 
 
