@@ -389,3 +389,44 @@ def test_metadata_quoted_newlines_and_a_trailing_comma(tmp_path):
     f.write_text("image,depth_m,distance_m,\na.dng,5,1.5,oops\n")
     with pytest.raises(ValueError, match="line 2: .*no column name"):
         dive.read_metadata(f)
+
+
+def test_ctrl_c_while_the_local_cluster_starts_stops_the_run(tmp_path, shots, monkeypatch):
+    import os
+    import signal
+
+    import distributed
+
+    d = _folder(tmp_path, shots, ["a.dng", "b.dng"], rows={"a.dng": 5, "b.dng": 5})
+    closed = []
+
+    class Starting:  # Ctrl-C arrives while the cluster starts
+        def __init__(self, *args, **kwargs):
+            os.kill(os.getpid(), signal.SIGINT)
+
+        def close(self, *args, **kwargs):
+            closed.append(True)
+
+    def no_client(*args, **kwargs):
+        raise AssertionError("the run went on after Ctrl-C")
+
+    monkeypatch.setattr(distributed, "LocalCluster", Starting)
+    monkeypatch.setattr(distributed, "Client", no_client)
+    handler = signal.getsignal(signal.SIGINT)
+    res = _run(d, tmp_path / "out", shots, scheduler=None)
+    assert res.interrupted and res.code == 130 and closed
+    assert [r["status"] for r in _csv(res.summary)] == ["interrupted", "interrupted"]
+    assert signal.getsignal(signal.SIGINT) is handler
+
+
+def test_the_worker_start_up_ignores_ctrl_c():
+    import signal
+
+    from measure.dive import worker
+
+    old = signal.getsignal(signal.SIGINT)
+    try:
+        worker.dask_setup(None)
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, old)

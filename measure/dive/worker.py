@@ -1,13 +1,32 @@
-"""What a worker does for one photo of a dive (:func:`run_job`): measure it and write its
-folder."""
+"""What a Dask worker does for a dive: ignore the terminal's Ctrl-C from its start
+(:func:`dask_setup`, run as the workers' preload), and measure one photo and write its folder
+(:func:`run_job`).
+"""
 
 from __future__ import annotations
 
 import os
+import signal
+import threading
 
 from ..output import strict_json
 
-__all__ = ["run_job"]
+__all__ = ["dask_setup", "run_job"]
+
+
+def dask_setup(worker) -> None:
+    """A worker's start: Ctrl-C in the terminal is the client's to handle (it cancels the
+    jobs and shuts the cluster down), so the worker process ignores SIGINT -- no worker
+    tracebacks, no worker that goes on alone. Called by ``distributed`` for a preload module
+    (``LocalCluster(preload=[__name__])``).
+
+    Parameters
+    ----------
+    worker : distributed.Worker
+        The worker starting (unused).
+    """
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _budget(options, inputs) -> dict | None:
