@@ -124,7 +124,7 @@ def test_exif_water_depth_and_time_are_read(tmp_path):
 def test_same_stem_files_get_distinct_folders(tmp_path):
     files = [tmp_path / n for n in ("IMG_1.dng", "IMG_1.TIF", "IMG_2.dng")]
     names = dive.output_names(files)
-    assert names == {files[0]: "IMG_1_dng", files[1]: "IMG_1_TIF", files[2]: "IMG_2"}
+    assert names == {files[0]: "IMG_1_dng", files[1]: "IMG_1_TIF", files[2]: "IMG_2_dng"}
 
 
 # --------------------------------------------------------------------------- a dive
@@ -143,7 +143,7 @@ def test_a_dive_every_file_accounted_for_then_a_rerun_redoes_nothing(tmp_path, s
     for name in ("a.dng", "IMG_1.dng", "IMG_1.tif"):
         assert by[name]["status"] == "measured", by[name]["error"]
         assert by[name]["depth_source"] == "metadata" and by[name]["corners_source"] == "metadata"
-    assert by["a.dng"]["out"].endswith("/a") and by["IMG_1.tif"]["out"].endswith("IMG_1_tif")
+    assert by["a.dng"]["out"].endswith("/a_dng") and by["IMG_1.tif"]["out"].endswith("IMG_1_tif")
     assert json.loads((out / "IMG_1_tif" / "measurement.json").read_text())["image"]["path"] \
         .endswith("IMG_1.tif")
     assert res.code == 2 and not res.interrupted and not list(out.glob(TEMP_PREFIX + "*"))
@@ -163,11 +163,11 @@ def test_a_dive_every_file_accounted_for_then_a_rerun_redoes_nothing(tmp_path, s
     res3 = _run(d, out, shots)
     a3 = next(r for r in res3.rows if r["image"].endswith("a.dng"))
     assert a3["status"] == "error" and "--overwrite" in a3["error"]
-    assert json.loads((out / "a" / "measurement.json").read_text())["inputs"]["depth_m"] == 5
+    assert json.loads((out / "a_dng" / "measurement.json").read_text())["inputs"]["depth_m"] == 5
     res4 = _run(d, out, shots, overwrite=True)
     a4 = next(r for r in res4.rows if r["image"].endswith("a.dng"))
     assert a4["status"] == "measured" and a4["depth_m"] == 6.0
-    assert json.loads((out / "a" / "measurement.json").read_text())["inputs"]["depth_m"] == 6
+    assert json.loads((out / "a_dng" / "measurement.json").read_text())["inputs"]["depth_m"] == 6
 
 
 def test_survey_nc_has_cf_names_bounds_and_the_spectrum(tmp_path, shots):
@@ -216,8 +216,8 @@ def test_ctrl_c_writes_the_summary_and_the_rerun_completes_the_rest(tmp_path, sh
     rows = _csv(out / "summary.csv")
     assert [r["status"] for r in rows] == ["measured", "interrupted", "interrupted"]
     # only complete folders look complete: a's, with its marker; nothing half-written
-    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["a"]
-    assert (out / "a" / MARKER).exists()
+    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == ["a_dng"]
+    assert (out / "a_dng" / MARKER).exists()
     before = _mtimes(out)
     calls = []
     res2 = _run(d, out, shots, progress=calls.append)
@@ -341,7 +341,7 @@ def test_a_dive_on_a_dask_local_cluster_without_fork_warnings(tmp_path, shots, c
         warnings.simplefilter("always")
         res = _run(d, tmp_path / "out", shots, scheduler=None)
     assert [r["status"] for r in res.rows] == ["measured"], res.rows
-    assert (tmp_path / "out" / "a" / MARKER).exists()
+    assert (tmp_path / "out" / "a_dng" / MARKER).exists()
     err = capfd.readouterr().err
     assert "fork" not in err.lower() and not [w for w in caught if "fork" in str(w.message)]
 
@@ -370,7 +370,7 @@ def test_a_frame_without_a_chart_is_an_error_row(tmp_path, shots):
     assert by["a.dng"]["status"] == "measured"
     assert by["blank.tif"]["status"] == "error" and "no chart" in by["blank.tif"]["error"]
     assert by["blank.tif"]["corners_source"] == "detected" and res.code == 2
-    assert not (tmp_path / "out" / "blank").exists()
+    assert not (tmp_path / "out" / "blank_tif").exists()
 
 
 # --------------------------------------------------------------------------- issue 35
@@ -430,3 +430,30 @@ def test_the_worker_start_up_ignores_ctrl_c():
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+def test_output_names_cannot_collide_and_name_their_photo(tmp_path):
+    names = ["A.dng", "A.nef", "A_dng.dng", "a.DNG", "x.b.dng", "x_b.dng", "summary.csv.dng",
+             "survey.nc.tif", "joint.json.dng", "run.json.dng", "survey.png.tif"]
+    files = [tmp_path / n for n in names]
+    got = dive.output_names(files)
+    folded = [v.lower() for v in got.values()]
+    assert len(set(folded)) == len(files), got
+    reserved = {n.lower() for n in dive.RUN_FILES}
+    assert not reserved & set(folded) and not any(v.startswith(".") for v in folded)
+    for f in files:  # the folder says which photo it holds
+        assert got[f].lower().startswith(f.stem.replace(".", "_").lower()), (f, got[f])
+    # the names depend on the photo, not on what else is in the folder
+    assert dive.output_names([files[0]])[files[0]] == dive.output_names(files[:2])[files[0]] \
+        or len({f.name.lower() for f in files[:2]}) < 2
+
+
+def test_photos_named_like_the_runs_files_are_measured(tmp_path, shots):
+    d = _folder(tmp_path, shots, ["summary.csv.dng", "survey.nc.tif", "joint.json.dng"])
+    out = tmp_path / "out"
+    res = _run(d, out, shots, depth=5, distance=1.5, corners=shots["corners"], joint=True,
+               figure=True)
+    assert [r["status"] for r in res.rows] == ["measured"] * 3
+    assert (out / "summary.csv").is_file() and (out / "survey.nc").is_file()
+    assert (out / "joint.json").is_file()
+    assert len({r["out"] for r in res.rows}) == 3
