@@ -356,7 +356,7 @@ def test_joint_fit_of_a_dive(tmp_path, shots):
         assert key in data
 
 
-def test_a_frame_without_a_chart_is_an_error_row(tmp_path, shots):
+def test_a_frame_without_a_chart_is_not_bad_input(tmp_path, shots):
     import tifffile
 
     d = _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
@@ -368,9 +368,13 @@ def test_a_frame_without_a_chart_is_an_error_row(tmp_path, shots):
     res = _run(d, tmp_path / "out", shots)
     by = {r["image"].split("/")[-1]: r for r in res.rows}
     assert by["a.dng"]["status"] == "measured"
-    assert by["blank.tif"]["status"] == "error" and "no chart" in by["blank.tif"]["error"]
-    assert by["blank.tif"]["corners_source"] == "detected" and res.code == 2
-    assert not (tmp_path / "out" / "blank_tif").exists()
+    assert by["blank.tif"]["status"] == "no chart" and "no chart" in by["blank.tif"]["error"]
+    assert by["blank.tif"]["corners_source"] == "detected"
+    # the frame's inputs are kept (to colour-correct it with the dive's water later)
+    assert by["blank.tif"]["depth_m"] == 5.0 and by["blank.tif"]["distance_m"] == 1.5
+    assert res.code == dive.summary.exit_code(by["a.dng"]) != 2
+    assert [r["status"] for r in _csv(res.summary)] == ["measured", "no chart"]
+    assert not [p for p in (tmp_path / "out").iterdir() if p.name.startswith("blank")]
 
 
 # --------------------------------------------------------------------------- issue 35

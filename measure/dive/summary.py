@@ -16,8 +16,9 @@ __all__ = ["STATUSES", "SUMMARY_COLUMNS", "exit_code", "summary_row", "to_float"
 
 #: A row's status: measured now; complete results of the same inputs found (not redone);
 #: not measurable (``error`` says why); not measured because the run was interrupted; a file
-#: that is not a photo (``error`` says why)
-STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image")
+#: that is not a photo; a photo in which no chart was found (its inputs kept; ``error`` says
+#: why). Only ``error`` makes the exit status 2 (bad input)
+STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image", "no chart")
 #: Columns of summary.csv, one row per file (the first 20 as in earlier versions)
 SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
                    "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "depth_m",

@@ -1,6 +1,10 @@
 """What a Dask worker does for a dive: ignore the terminal's Ctrl-C from its start
 (:func:`dask_setup`, run as the workers' preload), and measure one photo and write its folder
 (:func:`run_job`).
+
+A frame in which no chart is found (:class:`measure.ChartNotFound`) is reported as ``no chart``,
+not as an error: a dive has such frames, and their inputs are kept for correcting them with the
+dive's water.
 """
 
 from __future__ import annotations
@@ -44,7 +48,20 @@ def _budget(options, inputs) -> dict | None:
 
 
 def run_job(job: dict) -> dict:
-    """One photo, in a worker: measure, write its folder; returns (status, record or error)."""
+    """One photo, in a worker: measure it and write its folder.
+
+    Parameters
+    ----------
+    job : dict
+        :func:`measure.dive.plan.plan_photo`'s job (absolute paths).
+
+    Returns
+    -------
+    dict
+        ``status`` ('measured', 'no chart' or 'error') and ``record`` (measurement.json's
+        content) or ``error`` (why).
+    """
+    from ..detect import ChartNotFound
     from ..measurement import measure
     from ..output import write_outputs
 
@@ -61,6 +78,8 @@ def run_job(job: dict) -> dict:
                       overwrite=True, marker={"key": job["key"]})
         record = strict_json(meas.to_dict(job["version"]))
         return {"status": "measured", "record": record}
+    except ChartNotFound as exc:
+        return {"status": "no chart", "error": str(exc)}
     except ValueError as exc:
         return {"status": "error", "error": str(exc)}
     except Exception as exc:  # noqa: BLE001 - a failure is reported in the row, never hidden
