@@ -13,10 +13,13 @@ One concept per module:
 
 - :mod:`.metadata`: the metadata CSV and the EXIF depth and time;
 - :mod:`.names`: which files are photos, and each photo's output folder name;
+- :mod:`.manifest`: run.json, the options that change results (a rerun with others is
+  refused);
 - :mod:`.plan`: each photo's inputs, the key that says "same inputs", what to do with it;
 - :mod:`.worker`: one photo measured and written, in a worker;
 - :mod:`.execute`: the jobs run on Dask or in this process, Ctrl-C;
-- :mod:`.files`: the run's own files written whole, temporary files removed;
+- :mod:`.files`: the output folder locked, the run's files written whole, temporary files
+  removed;
 - :mod:`.summary`: summary.csv's rows, statuses and exit status;
 - :mod:`.survey`: survey.nc (CF-1.8);
 - :mod:`.plot`: survey.png;
@@ -30,13 +33,12 @@ from .metadata import (DATETIME_ORIGINAL_TAG, EXIF_DEPTH_TAGS, METADATA_COLUMNS,
                        METADATA_OPTIONAL, WATER_DEPTH_TAG, exif_info, read_metadata)
 from .names import LOCK_FILE, MANIFEST, RUN_FILES, dive_files, output_names
 from .plot import SURVEY_LOG_SPAN, plot_survey
-from .run import DiveResult, measure_dive
+from .run import DiveResult, DiveWarning, measure_dive
 from .summary import STATUSES, SUMMARY_COLUMNS
 from .survey import CDOM_WAVELENGTH_NM, CF_CDOM, CF_CHL, netcdf_engine, survey_dataset
 
 __all__ = ["CDOM_WAVELENGTH_NM", "CF_CDOM", "CF_CHL", "DATETIME_ORIGINAL_TAG",
            "EXIF_DEPTH_TAGS", "LOCK_FILE", "MANIFEST", "METADATA_COLUMNS", "METADATA_OPTIONAL",
            "RUN_FILES", "STATUSES", "SUMMARY_COLUMNS", "SURVEY_LOG_SPAN", "WATER_DEPTH_TAG",
-           "DiveResult", "dive_files",
-           "exif_info", "measure_dive", "netcdf_engine", "output_names", "plot_survey",
-           "read_metadata", "survey_dataset"]
+           "DiveResult", "DiveWarning", "dive_files", "exif_info", "measure_dive",
+           "netcdf_engine", "output_names", "plot_survey", "read_metadata", "survey_dataset"]

@@ -1,10 +1,19 @@
 """The plan of a dive: each photo's inputs and their sources (:func:`resolve_inputs`), the key
 that says "same inputs" (:func:`photo_key`), and what to do with each photo (:func:`plan_photo`):
-measure it, or a summary row saying why not."""
+measure it, skip it (complete with the same key), a summary row saying why not, or a conflict
+that refuses the run before it writes anything.
+
+The key is the content: the SHA-256 of the photo's bytes, its metadata row, its resolved inputs
+(depth, distance, their sds, corners, EXIF time) and the run's manifest (the options that
+change results, files by content: :mod:`measure.dive.manifest`). A photo replaced by another of
+the same name, size and time is redone; a photo whose folder holds results of the same photo
+made with the same options but other inputs or content is redone (its folder replaced); a
+folder that holds another photo's results or results of other options, or files that are not
+uw3p results, is a conflict.
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 import os
@@ -13,13 +22,38 @@ from pathlib import Path
 import numpy as np
 
 from ..output import read_marker, result_owner
+from .manifest import file_digest
 from .summary import summary_row
 
 __all__ = ["photo_key", "plan_photo", "resolve_inputs"]
 
 
-def resolve_inputs(photo: Path, row, exif, depth, distance, corners):
-    """The photo's inputs and their sources; raises ValueError when one is missing."""
+def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
+    """The photo's inputs and their sources.
+
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo.
+    row : dict or None
+        Its metadata row (:func:`measure.dive.read_metadata`).
+    exif : dict
+        :func:`measure.dive.exif_info`'s.
+    depth, distance : float or None
+        The defaults (m).
+    corners : str or array_like or None
+        The default corners.
+
+    Returns
+    -------
+    dict
+        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time`` and their sources.
+
+    Raises
+    ------
+    ValueError
+        Naming ``depth`` or ``distance`` when neither the row, the EXIF nor a default gives it.
+    """
     def pick(name, cands):
         for value, source in cands:
             if value is not None:
@@ -43,76 +77,115 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners):
             "corners_source": c_src, "time": exif.get("time")}
 
 
-def _key_default(x):
-    if isinstance(x, Path):
-        return str(x)
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    if dataclasses.is_dataclass(x):
-        return {f.name: getattr(x, f.name) for f in dataclasses.fields(x)
-                if not f.name.endswith("_table")}
-    return repr(x)
+def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
+    """The hash that says "same inputs" (the module's key).
 
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo (its bytes are hashed).
+    row : dict or None
+        Its metadata row.
+    inputs : dict
+        :func:`resolve_inputs`'s.
+    run_digest : str
+        :func:`measure.dive.manifest.manifest_digest` of the run.
 
-def _options_text(options: dict) -> dict:
-    """The options as recorded in the key: a profile file by its content's hash."""
-    out = dict(options)
-    prof = out.get("profile")
-    if isinstance(prof, (str, os.PathLike)):
-        try:
-            out["profile"] = "sha256:" + hashlib.sha256(Path(prof).read_bytes()).hexdigest()
-        except OSError:
-            out["profile"] = str(prof)
-    return out
+    Returns
+    -------
+    str
+        Hex SHA-256.
 
-
-def photo_key(photo: Path, inputs, options, outputs, version) -> str:
-    """The hash that says "same inputs": the image (name, size, modification time), its
-    resolved inputs, the options (a profile by content), the outputs asked for (TIFF mode,
-    report) and uw3p's version."""
-    st = photo.stat()
-    data = {"image": photo.name, "size": st.st_size, "mtime_ns": st.st_mtime_ns,
+    Raises
+    ------
+    OSError
+        The photo cannot be read.
+    """
+    data = {"image": photo.name, "sha256": file_digest(photo),
+            "row": {k: v for k, v in (row or {}).items() if k != "line"},
             "inputs": {k: v for k, v in inputs.items() if not k.endswith("_source")},
-            "options": _options_text(options), "outputs": outputs, "version": version}
-    text = json.dumps(data, sort_keys=True, default=_key_default)
-    return hashlib.sha256(text.encode()).hexdigest()
+            "run": run_digest}
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
+def _record(out: Path):
+    try:
+        return json.loads((out / "measurement.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None  # a marker without its measurement: redo
 
-def plan_photo(photo, name, root, rows_meta, metadata, exif, defaults, options, outputs, overwrite,
-          version):
-    """(job or None, row or None) for one photo: a row when it is done or cannot be done."""
+
+def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, options: dict,
+               outputs, run_digest: str, overwrite: bool) -> tuple:
+    """What to do with one photo.
+
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo (absolute).
+    name : str
+        Its output folder's name (:func:`measure.dive.output_names`).
+    root : pathlib.Path
+        The output folder.
+    meta : dict or None
+        The metadata CSV's rows (None: no metadata CSV).
+    exif : dict
+        :func:`measure.dive.exif_info`'s.
+    defaults : tuple
+        (depth, distance, corners) given for every photo.
+    options : dict
+        The ``measure.measure`` options.
+    outputs : tuple
+        (tiff, report).
+    run_digest : str
+        The run's manifest digest (recorded in complete.json).
+    overwrite : bool
+        Folders of another photo or of other options may be replaced.
+
+    Returns
+    -------
+    job : dict or None
+        The photo to measure.
+    row : dict or None
+        Its summary row when it is not measured now (done earlier, or why not).
+    conflict : str or None
+        Why its folder may not be written (the run is refused).
+    """
     out = root / name
     tiff, report = outputs
     plan = {"out": str(out), "options": options, "tiff": tiff}
-    if metadata is not None and photo.name not in rows_meta:
-        return None, summary_row(photo, plan, "error", error=f"metadata: no row for {photo.name} in "
-                                                      f"{metadata}")
+    if meta is not None and photo.name not in meta:
+        return None, summary_row(photo, plan, "not in metadata", error=(
+            f"metadata: no row for {photo.name}: not measured")), None
+    row = (meta or {}).get(photo.name)
     try:
-        inputs = resolve_inputs(photo, rows_meta.get(photo.name), exif, *defaults)
+        inputs = resolve_inputs(photo, row, exif, *defaults)
     except ValueError as exc:
-        return None, summary_row(photo, plan, "error", error=str(exc))
+        return None, summary_row(photo, plan, "error", error=str(exc)), None
     plan["inputs"] = inputs
-    key = photo_key(photo, inputs, options, outputs, version)
+    try:
+        key = photo_key(photo, row, inputs, run_digest)
+    except OSError as exc:
+        return None, summary_row(photo, plan, "error", error=(
+            f"image: cannot read {photo}: {exc.strerror or exc}")), None
     marker = read_marker(out) if out.is_dir() else None
     if marker is not None and marker.get("key") == key:
-        try:
-            record = json.loads((out / "measurement.json").read_text(encoding="utf-8"))
-            return None, summary_row(photo, plan, "done earlier", record)
-        except (OSError, ValueError):
-            pass  # a marker without its measurement: redo
+        record = _record(out)
+        if record is not None:
+            return None, summary_row(photo, plan, "done earlier", record), None
     owner = result_owner(out) if out.is_dir() else None
+    if out.exists() and not out.is_dir():
+        return None, None, f"{out} is a file"
+    if owner is None and out.exists() and any(out.iterdir()):
+        return None, None, (f"{out} holds files that are not uw3p results (never replaced, not "
+                            "even with --overwrite)")
     if owner is not None and not overwrite:
-        same = marker is not None and Path(owner).name == photo.name
-        why = "results of the same photo with other inputs or options" if same else \
-            f"the results of another photo ({owner or 'unknown'})"
-        return None, summary_row(photo, plan, "error", error=f"out: {out} holds {why}; give another "
-                                                      "--out or --overwrite to replace them")
-    if out.exists() and owner is None and any(out.iterdir()):
-        return None, summary_row(photo, plan, "error", error=f"out: {out} exists and holds files that "
-                                                      "are not uw3p results")
+        same_photo = os.path.abspath(owner) == str(photo) if owner else False
+        if not same_photo:
+            return None, None, f"{out} holds the results of another photo ({owner or 'unknown'})"
+        if marker is None or marker.get("run") != run_digest:
+            return None, None, f"{out} holds results of {photo.name} made with other options"
+        # the same photo and options, its content or inputs changed: redone
     job = {"image": str(photo), "out": str(out), "inputs": inputs, "options": options,
-           "tiff": tiff, "report": report, "key": key, "version": version, "command": ""}
-    return (job, plan), None
+           "tiff": tiff, "report": report, "key": key, "run": run_digest, "plan": plan}
+    return job, None, None

@@ -1,24 +1,35 @@
-"""summary.csv: one row per file of the dive (:data:`SUMMARY_COLUMNS`), its status
-(:data:`STATUSES`) and the exit status it gives (:func:`exit_code`)."""
+"""summary.csv: one row per file of the dive and per metadata row (:data:`SUMMARY_COLUMNS`),
+its status (:data:`STATUSES`) and the exit status the rows give (:func:`exit_code`,
+:func:`dive_code`).
+
+Exit status: 0 when every photo measured is reliable, 1 when one is not, 2 when a photo could
+not be measured (status ``error``: bad input or a failure) or when no photo at all was
+measured, 130 when the run was interrupted. A frame without a chart, a metadata row naming no
+photo, a photo without a metadata row and a file that is not a photo are rows with their reason
+(and, for the last three but one, a warning) that do not raise the exit status.
+"""
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import os
 from pathlib import Path
 
+from ..csvsafe import safe_writer
 from .files import atomic
 
-__all__ = ["STATUSES", "SUMMARY_COLUMNS", "exit_code", "summary_row", "to_float",
-           "write_summary"]
+__all__ = ["MEASURED", "STATUSES", "SUMMARY_COLUMNS", "dive_code", "exit_code", "summary_row",
+           "to_float", "write_summary"]
 
 #: A row's status: measured now; complete results of the same inputs found (not redone);
 #: not measurable (``error`` says why); not measured because the run was interrupted; a file
-#: that is not a photo; a photo in which no chart was found (its inputs kept; ``error`` says
-#: why). Only ``error`` makes the exit status 2 (bad input)
-STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image", "no chart")
+#: that is not a photo; a photo in which no chart was found (its inputs kept); a metadata row
+#: that names no photo of the folder; a photo that has no metadata row (``error`` says why)
+STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image", "no chart",
+            "no such photo", "not in metadata")
+#: The statuses of a photo with results
+MEASURED = ("measured", "done earlier")
 #: Columns of summary.csv, one row per file (the first 20 as in earlier versions)
 SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
                    "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "depth_m",
@@ -28,7 +39,17 @@ SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_
                    "uncertain", "tiff")
 
 
-def to_float(v):
+def to_float(v) -> float:
+    """A summary cell as a float (NaN where empty).
+
+    Parameters
+    ----------
+    v : number, str or None
+
+    Returns
+    -------
+    float
+    """
     if v is None or v == "":
         return math.nan
     return float(v)
@@ -41,7 +62,26 @@ def _budget_text(budget) -> str:
 
 
 def summary_row(photo, plan, status, record=None, error="") -> dict:
-    """A summary row: the inputs planned and, from measurement.json's content, the results."""
+    """A summary row: the inputs planned and, from measurement.json's content, the results.
+
+    Parameters
+    ----------
+    photo : path
+        The file (its path is the row's ``image``).
+    plan : dict
+        ``out``, ``options``, ``tiff`` and ``inputs`` (resolved) where known.
+    status : str
+        One of :data:`STATUSES`.
+    record : dict, optional
+        measurement.json's content.
+    error : str, optional
+        Why the photo was not measured.
+
+    Returns
+    -------
+    dict
+        Of :data:`SUMMARY_COLUMNS`.
+    """
     inputs, options = plan.get("inputs") or {}, plan.get("options") or {}
     corners = inputs.get("corners")
     row = {"image": str(photo), "status": status, "error": error, "out": plan.get("out", ""),
@@ -72,17 +112,64 @@ def summary_row(photo, plan, status, record=None, error="") -> dict:
 
 
 def exit_code(row) -> int | None:
-    """The row's exit status: 0 reliable, 1 not reliable, 2 not measurable; None for rows that
-    are not photos or were interrupted."""
-    if row["status"] in ("measured", "done earlier"):
+    """The row's exit status.
+
+    Parameters
+    ----------
+    row : dict
+        A summary row.
+
+    Returns
+    -------
+    int or None
+        0 reliable, 1 not reliable, 2 not measurable (``error``); None for the other statuses
+        (they do not change the exit status).
+    """
+    if row["status"] in MEASURED:
         return 0 if row.get("reliable") in (True, "True") else 1
     return 2 if row["status"] == "error" else None
 
 
+def dive_code(rows, interrupted: bool) -> int:
+    """The dive's exit status (the module's rule).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Every summary row.
+    interrupted : bool
+        The run was interrupted.
+
+    Returns
+    -------
+    int
+        130 interrupted; else the worst row's :func:`exit_code`, and 2 when no photo was
+        measured at all.
+    """
+    if interrupted:
+        return 130
+    if not any(r["status"] in MEASURED for r in rows):
+        return 2
+    return max((c for c in map(exit_code, rows) if c is not None), default=0)
+
+
 
 def write_summary(rows, path: Path) -> Path:
+    """Write summary.csv (whole or not at all; text cells neutralised,
+    :func:`measure.csvsafe.neutralise`).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Summary rows.
+    path : pathlib.Path
+
+    Returns
+    -------
+    pathlib.Path
+    """
     with atomic(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=SUMMARY_COLUMNS)
+        w = safe_writer(fh, fieldnames=SUMMARY_COLUMNS)
         w.writeheader()
         for row in rows:
             w.writerow({k: ("" if row.get(k) is None else row.get(k, ""))

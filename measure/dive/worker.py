@@ -75,7 +75,7 @@ def run_job(job: dict) -> dict:
         meas.inputs["command"] = job["command"]
         write_outputs(meas, job["out"], version=job["version"], report=job["report"],
                       tiff=job["tiff"],
-                      overwrite=True, marker={"key": job["key"]})
+                      overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
         return {"status": "measured", "record": record}
     except ChartNotFound as exc:
