@@ -569,9 +569,11 @@ def test_metadata_quoted_newlines_and_a_trailing_comma(tmp_path):
         dive.read_metadata(f)
 
 
+@pytest.mark.slow
 def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
     """README's dive.csv as written (file names: generated DNGs; the corners of the
-    generated photo), a depth_sd_m on one row only, with --joint."""
+    generated photo), a depth_sd_m on one row only, with --joint: the default budget and light
+    field, as the README's command (25 s; the budget rule alone: test_joint.py)."""
     pytest.importorskip("measure.joint")
     d = tmp_path / "DIVE"
     d.mkdir()
