@@ -241,26 +241,8 @@ def _locked_run(root, photos, others, folder, meta, metadata, run, digest, optio
             jobs.append(job | {"command": command, "version": version})
     if conflicts:
         raise _conflicts(root, conflicts)
-    gone = {p.name for p, _ in others if p.is_symlink() and not p.exists()}
-    extra = []
-    if meta is not None:  # every metadata row accounted for
-        listed = ({p.name for p in photos} | {p.name for p, _ in others}) - gone
-        for name, mrow in meta.items():
-            if name in listed:
-                continue
-            why = _no_photo_reason(folder, name, mrow["line"], sorted(listed))
-            notes.append(why)
-            extra.append(summary_row((folder or Path()) / name, {"inputs": {
-                "depth_m": mrow["depth_m"], "distance_m": mrow["distance_m"],
-                "corners": mrow["corners"]}}, "no such photo", error=why))
-    others_rows = []
-    for p, why in others:
-        if p.name in gone and meta is not None and p.name in meta:
-            continue  # its metadata row says it (above)
-        if p.name in gone:
-            notes.append(f"{p.name}: {why}")
-        others_rows.append(summary_row(p, {}, "no such photo" if p.name in gone
-                                       else "not an image", error=why))
+    others_rows, extra, more = _unmatched_rows(folder, meta, photos, others)
+    notes += more
     for text in notes:
         warnings.warn(text, DiveWarning, stacklevel=3)
     clean_temp(root)
@@ -296,6 +278,33 @@ def _locked_run(root, photos, others, folder, meta, metadata, run, digest, optio
                   figure)
     res.warnings = notes
     return res
+
+
+def _unmatched_rows(folder, meta, photos, others) -> tuple:
+    """The rows of the files that are not photos and of the metadata rows that name no photo
+    (each of the latter, and each broken link, with a warning's text)."""
+    notes = []
+    gone = {p.name for p, _ in others if p.is_symlink() and not p.exists()}
+    extra = []
+    if meta is not None:  # every metadata row accounted for
+        listed = ({p.name for p in photos} | {p.name for p, _ in others}) - gone
+        for name, mrow in meta.items():
+            if name in listed:
+                continue
+            why = _no_photo_reason(folder, name, mrow["line"], sorted(listed))
+            notes.append(why)
+            extra.append(summary_row((folder or Path()) / name, {"inputs": {
+                "depth_m": mrow["depth_m"], "distance_m": mrow["distance_m"],
+                "corners": mrow["corners"]}}, "no such photo", error=why))
+    others_rows = []
+    for p, why in others:
+        if p.name in gone and meta is not None and p.name in meta:
+            continue  # its metadata row says it (above)
+        if p.name in gone:
+            notes.append(f"{p.name}: {why}")
+        others_rows.append(summary_row(p, {}, "no such photo" if p.name in gone
+                                       else "not an image", error=why))
+    return others_rows, extra, notes
 
 
 def _finished(job):
