@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import csv
 import os
 from pathlib import Path
 
 import matplotlib
+
+from measure.csvsafe import safe_writer
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
 
@@ -78,7 +79,7 @@ def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -
         if comment:
             for line in comment.splitlines():
                 f.write(f"# {line}\n")
-        w = csv.writer(f, lineterminator="\n")
+        w = safe_writer(f, lineterminator="\n")
         w.writerow(header)
         for row in rows:
             w.writerow(row)

@@ -18,7 +18,6 @@ in a fresh folder, interrupted after the first photo (as Ctrl-C) and rerun.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import sys
@@ -27,6 +26,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from measure.csvsafe import safe_writer
 
 from . import independent_world as iw
 from . import scene
@@ -93,7 +94,7 @@ def render_dive_folder(folder: Path, dive: dict, size, rng) -> dict:
     scene.write_dng(folder / "DIVE_blue_water.dng", img["image"])
     rows.append({"image": "DIVE_blue_water.dng", "depth_m": "6.000", "distance_m": "1.500"})
     with open(folder / "dive.csv", "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=["image", "depth_m", "distance_m"])
+        w = safe_writer(fh, fieldnames=["image", "depth_m", "distance_m"])
         w.writeheader()
         w.writerows(rows)
     return {"photos": names, "chartless": "DIVE_blue_water.dng"}
@@ -160,7 +161,8 @@ def run(photos: int = 6, size=(1200, 1800), seed: int = SEED, keep: Path | None 
         standard = {str(v.attrs.get("standard_name")) for v in ds.data_vars.values()}
     return {"dive": dive, "files": files, "first": first.rows, "second": second.rows,
             "rewritten": sorted(k for k in before if after.get(k) != before[k]),
-            "interrupted_code": interrupted.code, "done_before": sorted(done_before),
+            "first_code": first.code, "interrupted_code": interrupted.code,
+            "done_before": sorted(done_before),
             "resumed": resumed.rows, "joint": joint, "standard_names": sorted(standard),
             "render_s": t1 - t0, "measure_s": t2 - t1, "folder": str(base), "seed": seed,
             "size": list(size)}
@@ -206,9 +208,13 @@ def checks(out: dict) -> dict:
             len(reliable) - len(held) <= max(1, int(0.1 * len(reliable) + 0.5)),
             f"{len(held)} / {len(reliable)} reliable photos hold both C and a_CDOM "
             "(two 95 % intervals: about 90 % expected)"),
-        "the chartless frame is an error row": (
-            chartless["status"] == "error" and "no chart" in chartless["error"],
-            f"status {chartless['status']!r}: {chartless['error']}"),
+        "the chartless frame is a 'no chart' row with its inputs, not bad input": (
+            chartless["status"] == "no chart" and "no chart" in chartless["error"]
+            and chartless.get("depth_m") not in (None, "")
+            and chartless.get("distance_m") not in (None, "") and out["first_code"] != 2,
+            f"status {chartless['status']!r}: {chartless['error']}; depth "
+            f"{chartless.get('depth_m')} m, distance {chartless.get('distance_m')} m; exit "
+            f"{out['first_code']}"),
         "joint.json holds the truth": (
             bool(j) and _inside(*j["chl_ci"], dive["chl"]) and _inside(*j["cdom_ci"], dive["cdom"]),
             f"C {j.get('chl', float('nan')):.3g} [{j['chl_ci'][0]:.3g}, {j['chl_ci'][1]:.3g}] "
@@ -222,12 +228,12 @@ def checks(out: dict) -> dict:
         "survey.nc opens in xarray with the CF names": (cf <= set(out["standard_names"]),
                                                         ", ".join(sorted(cf & set(out["standard_names"])))),
         "a second run rewrites nothing complete": (
-            not out["rewritten"] and all(r["status"] in ("done earlier", "error", "not an image")
-                                         for r in out["second"]),
+            not out["rewritten"] and all(r["status"] in ("done earlier", "no chart",
+                                                         "not an image") for r in out["second"]),
             f"{len(out['rewritten'])} files rewritten"),
         "Ctrl-C, then a rerun completes without redoing finished photos": (
             out["interrupted_code"] == 130 and bool(out["done_before"]) and not redone
-            and all(r["status"] in ("measured", "done earlier", "error", "not an image")
+            and all(r["status"] in ("measured", "done earlier", "no chart", "not an image")
                     for r in out["resumed"]),
             f"exit {out['interrupted_code']}; {len(out['done_before'])} done before the "
             f"interrupt, {len(redone)} of them redone"),

@@ -20,11 +20,14 @@ from sca.budget import parse_sd
 
 from .measurement import CLIPPED_SIGMA
 
-__all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "fit_joint"]
+__all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "PER_PHOTO_TERMS", "fit_joint"]
 
 #: A photo whose own measurement has one of these flags does not enter the joint fit.
 EXCLUDED_FLAGS = ("misfit", "not-converged", "saturated", "orientation-unverified",
                   "noise-unknown")
+#: Terms of the uncertainty budget that are each photo's own (its depth and distance sds);
+#: the others (the water's constants, the camera's, the chart's) are shared by the photos
+PER_PHOTO_TERMS = ("depth", "distance")
 #: Flags of the photos' measurements that hold for the joint estimate too (the camera's).
 CARRIED_FLAGS = ("uncalibrated-camera", "unreliable-profile")
 
@@ -42,6 +45,21 @@ def _arrays(rec):
 def _sd(name, value, reference) -> float:
     """A recorded sd (m, or a percentage string) as metres; 0 where none was applied."""
     return 0.0 if value is None else float(parse_sd(name, value, reference))
+
+
+def _shared_budget(budgets):
+    """The budget the photos share: each photo's own depth and distance sds
+    (:data:`PER_PHOTO_TERMS`) may differ, every other term must be the same."""
+    shared = [{k: v for k, v in (b or {}).items() if k not in PER_PHOTO_TERMS} for b in budgets]
+    differ = sorted({k for b in shared[1:] for k in set(b) | set(shared[0])
+                     if b.get(k) != shared[0].get(k)})
+    if differ:
+        raise ValueError("records: the photos were measured with different values of the "
+                         f"budget's shared term(s) {', '.join(differ)}; for one water they must "
+                         "be the same (only depth and distance may differ from photo to photo): "
+                         "measure the photos again with the same budget options and profile, "
+                         "or give uncertain= to fit them with one budget")
+    return budgets[0]  # its depth and distance are replaced by each photo's own sds
 
 
 def _name(rec, i):
@@ -64,7 +82,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
         The water model (default the paper's).
     uncertain : dict, optional
         The budget, its 'depth' and 'distance' for every photo; default: the one the photos
-        were measured with (their ``inputs``, each photo's own depth and distance sds).
+        were measured with (their ``inputs``: the shared terms, which must agree, and each
+        photo's own depth and distance sds).
     path_models, patch_correlation :
         As :func:`sca.joint.estimate_joint`.
 
@@ -78,7 +97,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     ------
     ValueError
         Naming ``records`` when there is no usable photo, or when the photos were measured
-        with different budgets and ``uncertain`` is not given.
+        with budgets that differ in a shared term (anything but :data:`PER_PHOTO_TERMS`) and
+        ``uncertain`` is not given.
     """
     recs = [r.to_dict() if hasattr(r, "to_dict") else r for r in records]
     if not recs:
@@ -96,11 +116,7 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
             f"{k}: {v}" for k, v in excluded.items()) + ")")
     given = uncertain is not None  # an explicit budget replaces the photos' own sds
     if not given:
-        budgets = [(r.get("inputs") or {}).get("uncertain") for _, r in used]
-        if any(b != budgets[0] for b in budgets[1:]):
-            raise ValueError("records: the photos were measured with different uncertainty "
-                             "budgets; give uncertain= to fit them as one water")
-        uncertain = budgets[0]
+        uncertain = _shared_budget([(r.get("inputs") or {}).get("uncertain") for _, r in used])
     M, sigma, setups, depth, distance, dsd, rsd = [], [], [], [], [], [], []
     start = {"chl": [], "cdom": [], "gain": [], "backscatter": []}
     for _, rec in used:
@@ -127,8 +143,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     joint = sca.joint.estimate_joint(
         np.array(M), depth=np.array(depth), distance=np.array(distance), sigma=np.array(sigma),
         setup=setups, water=resolve_water(water), uncertain=uncertain,
-        depth_sd=np.array(dsd) if uncertain and not given else None,
-        distance_sd=np.array(rsd) if uncertain and not given else None, names=names,
+        depth_sd=None if given else np.array(dsd),
+        distance_sd=None if given else np.array(rsd), names=names,
         path_models=path_models, patch_correlation=patch_correlation,
         start={k: np.array(v, float) for k, v in start.items()})
     carried = sorted({f for _, r in used for f in (r.get("estimate") or {}).get("flags", [])

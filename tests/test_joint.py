@@ -129,6 +129,11 @@ def test_fit_joint_refuses_mixed_budgets_and_keeps_same_named_photos_apart():
         r["image"]["path"] = f"/dive{i}/IMG_0.dng"
     j = fit_joint(recs, setup=SETUP)
     assert len(j.photos) == 3
+    # a depth sd on one photo only (a metadata row's depth_sd_m): each photo's own is used
     recs[1]["inputs"]["uncertain"] = {"depth": 0.5}
-    with pytest.raises(ValueError, match="records"):
+    recs[1]["inputs"]["depth_sd"] = 0.5
+    assert len(fit_joint(recs, setup=SETUP).photos) == 3
+    # a shared term that differs cannot be one water's: refused, naming the term
+    recs[2]["inputs"]["uncertain"] = {"patch": 0.01}
+    with pytest.raises(ValueError, match="records: .*shared term.*patch"):
         fit_joint(recs, setup=SETUP)

@@ -287,4 +287,4 @@ def test_cli_measures_a_folder(files, corners, tmp_path):
     assert [r["image"].split("/")[-1] for r in rows] == ["a.dng", "b.dng", "c.dng", "notes.txt"]
     assert rows[3]["status"] == "not an image"
     assert rows[0]["reliable"] == "True" and rows[2]["error"].startswith("image:")
-    assert code == 2 and (tmp_path / "out" / "a" / "measurement.json").exists()
+    assert code == 2 and (tmp_path / "out" / "a_dng" / "measurement.json").exists()

@@ -13,10 +13,11 @@ attenuation spectrum k(lambda) is in ``--json`` and in the ``--attenuation`` fil
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import re
+
+from measure.csvsafe import safe_writer
 
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
                      atomic_open, budget_text, camera_note, check_spectra_args, json_text,
@@ -202,11 +203,11 @@ def _run_batch(args, out, err):
     N = len(charts)
     step = FIT_BLOCK if N >= PROGRESS_CHARTS else max(N, 1)
     totals = {"converged": 0, "reliable": 0, "elapsed": 0.0}
-    writer = csv.writer(out, lineterminator="\n")
+    writer = safe_writer(out, lineterminator="\n")
     first = True
     with contextlib.ExitStack() as stack:
-        kfile = (csv.writer(stack.enter_context(atomic_open(args.attenuation, "--attenuation")),
-                 lineterminator="\n") if args.attenuation else None)
+        kfile = (safe_writer(stack.enter_context(atomic_open(args.attenuation, "--attenuation")),
+                             lineterminator="\n") if args.attenuation else None)
         bar = stack.enter_context(tqdm(total=N, file=err, desc="fitting", unit="chart",
                                        disable=N < PROGRESS_CHARTS, leave=False))
         for lo in range(0, N, step):
@@ -352,7 +353,7 @@ def run(args, out, err) -> int:
         raise
     if args.attenuation:
         with atomic_open(args.attenuation, "--attenuation") as fh:
-            w = csv.writer(fh, lineterminator="\n")
+            w = safe_writer(fh, lineterminator="\n")
             w.writerow(["wavelength_nm", "attenuation_k"])
             w.writerows([f"{wl:g}", repr(float(k))] for wl, k in zip(res.wavelengths,
                                                                      res.attenuation))

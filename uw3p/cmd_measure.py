@@ -7,8 +7,9 @@ colour-corrected; or a dive: a folder of photos, each with its own depth and dis
 A folder (:func:`measure.dive.measure_dive`): one output folder per photo, summary.csv (every
 file of the folder: measured or why not), survey.nc, survey.png and, with ``--joint``,
 joint.json; run on Dask (a local cluster, or ``--scheduler ADDRESS``); a rerun skips the photos
-already complete with the same inputs and options. Exit status 0 when every measurement is
-reliable, 1 when one is not, 2 when one could not be measured (bad input), 130 interrupted
+already complete with the same inputs and options, and a rerun with other options is refused
+(``--overwrite``, or another ``--out``). Exit status 0 when every photo measured is reliable, 1
+when one is not, 2 when one could not be measured (bad input) or none was, 130 interrupted
 (Ctrl-C; the summary lists what was done).
 """
 
@@ -181,19 +182,27 @@ def run(args, out, err) -> int:
 def _measure_folder(args, src, out, err):
     """Every photo of a folder (a dive): :func:`measure.dive.measure_dive` on Dask, a progress
     bar on ``err``; a count and the outputs' paths on ``out``."""
-    from measure.dive import measure_dive
+    import warnings
 
-    res = measure_dive(src, out=args.out, metadata=args.metadata, depth=args.depth,
-                       distance=args.distance, corners=args.corners, overwrite=args.overwrite,
-                       tiff=args.tiff, joint=args.joint, scheduler=args.scheduler, bar=err,
-                       version=__version__, command=getattr(args, "command_line", ""),
-                       **_options(args))
+    from measure.dive import DiveWarning, measure_dive
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DiveWarning)  # written below, in the command's words
+        res = measure_dive(src, out=args.out, metadata=args.metadata, depth=args.depth,
+                           distance=args.distance, corners=args.corners,
+                           overwrite=args.overwrite, tiff=args.tiff, joint=args.joint,
+                           scheduler=args.scheduler, bar=err, version=__version__,
+                           command=getattr(args, "command_line", ""), **_options(args))
+    for text in res.warnings:
+        err.write(f"uw3p measure: warning: {text}\n")
     c = res.counts
     n = len(res.rows)
-    out.write(f"{n} files: {c['measured'] + c['done earlier']} measured ({c['done earlier']} "
+    out.write(f"{n} rows: {c['measured'] + c['done earlier']} measured ({c['done earlier']} "
               f"complete from an earlier run), {sum(r.get('reliable') is True for r in res.rows)} "
-              f"reliable; {c['error']} not measurable, {c['not an image']} not photos, "
-              f"{c['interrupted']} interrupted\n")
+              f"reliable; {c['error']} not measurable, {c['no chart']} without a chart, "
+              f"{c['not in metadata']} without a metadata row, {c['no such photo']} metadata "
+              f"rows naming no photo, {c['not an image']} not photos, {c['interrupted']} "
+              "interrupted\n")
     for path in (res.summary, res.survey, res.figure, res.joint):
         if path is not None:
             out.write(f"wrote {path}\n")

@@ -36,6 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
+from measure.csvsafe import safe_writer
+
 __all__ = ["RGB", "BATCH_EXTRA", "CHANNEL_ALIASES", "read_patch_csv", "read_batch_csv",
            "patch_csv", "known_columns"]
 
@@ -578,7 +580,7 @@ def patch_csv(rgb, sigma=None) -> str:
     """
     rgb = np.asarray(rgb)
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
+    w = safe_writer(buf, lineterminator="\n")
     names = list(RGB) if rgb.shape[0] == 3 else [f"ch{j}" for j in range(rgb.shape[0])]
     sd = [] if sigma is None else [f"{c}_sd" for c in names]
     w.writerow(["patch"] + names + sd)

@@ -1,0 +1,204 @@
+"""run.json: the options of a dive's run that change its results, recorded in the output folder,
+so that a rerun with other options is refused before it writes anything (:func:`check_manifest`).
+
+The manifest holds uw3p's version, the ``measure.measure`` options (camera, quantal, profile,
+illuminant, layout, water model, black and white levels, light field, uncertainty budget) and
+the outputs asked for (``tiff``, ``report``). An option that names a file (the profile, a
+camera's or an illuminant's curves as CSV) is recorded by the SHA-256 of the file's content, so
+an edited file is noticed and a moved one is not. ``--joint`` and the survey figure are not in
+it: they change no photo's results, and the run's own files follow the run that wrote them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .files import atomic
+from .names import MANIFEST
+
+__all__ = ["FILE_OPTIONS", "HASH_CHUNK_BYTES", "check_manifest", "file_digest", "manifest",
+           "manifest_digest", "write_manifest"]
+
+#: Options of ``measure.measure`` that may name a file (recorded by its content's hash)
+FILE_OPTIONS = ("profile", "camera", "illuminant")
+#: Files are hashed in chunks of this many bytes (a 50 MB RAW file is not read into memory
+#: at once; SHA-256 streams at several hundred MB/s, below a disk's or network's reading)
+HASH_CHUNK_BYTES = 1 << 20
+
+
+def file_digest(path) -> str:
+    """The SHA-256 of a file's content, read in chunks.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+        Hex digest.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read.
+    """
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(HASH_CHUNK_BYTES), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _plain(x):
+    """JSON's form of an option value (numpy arrays and scalars, dataclasses, paths)."""
+    if isinstance(x, Path):
+        return str(x)
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    if dataclasses.is_dataclass(x):
+        return {f.name: getattr(x, f.name) for f in dataclasses.fields(x)
+                if not f.name.endswith("_table")}
+    return repr(x)
+
+
+def _is_file(value) -> bool:
+    return isinstance(value, (str, os.PathLike)) and os.path.isfile(value)
+
+
+def manifest(options: dict, tiff: str, report: bool, version: str) -> dict:
+    """The run's options that change its results, as run.json records them.
+
+    Parameters
+    ----------
+    options : dict
+        The ``measure.measure`` options of the run (paths absolute).
+    tiff : str
+        corrected.tiff's mode.
+    report : bool
+        report.png drawn.
+    version : str
+        uw3p's version.
+
+    Returns
+    -------
+    dict
+        JSON-ready: ``version``, ``options`` (a file by ``{"sha256": ...}``) and ``outputs``.
+
+    Raises
+    ------
+    ValueError
+        Naming the option whose file cannot be read.
+    """
+    opts = {}
+    for k, v in sorted(options.items()):
+        if k in FILE_OPTIONS and _is_file(v):
+            try:
+                v = {"sha256": file_digest(v)}
+            except OSError as exc:
+                raise ValueError(f"{k}: cannot read {v}: {exc.strerror}") from None
+        opts[k] = v
+    return json.loads(json.dumps({"version": version, "options": opts,
+                                  "outputs": {"tiff": tiff, "report": bool(report)}},
+                                 sort_keys=True, default=_plain))
+
+
+def manifest_digest(content: dict) -> str:
+    """The SHA-256 of a manifest (what each photo's key and complete.json refer to).
+
+    Parameters
+    ----------
+    content : dict
+        :func:`manifest`'s.
+
+    Returns
+    -------
+    str
+        Hex digest.
+    """
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
+
+
+def _differences(old: dict, new: dict) -> list:
+    """What differs between two manifests, in words."""
+    out = []
+    if old.get("version") != new.get("version"):
+        out.append(f"uw3p version {old.get('version')!r} -> {new.get('version')!r}")
+    for group in ("options", "outputs"):
+        a, b = old.get(group) or {}, new.get(group) or {}
+        for k in sorted(set(a) | set(b)):
+            if a.get(k) == b.get(k):
+                continue
+            if isinstance(a.get(k), dict) and "sha256" in a[k] and isinstance(b.get(k), dict) \
+                    and "sha256" in b[k]:
+                out.append(f"{k}: the file's content changed")
+            else:
+                out.append(f"{k}: {a.get(k)!r} -> {b.get(k)!r}")
+    return out
+
+
+def check_manifest(root: Path, content: dict, overwrite: bool) -> None:
+    """Refuse a run whose options differ from those of the run that wrote ``root``.
+
+    Parameters
+    ----------
+    root : pathlib.Path
+        The output folder.
+    content : dict
+        This run's :func:`manifest`.
+    overwrite : bool
+        Allowed: the run redoes every photo with its own options.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out``: the options differ (which, and the choice: ``--overwrite`` or a new
+        ``--out``), or run.json cannot be read.
+    """
+    path = root / MANIFEST
+    if overwrite or not path.exists():
+        return
+    try:
+        old = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"out: cannot read {path} ({exc}); give --overwrite to replace the "
+                         "results there, or a new --out") from None
+    diff = _differences(old, content)
+    if diff:
+        raise ValueError(f"out: {root} holds the results of a run with other options ("
+                         + "; ".join(diff) + "); a rerun with other options would replace "
+                         "them: give --overwrite to redo every photo with these options, or a "
+                         "new --out")
+
+
+def write_manifest(root: Path, content: dict) -> Path:
+    """Write run.json (whole or not at all) unless it holds ``content`` already.
+
+    Parameters
+    ----------
+    root : pathlib.Path
+        The output folder.
+    content : dict
+        :func:`manifest`'s.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    path = root / MANIFEST
+    try:
+        if json.loads(path.read_text(encoding="utf-8")) == content:
+            return path  # the same run's: not rewritten (a rerun rewrites nothing complete)
+    except (OSError, ValueError):
+        pass
+    with atomic(path) as tmp:
+        tmp.write_text(json.dumps(content, indent=1, sort_keys=True) + "\n", encoding="utf-8")
+    return path

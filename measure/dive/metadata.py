@@ -1,0 +1,200 @@
+"""A dive's per-photo inputs from outside the photo's pixels: the metadata CSV
+(:func:`read_metadata`) and the camera's EXIF depth and time (:func:`exif_info`)."""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import math
+from pathlib import Path
+
+__all__ = ["DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "METADATA_COLUMNS", "METADATA_OPTIONAL",
+           "WATER_DEPTH_TAG", "exif_info", "read_metadata"]
+
+#: Required columns of the metadata CSV (``--metadata``): the image's file name relative to the
+#: folder, the chart's depth (m) and the camera-to-chart distance (m)
+METADATA_COLUMNS = ("image", "depth_m", "distance_m")
+#: Optional columns: the standard deviations (m) of depth and distance, the chart's corners
+#: ("x1,y1 x2,y2 x3,y3 x4,y4", pixels; empty: detected)
+METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners")
+#: EXIF tags that record the depth under water, in the order tried. EXIF 2.31 (CIPA DC-008-2016)
+#: added ``WaterDepth`` (tag 0x9403 = 37891, signed rational, m) to the Exif IFD; tough
+#: compacts (e.g. Olympus/OM System TG series) write it. Dive-log geotagging tools write the
+#: depth as ``GPSAltitude`` with ``GPSAltitudeRef`` = 1 (below sea level).
+EXIF_DEPTH_TAGS = ("WaterDepth", "GPSAltitude")
+#: EXIF 2.31 WaterDepth (Exif IFD)
+WATER_DEPTH_TAG = 37891
+#: EXIF DateTimeOriginal (Exif IFD), "YYYY:MM:DD HH:MM:SS"
+DATETIME_ORIGINAL_TAG = 36867
+
+
+def _number(value, name, where, *, positive=True):
+    value = value.strip()
+    if not value:
+        return None
+    try:
+        x = float(value)
+    except ValueError:
+        raise ValueError(f"{where}: {name} is not a number: {value!r}") from None
+    if not math.isfinite(x) or x < 0 or (positive and x == 0):
+        raise ValueError(f"{where}: {name} must be finite and {'> 0' if positive else '>= 0'}, "
+                         f"got {value!r}")
+    return x
+
+
+def read_metadata(path) -> dict:
+    """Read a dive's metadata CSV: one row per photo.
+
+    Columns (by name, any order; UTF-8 with or without a byte-order mark): ``image`` (file name
+    relative to the folder), ``depth_m``, ``distance_m`` (m) and optionally ``depth_sd_m``,
+    ``distance_sd_m`` (m) and ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels). An empty cell
+    means "not given here": the EXIF depth or the default applies (corners: detected). A quoted
+    cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
+    are ignored when their cells are empty.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV file.
+
+    Returns
+    -------
+    dict
+        image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m' (floats or None),
+        'corners' (str or None), 'line' (int: the line the row starts on)}.
+
+    Raises
+    ------
+    ValueError
+        Naming ``metadata`` and the line: a missing file or column, an unknown or repeated
+        column, a value that is not a positive number, a value under no column name, an empty
+        or repeated image name, a malformed CSV.
+    """
+    p = Path(path)
+    try:
+        with open(p, encoding="utf-8-sig", newline="") as fh:
+            return _rows(p, fh)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"metadata: cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
+            from None
+
+
+def _rows(p: Path, fh) -> dict:
+    """The rows of an open metadata CSV (:func:`read_metadata`)."""
+    reader = csv.reader(fh)
+    try:
+        header = [h.strip() for h in next(reader, [])]
+        named = [(i, h) for i, h in enumerate(header) if h]
+        names = [h for _, h in named]
+        missing = [c for c in METADATA_COLUMNS if c not in names]
+        if missing:
+            raise ValueError(f"metadata: {p} line 1: missing column(s) {', '.join(missing)} "
+                             f"(needs {', '.join(METADATA_COLUMNS)}; optional "
+                             f"{', '.join(METADATA_OPTIONAL)})")
+        unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL]
+        if unknown:
+            raise ValueError(f"metadata: {p} line 1: unknown column(s) {', '.join(unknown)}")
+        repeated = sorted({c for c in names if names.count(c) > 1})
+        if repeated:
+            raise ValueError(f"metadata: {p} line 1: column(s) {', '.join(repeated)} repeat")
+        rows = {}
+        start = reader.line_num + 1
+        for raw in reader:
+            n, start = start, reader.line_num + 1
+            where = f"metadata: {p} line {n}"
+            if len(raw) > len(header):
+                raise ValueError(f"{where}: more cells than columns")
+            raw = raw + [""] * (len(header) - len(raw))
+            stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
+            if stray:
+                raise ValueError(f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
+                                 "column name in line 1")
+            cell = {h: raw[i] for i, h in named}
+            if not any(v.strip() for v in cell.values()):
+                continue
+            name = cell["image"].strip()
+            if not name:
+                raise ValueError(f"{where}: image is empty")
+            if name in rows:
+                raise ValueError(f"{where}: image {name!r} repeats line {rows[name]['line']}")
+            rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
+                          "distance_m": _number(cell["distance_m"], "distance_m", where),
+                          "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
+                                                positive=False),
+                          "distance_sd_m": _number(cell.get("distance_sd_m", ""),
+                                                   "distance_sd_m", where, positive=False),
+                          "corners": cell.get("corners", "").strip() or None, "line": n}
+    except csv.Error as exc:
+        raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
+    return rows
+
+
+def _rational(value):
+    if isinstance(value, tuple) and len(value) == 2:
+        return value[0] / value[1] if value[1] else None
+    if isinstance(value, tuple) and value:
+        return _rational(value[0])
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def exif_info(path) -> dict:
+    """The depth and the time a photo's EXIF records, where it does.
+
+    Read with tifffile from TIFF containers (TIFF, DNG, NEF, ARW, CR2, PEF, ...); formats
+    that are not TIFF containers give nothing. The depth: EXIF 2.31 ``WaterDepth`` (tag
+    0x9403, in the Exif IFD or IFD0; a negative value -- above the surface -- is not used), else
+    ``GPSAltitude`` when ``GPSAltitudeRef`` is 1 (below sea level). The time:
+    ``DateTimeOriginal`` (tag 0x9003), the camera's local time.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The photo.
+
+    Returns
+    -------
+    dict
+        ``depth_m`` (m) and ``depth_tag`` (the tag's name) where a depth is recorded, ``time``
+        (ISO 8601 text, no time zone) where a time is.
+
+    References
+    ----------
+    CIPA DC-008-2016, Exchangeable image file format for digital still cameras: Exif Version
+    2.31, tags WaterDepth (0x9403) and DateTimeOriginal (0x9003); GPS tags GPSAltitudeRef,
+    GPSAltitude.
+    """
+    import tifffile
+
+    out = {}
+    try:
+        with tifffile.TiffFile(path) as tf:
+            page = tf.pages[0]
+            pool = {}
+            for tag in page.tags.values():
+                pool[tag.code] = tag.value
+                pool[tag.name] = tag.value
+            for sub in ("ExifTag", "GPSTag"):
+                if isinstance(pool.get(sub), dict):
+                    pool.update(pool[sub])
+    except Exception:  # noqa: BLE001 - not a TIFF container (tifffile raises many kinds): no EXIF, allowed
+        return out
+    depth = _rational(pool.get("WaterDepth", pool.get(WATER_DEPTH_TAG)))
+    if depth is not None and depth >= 0:
+        out.update(depth_m=float(depth), depth_tag="WaterDepth")
+    elif _rational(pool.get("GPSAltitudeRef")) == 1:
+        alt = _rational(pool.get("GPSAltitude"))
+        if alt is not None and alt >= 0:
+            out.update(depth_m=float(alt), depth_tag="GPSAltitude")
+    stamp = pool.get("DateTimeOriginal", pool.get(DATETIME_ORIGINAL_TAG))
+    if isinstance(stamp, bytes):
+        stamp = stamp.decode("ascii", "replace")
+    if isinstance(stamp, str):
+        try:
+            t = datetime.datetime.strptime(stamp.strip("\x00 "), "%Y:%m:%d %H:%M:%S")
+            out["time"] = t.isoformat()
+        except ValueError:
+            pass
+    return out

@@ -1,0 +1,191 @@
+"""The plan of a dive: each photo's inputs and their sources (:func:`resolve_inputs`), the key
+that says "same inputs" (:func:`photo_key`), and what to do with each photo (:func:`plan_photo`):
+measure it, skip it (complete with the same key), a summary row saying why not, or a conflict
+that refuses the run before it writes anything.
+
+The key is the content: the SHA-256 of the photo's bytes, its metadata row, its resolved inputs
+(depth, distance, their sds, corners, EXIF time) and the run's manifest (the options that
+change results, files by content: :mod:`measure.dive.manifest`). A photo replaced by another of
+the same name, size and time is redone; a photo whose folder holds results of the same photo
+made with the same options but other inputs or content is redone (its folder replaced); a
+folder that holds another photo's results or results of other options, or files that are not
+uw3p results, is a conflict.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..output import read_marker, result_owner
+from .manifest import file_digest
+from .summary import summary_row
+
+__all__ = ["photo_key", "plan_photo", "resolve_inputs"]
+
+
+def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
+    """The photo's inputs and their sources.
+
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo.
+    row : dict or None
+        Its metadata row (:func:`measure.dive.read_metadata`).
+    exif : dict
+        :func:`measure.dive.exif_info`'s.
+    depth, distance : float or None
+        The defaults (m).
+    corners : str or array_like or None
+        The default corners.
+
+    Returns
+    -------
+    dict
+        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time`` and their sources.
+
+    Raises
+    ------
+    ValueError
+        Naming ``depth`` or ``distance`` when neither the row, the EXIF nor a default gives it.
+    """
+    def pick(name, cands):
+        for value, source in cands:
+            if value is not None:
+                return value, source
+        raise ValueError(f"{name}: not given for {photo.name} (a metadata row, the EXIF, or "
+                         f"--{name})")
+    row = row or {}
+    d, d_src = pick("depth", [(row.get("depth_m"), "metadata"),
+                              (exif.get("depth_m"), f"exif:{exif.get('depth_tag')}"),
+                              (depth, "--depth")])
+    r, r_src = pick("distance", [(row.get("distance_m"), "metadata"), (distance, "--distance")])
+    if row.get("corners"):
+        c, c_src = row["corners"], "metadata"
+    elif corners is not None:
+        c, c_src = corners, "--corners"
+    else:
+        c, c_src = None, "detected"
+    return {"depth_m": d, "depth_source": d_src, "distance_m": r, "distance_source": r_src,
+            "depth_sd_m": row.get("depth_sd_m"), "distance_sd_m": row.get("distance_sd_m"),
+            "corners": c if c is None or isinstance(c, str) else np.asarray(c, float).tolist(),
+            "corners_source": c_src, "time": exif.get("time")}
+
+
+def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
+    """The hash that says "same inputs" (the module's key).
+
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo (its bytes are hashed).
+    row : dict or None
+        Its metadata row.
+    inputs : dict
+        :func:`resolve_inputs`'s.
+    run_digest : str
+        :func:`measure.dive.manifest.manifest_digest` of the run.
+
+    Returns
+    -------
+    str
+        Hex SHA-256.
+
+    Raises
+    ------
+    OSError
+        The photo cannot be read.
+    """
+    data = {"image": photo.name, "sha256": file_digest(photo),
+            "row": {k: v for k, v in (row or {}).items() if k != "line"},
+            "inputs": {k: v for k, v in inputs.items() if not k.endswith("_source")},
+            "run": run_digest}
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def _record(out: Path):
+    try:
+        return json.loads((out / "measurement.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None  # a marker without its measurement: redo
+
+
+def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, options: dict,
+               outputs, run_digest: str, overwrite: bool) -> tuple:
+    """What to do with one photo.
+
+    Parameters
+    ----------
+    photo : pathlib.Path
+        The photo (absolute).
+    name : str
+        Its output folder's name (:func:`measure.dive.output_names`).
+    root : pathlib.Path
+        The output folder.
+    meta : dict or None
+        The metadata CSV's rows (None: no metadata CSV).
+    exif : dict
+        :func:`measure.dive.exif_info`'s.
+    defaults : tuple
+        (depth, distance, corners) given for every photo.
+    options : dict
+        The ``measure.measure`` options.
+    outputs : tuple
+        (tiff, report).
+    run_digest : str
+        The run's manifest digest (recorded in complete.json).
+    overwrite : bool
+        Folders of another photo or of other options may be replaced.
+
+    Returns
+    -------
+    job : dict or None
+        The photo to measure.
+    row : dict or None
+        Its summary row when it is not measured now (done earlier, or why not).
+    conflict : str or None
+        Why its folder may not be written (the run is refused).
+    """
+    out = root / name
+    tiff, report = outputs
+    plan = {"out": str(out), "options": options, "tiff": tiff}
+    if meta is not None and photo.name not in meta:
+        return None, summary_row(photo, plan, "not in metadata", error=(
+            f"metadata: no row for {photo.name}: not measured")), None
+    row = (meta or {}).get(photo.name)
+    try:
+        inputs = resolve_inputs(photo, row, exif, *defaults)
+    except ValueError as exc:
+        return None, summary_row(photo, plan, "error", error=str(exc)), None
+    plan["inputs"] = inputs
+    try:
+        key = photo_key(photo, row, inputs, run_digest)
+    except OSError as exc:
+        return None, summary_row(photo, plan, "error", error=(
+            f"image: cannot read {photo}: {exc.strerror or exc}")), None
+    marker = read_marker(out) if out.is_dir() else None
+    if marker is not None and marker.get("key") == key:
+        record = _record(out)
+        if record is not None:
+            return None, summary_row(photo, plan, "done earlier", record), None
+    owner = result_owner(out) if out.is_dir() else None
+    if out.exists() and not out.is_dir():
+        return None, None, f"{out} is a file"
+    if owner is None and out.exists() and any(out.iterdir()):
+        return None, None, (f"{out} holds files that are not uw3p results (never replaced, not "
+                            "even with --overwrite)")
+    if owner is not None and not overwrite:
+        same_photo = os.path.abspath(owner) == str(photo) if owner else False
+        if not same_photo:
+            return None, None, f"{out} holds the results of another photo ({owner or 'unknown'})"
+        if marker is None or marker.get("run") != run_digest:
+            return None, None, f"{out} holds results of {photo.name} made with other options"
+        # the same photo and options, its content or inputs changed: redone
+    job = {"image": str(photo), "out": str(out), "inputs": inputs, "options": options,
+           "tiff": tiff, "report": report, "key": key, "run": run_digest, "plan": plan}
+    return job, None, None

@@ -1,0 +1,384 @@
+"""A dive: every photo of a folder measured with its own inputs, on Dask, resumable, with
+survey outputs (:func:`measure_dive`).
+
+The run, in order: the inputs are read and every path made absolute (Dask workers may run in
+another folder); the output folder is created and locked (:func:`measure.dive.files.locked`);
+the options are checked against the run that wrote the folder (run.json,
+:mod:`measure.dive.manifest`) and every photo is planned (:mod:`measure.dive.plan`) -- a run
+that would replace results of other options or of another photo is refused here, before it
+writes anything; then run.json is written, the photos are measured
+(:mod:`measure.dive.execute`) and summary.csv, survey.nc, joint.json and survey.png are written
+for this run (a joint.json or survey.png this run does not make is removed: the four files
+always describe one run).
+"""
+
+from __future__ import annotations
+
+import datetime
+import difflib
+import json
+import os
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import forward
+from forward.spectra import is_path
+
+from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
+from ..output import TIFF_MODES, read_marker, strict_json
+from .execute import execute
+from .files import atomic, clean_temp, locked
+from .manifest import FILE_OPTIONS, check_manifest, manifest, manifest_digest, write_manifest
+from .metadata import exif_info, read_metadata
+from .names import dive_files, output_names
+from .plan import plan_photo
+from .plot import plot_survey
+from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
+from .survey import survey_dataset, write_survey
+
+__all__ = ["DiveWarning", "DiveResult", "measure_dive"]
+
+#: Statuses of rows that are not a photo of the folder (left out of survey.nc)
+NOT_PHOTOS = ("not an image", "no such photo")
+#: Conflicts listed in the refusal's message (the rest counted)
+MAX_CONFLICTS_SHOWN = 5
+
+
+class DiveWarning(UserWarning):
+    """A metadata row that names no photo, or a photo without a metadata row."""
+
+
+@dataclass
+class DiveResult:
+    """The result of :func:`measure_dive`.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One per file of the folder and per metadata row naming no photo
+        (:data:`measure.dive.SUMMARY_COLUMNS`; ``status`` one of :data:`measure.dive.STATUSES`).
+    code : int
+        The exit status (:func:`measure.dive.summary.dive_code`): 0 every photo measured is
+        reliable, 1 one is not, 2 one could not be measured or none was, 130 interrupted.
+    summary, survey, figure, joint : pathlib.Path or None
+        summary.csv, survey.nc, survey.png and joint.json (None when not written).
+    interrupted : bool
+        The run was interrupted (Ctrl-C); the outputs list what was done.
+    counts : dict
+        status -> number of rows.
+    joint_error : str
+        Why the joint fit was not made, when asked for and not made.
+    warnings : list of str
+        Metadata rows that name no photo, photos without a row (also issued as
+        :class:`DiveWarning`).
+    """
+
+    rows: list
+    code: int
+    summary: Path | None = None
+    survey: Path | None = None
+    figure: Path | None = None
+    joint: Path | None = None
+    interrupted: bool = False
+    counts: dict = field(default_factory=dict)
+    joint_error: str = ""
+    warnings: list = field(default_factory=list)
+
+
+def _absolute(options: dict) -> dict:
+    """The options with every file path absolute (a Dask worker may run in another folder)."""
+    return {k: os.path.abspath(v) if k in FILE_OPTIONS and is_path(v) else v
+            for k, v in options.items()}
+
+
+def _no_photo_reason(folder, name: str, line: int, listed) -> str:
+    """Why a metadata row's image is not a photo of the folder."""
+    p = Path(folder) / name if folder is not None else Path(name)
+    if Path(name).parent != Path("."):
+        why = "not in the folder itself (photos in sub-folders are not measured)"
+    elif p.is_symlink() and not p.exists():
+        why = f"a link to a missing file ({os.readlink(p)})"
+    elif p.is_dir():
+        why = "a folder"
+    elif p.exists():
+        why = "not among the photos measured (a hidden file, or not given)"
+    else:
+        why = f"no such file in {folder}" if folder is not None else "not among the photos given"
+        near = difflib.get_close_matches(name, listed, n=1)
+        if near:
+            why += f" (did you mean {near[0]}?)"
+    return f"metadata: line {line}: {name}: {why}"
+
+
+def _conflicts(root: Path, conflicts: list) -> ValueError:
+    shown = "; ".join(conflicts[:MAX_CONFLICTS_SHOWN])
+    more = len(conflicts) - MAX_CONFLICTS_SHOWN
+    return ValueError(f"out: {root}: {shown}" + (f"; and {more} more" if more > 0 else "")
+                      + "; nothing was written: give --overwrite to replace them, or a new "
+                      "--out")
+
+
+def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=None,
+                 corners=None, overwrite: bool = False, tiff: str = "compressed",
+                 joint: bool = False, scheduler=None, progress=None, bar=None,
+                 report: bool = True, figure: bool = True, version: str = "",
+                 command: str = "",
+                 **measure_options) -> DiveResult:
+    """Measure every photo of a dive, each with its own inputs, and write the survey.
+
+    Parameters
+    ----------
+    paths_or_folder : path or list of paths
+        The dive's folder (every file is listed in the summary:
+        :func:`measure.dive.dive_files`) or the photos.
+    out : str or os.PathLike
+        The output folder (created if missing; locked while the run writes it): one folder per
+        photo (:func:`measure.dive.output_names`), summary.csv, survey.nc, survey.png, run.json
+        and, with ``joint``, joint.json.
+    metadata : str or os.PathLike, optional
+        The metadata CSV (:func:`measure.dive.read_metadata`). A photo without a row is a row
+        ``not in metadata``; a row naming no photo of the folder is a row ``no such photo``;
+        both are warned about (:class:`DiveWarning`, and ``DiveResult.warnings``) and neither
+        changes the exit status.
+    depth, distance : float, optional
+        Defaults (m) for the photos whose row (or, for the depth, EXIF:
+        :func:`measure.dive.exif_info`) does not give them; a photo without either is an error
+        row.
+    corners : str or array_like, optional
+        Default corners (pixels); None: detected (where a row gives none).
+    overwrite : bool, optional
+        Run even when the folder holds results of other options or of other photos: those are
+        replaced.
+    tiff : {'compressed', 'full', 'none'}, optional
+        corrected.tiff (:func:`measure.write_outputs`).
+    joint : bool, optional
+        Also fit the dive's photos as one water (``measure.joint.fit_joint``): joint.json.
+    scheduler : str, optional
+        None: a ``distributed.LocalCluster`` of min(photos, cores) single-threaded worker
+        processes; an address ('tcp://host:8786'): that cluster; 'synchronous': in this
+        process, one photo after another (no Dask).
+    progress : callable, optional
+        ``progress(row)`` after each photo measured (a KeyboardInterrupt raised in it
+        interrupts the run like Ctrl-C).
+    bar : text stream, optional
+        Where a tqdm progress bar is drawn (None: no bar).
+    report : bool, optional
+        Draw each photo's report.png (:func:`measure.write_outputs`).
+    figure : bool, optional
+        Draw survey.png (:func:`measure.dive.plot_survey`).
+    version, command : str, optional
+        uw3p's version and the command line, recorded in the outputs.
+    **measure_options
+        Passed to :func:`measure.measure`: ``camera``, ``quantal``, ``profile``,
+        ``illuminant``, ``layout``, ``water``, ``black_level``, ``white_level``,
+        ``light_field``, ``uncertain``.
+
+    Returns
+    -------
+    DiveResult
+        The rows, the exit status and the files written.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: no photos, a bad ``metadata`` file, a ``tiff`` not in
+        :data:`measure.output.TIFF_MODES`, an option's file that cannot be read; naming
+        ``out``: it cannot be created or written, another run is writing it, or it holds
+        results this run would replace (of other options, of another photo; without
+        ``overwrite``) -- refused before anything is written.
+    KeyboardInterrupt
+        Ctrl-C before the photos are measured (while the folder is checked and the photos
+        hashed): nothing was written. Ctrl-C later ends the run with ``interrupted`` set.
+    """
+    if tiff not in TIFF_MODES:
+        raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+    metadata = None if metadata is None else Path(os.path.abspath(metadata))
+    meta = read_metadata(metadata) if metadata is not None else None
+    src = paths_or_folder
+    folder = None
+    if isinstance(src, (str, os.PathLike)) and Path(src).is_dir():
+        folder = Path(os.path.abspath(src))
+        photos, others = dive_files(folder, exclude=[metadata] if metadata else [])
+    else:
+        photos = [Path(os.path.abspath(p)) for p in ([src] if isinstance(
+            src, (str, os.PathLike)) else src)]
+        others = []
+    if not photos:
+        raise ValueError(f"image: no RAW or TIFF files in {src} "
+                         f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
+    options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
+    run = manifest(options, tiff, report, version)
+    digest = manifest_digest(run)
+    root = Path(os.path.abspath(out))
+    with locked(root):
+        return _locked_run(root, photos, others, folder, meta, metadata, run, digest, options,
+                           (depth, distance, corners), overwrite, (tiff, report), joint,
+                           scheduler, progress, bar, figure, version, command)
+
+
+def _locked_run(root, photos, others, folder, meta, metadata, run, digest, options, defaults,
+                overwrite, outputs, joint, scheduler, progress, bar, figure, version, command):
+    """The run, the output folder locked: check, plan, write run.json, measure, finish."""
+    from tqdm import tqdm
+
+    check_manifest(root, run, overwrite)
+    names = output_names(photos)
+    rows, records, jobs, conflicts, notes = {}, {}, [], [], []
+    for p in photos:  # a Ctrl-C here stops the run with nothing written (KeyboardInterrupt)
+        job, row, conflict = plan_photo(p, names[p], root, meta, exif_info(p), defaults,
+                                        options, outputs, digest, overwrite)
+        if conflict is not None:
+            conflicts.append(conflict)
+        elif row is not None:
+            rows[p] = row
+            if row["status"] == "done earlier":
+                records[str(p)] = json.loads((Path(row["out"]) / "measurement.json")
+                                             .read_text(encoding="utf-8"))
+            if row["status"] == "not in metadata":
+                notes.append(f"{p.name}: no row in {metadata}; not measured")
+        else:
+            jobs.append(job | {"command": command, "version": version})
+    if conflicts:
+        raise _conflicts(root, conflicts)
+    others_rows, extra, more = _unmatched_rows(folder, meta, photos, others)
+    notes += more
+    for text in notes:
+        warnings.warn(text, DiveWarning, stacklevel=3)
+    clean_temp(root)
+    write_manifest(root, run)
+    left = set()
+    with tqdm(total=len(jobs), file=bar, desc="measuring", unit="photo",
+              disable=bar is None or not jobs) as pbar:
+        def on_result(job, result):
+            p = Path(job["image"])
+            rows[p] = summary_row(p, job["plan"], result["status"], result.get("record"),
+                                  result.get("error", ""))
+            if result.get("record") is not None:
+                records[str(p)] = result["record"]
+            pbar.update(1)
+            if progress is not None:
+                progress(rows[p])
+        if jobs:
+            left = execute(jobs, scheduler, on_result)
+    if scheduler is None or scheduler == "synchronous":
+        clean_temp(root)  # the local workers are gone: what they left half-written
+    for job in jobs:
+        if job["key"] in left:
+            p = Path(job["image"])
+            record = _finished(job)
+            rows[p] = summary_row(p, job["plan"], "interrupted",
+                                  error="interrupted before this photo was measured") \
+                if record is None else summary_row(p, job["plan"], "measured", record)
+            if record is not None:
+                records[str(p)] = record
+    all_rows = [rows[p] for p in photos] + others_rows + extra
+    all_rows.sort(key=lambda r: Path(r["image"]).name)
+    res = _finish(all_rows, records, root, bool(left), joint, options, version, command,
+                  figure)
+    res.warnings = notes
+    return res
+
+
+def _unmatched_rows(folder, meta, photos, others) -> tuple:
+    """The rows of the files that are not photos and of the metadata rows that name no photo
+    (each of the latter, and each broken link, with a warning's text)."""
+    notes = []
+    gone = {p.name for p, _ in others if p.is_symlink() and not p.exists()}
+    extra = []
+    if meta is not None:  # every metadata row accounted for
+        listed = ({p.name for p in photos} | {p.name for p, _ in others}) - gone
+        for name, mrow in meta.items():
+            if name in listed:
+                continue
+            why = _no_photo_reason(folder, name, mrow["line"], sorted(listed))
+            notes.append(why)
+            extra.append(summary_row((folder or Path()) / name, {"inputs": {
+                "depth_m": mrow["depth_m"], "distance_m": mrow["distance_m"],
+                "corners": mrow["corners"]}}, "no such photo", error=why))
+    others_rows = []
+    for p, why in others:
+        if p.name in gone and meta is not None and p.name in meta:
+            continue  # its metadata row says it (above)
+        if p.name in gone:
+            notes.append(f"{p.name}: {why}")
+        others_rows.append(summary_row(p, {}, "no such photo" if p.name in gone
+                                       else "not an image", error=why))
+    return others_rows, extra, notes
+
+
+def _finished(job):
+    """measurement.json's content when the job's folder is complete with the job's key (a
+    worker finished it while the run was being interrupted), else None."""
+    marker = read_marker(job["out"])
+    if marker is None or marker.get("key") != job["key"]:
+        return None
+    try:
+        return json.loads((Path(job["out"]) / "measurement.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+def _finish(rows, records, root, interrupted, joint, options, version, command, figure):
+    """Write summary.csv, joint.json, survey.nc and survey.png of this run (removing a
+    joint.json or survey.png it does not make); the DiveResult."""
+    counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
+    res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
+    res.summary = write_summary(rows, root / "summary.csv")
+    joint_data = None
+    if joint:
+        if interrupted:
+            res.joint_error = "not fitted: the run was interrupted"
+        else:
+            joint_data, res.joint, res.joint_error = _joint(rows, records, root, options)
+    if res.joint is None:
+        _remove(root / "joint.json")
+    photo_rows = [r for r in rows if r["status"] not in NOT_PHOTOS]
+    now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    ds = survey_dataset(photo_rows, records, {
+        "history": f"{now} {command or 'uw3p measure_dive'}", "uw3p_version": version,
+        "command": command, "interrupted": int(interrupted)})
+    res.survey = write_survey(ds, root / "survey.nc")
+    if records and figure:
+        res.figure = plot_survey(ds, root / "survey.png", joint_data)
+    else:
+        _remove(root / "survey.png")
+    return res
+
+
+def _remove(path: Path) -> None:
+    """Remove a run file an earlier run wrote and this one does not."""
+    try:
+        path.unlink(missing_ok=True)
+    except OSError as exc:
+        raise ValueError(f"out: cannot remove {path}: {exc.strerror or exc}") from None
+
+
+def _joint(rows, records, root, options):
+    """Fit the dive as one water (measure.joint); (content, path, error)."""
+    try:
+        from .. import joint as joint_mod
+    except ImportError as exc:
+        return None, None, f"not fitted: measure.joint is not available ({exc})"
+    from ..camera import camera_setup, load_profile
+
+    good = [records[r["image"]] for r in rows
+            if r["status"] in MEASURED and r["image"] in records]
+    if not good:
+        return None, None, "not fitted: no photo was measured"
+    prof = options.get("profile")
+    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    setup = camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
+                         quantal=options.get("quantal", False),
+                         illuminant=options.get("illuminant"),
+                         gains=None if prof is None else (prof.gains or None))
+    try:
+        # each photo's own budget, as it was measured: the run's, its own depth and distance sds
+        fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"))
+    except ValueError as exc:
+        return None, None, f"not fitted: {exc}"
+    data = strict_json(fit.to_dict())
+    path = root / "joint.json"
+    with atomic(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    return data, path, ""

@@ -1,0 +1,86 @@
+"""What a Dask worker does for a dive: ignore the terminal's Ctrl-C from its start
+(:func:`dask_setup`, run as the workers' preload), and measure one photo and write its folder
+(:func:`run_job`).
+
+A frame in which no chart is found (:class:`measure.ChartNotFound`) is reported as ``no chart``,
+not as an error: a dive has such frames, and their inputs are kept for correcting them with the
+dive's water.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+from ..output import strict_json
+
+__all__ = ["dask_setup", "run_job"]
+
+
+def dask_setup(worker) -> None:
+    """A worker's start: Ctrl-C in the terminal is the client's to handle (it cancels the
+    jobs and shuts the cluster down), so the worker process ignores SIGINT -- no worker
+    tracebacks, no worker that goes on alone. Called by ``distributed`` for a preload module
+    (``LocalCluster(preload=[__name__])``).
+
+    Parameters
+    ----------
+    worker : distributed.Worker
+        The worker starting (unused).
+    """
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _budget(options, inputs) -> dict | None:
+    """``uncertain=`` for one photo: the options' budget with the row's sds over it."""
+    sds = {k: inputs[f"{k}_sd_m"] for k in ("depth", "distance")
+           if inputs.get(f"{k}_sd_m") is not None}
+    if not sds:
+        return options.get("uncertain")
+    from ..camera import load_profile
+    from ..measurement import budget_for
+
+    prof = options.get("profile")
+    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    return budget_for(options.get("uncertain"), prof) | sds
+
+
+def run_job(job: dict) -> dict:
+    """One photo, in a worker: measure it and write its folder.
+
+    Parameters
+    ----------
+    job : dict
+        :func:`measure.dive.plan.plan_photo`'s job (absolute paths).
+
+    Returns
+    -------
+    dict
+        ``status`` ('measured', 'no chart' or 'error') and ``record`` (measurement.json's
+        content) or ``error`` (why).
+    """
+    from ..detect import ChartNotFound
+    from ..measurement import measure
+    from ..output import write_outputs
+
+    inputs, options = job["inputs"], job["options"]
+    try:
+        meas = measure(job["image"], corners=inputs["corners"], depth=inputs["depth_m"],
+                       distance=inputs["distance_m"], uncertain=_budget(options, inputs),
+                       **{k: v for k, v in options.items() if k != "uncertain"})
+        meas.inputs.update({k: inputs[k] for k in ("depth_source", "distance_source",
+                                                   "corners_source", "time")})
+        meas.inputs["command"] = job["command"]
+        write_outputs(meas, job["out"], version=job["version"], report=job["report"],
+                      tiff=job["tiff"],
+                      overwrite=True, marker={"key": job["key"], "run": job["run"]})
+        record = strict_json(meas.to_dict(job["version"]))
+        return {"status": "measured", "record": record}
+    except ChartNotFound as exc:
+        return {"status": "no chart", "error": str(exc)}
+    except ValueError as exc:
+        return {"status": "error", "error": str(exc)}
+    except Exception as exc:  # noqa: BLE001 - a failure is reported in the row, never hidden
+        return {"status": "error", "error": f"failed: {type(exc).__name__}: {exc}"}
