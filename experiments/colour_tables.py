@@ -32,8 +32,8 @@ from forward.spectra import (
     wavelength_grid,
 )
 
-__all__ = ["GRID_NM", "main", "reference_chart_from_colour", "srgb_rows", "table_columns",
-           "write_srgb_table", "write_table"]
+__all__ = ["DAYLIGHT_TABLE", "GRID_NM", "main", "reference_chart_from_colour", "srgb_rows",
+           "table_columns", "write_daylight_table", "write_srgb_table", "write_table"]
 
 #: The cache's grid: 400-700 nm at 1 nm (the package's default; 301 rows)
 GRID_NM = (400, 700, 1)
@@ -175,16 +175,44 @@ def write_table(path) -> str:
     return _write_whole(path, header + rows)
 
 
+#: The CIE daylight basis functions' table (:data:`forward.daylight.DAYLIGHT_BASIS_TABLE`)
+DAYLIGHT_TABLE = "cie_daylight_basis_5nm.csv"
+
+
+def write_daylight_table(path) -> str:
+    """Write the CIE daylight basis functions S0, S1, S2 (CIE 015:2018, Table T.2) as tabulated,
+    300-830 nm at 5 nm, from colour-science's dataset; returns the path."""
+    from colour.colorimetry import SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES as basis
+
+    wl = basis["S0"].wavelengths
+    lines = ["# The CIE daylight basis functions S0, S1, S2 of the D series: a daylight of",
+             "#   correlated colour temperature T is S0 + M1(T) S1 + M2(T) S2 (forward.daylight)",
+             "# Source: CIE 015:2018 Colorimetry, 4th ed., Table T.2 (as in colour-science "
+             f"{metadata.version('colour-science')},",
+             "#   colour.colorimetry.SDS_BASIS_FUNCTIONS_CIE_ILLUMINANT_D_SERIES; written by",
+             "#   python -m experiments.colour_tables)",
+             "# Units: wavelength_nm in nm; S0, S1, S2 relative spectral power (S0(560) = 100)",
+             "# Grid: 300-830 nm, 5 nm steps (107 rows)",
+             "wavelength_nm,s0,s1,s2"]
+    for j, w in enumerate(wl):
+        vals = [basis[k].values[j] for k in ("S0", "S1", "S2")]
+        lines.append(f"{w:g}," + ",".join(f"{float(v):g}" for v in vals))
+    Path(path).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return str(path)
+
+
 def main(argv=None) -> int:
-    """``python -m experiments.colour_tables``: write both cache CSVs."""
+    """``python -m experiments.colour_tables``: write the cache CSVs and the daylight table."""
     ap = argparse.ArgumentParser(prog="python -m experiments.colour_tables",
                                  description=__doc__.splitlines()[0])
     data = Path(__file__).resolve().parents[1] / "data"
     ap.add_argument("--out", default=str(data / COLOUR_CACHE))
     ap.add_argument("--srgb-out", default=str(data / SRGB_CACHE))
+    ap.add_argument("--daylight-out", default=str(data / DAYLIGHT_TABLE))
     args = ap.parse_args(argv)
     print(write_table(args.out))
     print(write_srgb_table(args.srgb_out))
+    print(write_daylight_table(args.daylight_out))
     return 0
 
 

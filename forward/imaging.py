@@ -21,6 +21,7 @@ from .spectra import (
     quadrature_weights,
     wavelength_grid,
 )
+from .daylight import D_SERIES_CCT
 from .water import DIFFUSE_TERMS, PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
 
 __all__ = [
@@ -234,6 +235,10 @@ class ChartSetup:
     raw_sensitivities : numpy.ndarray, shape (q, m)
         The camera's peak-normalised sensitivities times ``channel_gains`` (if any), before
         the quadrature weights and the scaling of P (used by the sensor to count photons).
+    daylight_cct : float, optional
+        The correlated colour temperature of the illuminant as a daylight, K: a CIE D
+        illuminant's (:data:`forward.daylight.D_SERIES_CCT`), else D65's; the reference of
+        the uncertainty budget's ``daylight`` term (:class:`forward.daylight.DaylightTilt`).
 
     References
     ----------
@@ -246,6 +251,7 @@ class ChartSetup:
     reflectances: np.ndarray
     camera: str
     raw_sensitivities: np.ndarray
+    daylight_cct: float = D_SERIES_CCT["D65"]
 
     @property
     def white_response(self) -> np.ndarray:
@@ -330,7 +336,9 @@ def _build_setup(camera, illuminant, reflectances, wl, channel_gains=None) -> Ch
     wl = np.array(wl, dtype=float)
     for arr in (wl, P, i, R, sens):
         arr.setflags(write=False)
-    return ChartSetup(wl, P, i, R, name, sens)
+    cct = D_SERIES_CCT.get(illuminant.upper(), D_SERIES_CCT["D65"]) \
+        if isinstance(illuminant, str) and not is_path(illuminant) else D_SERIES_CCT["D65"]
+    return ChartSetup(wl, P, i, R, name, sens, cct)
 
 
 def resolve_setup(setup, camera=DEFAULT_CAMERA, illuminant=None, reflectances=None,

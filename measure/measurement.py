@@ -265,8 +265,10 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     """The paper's von Kries colour correction from the estimated attenuation.
 
     corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
-    (P^T i) / (P^T diag(i) k) of a white's response in air to its response through the water,
-    times one common factor that puts the corrected white patch's brightest channel at
+    (P^T i) / (P^T diag(i r) k) of a white's response in air to its response through the water
+    (r: the surface daylight's change of colour the fit found, where the budget has the
+    ``daylight`` term; the corrected white is that of the given illuminant), times one common
+    factor that puts the corrected white patch's brightest channel at
     :data:`WHITE_TARGET` x ``full_scale``.
 
     Parameters
@@ -293,7 +295,14 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     Electronic Imaging 2016, Fig 11 (von Kries correction with the estimated attenuation).
     """
     P, i = setup.sensitivities, setup.illuminant
-    vk = (P.T @ i) / (P.T @ (i * estimate.attenuation))
+    light = i * estimate.attenuation
+    shift = (estimate.nuisance or {}).get("daylight")
+    if shift:  # the surface light's colour as the fit found it (the budget's daylight term)
+        from forward.daylight import DaylightTilt
+
+        light = light * np.exp(DaylightTilt(setup.wavelengths,
+                                            setup.daylight_cct).log_ratio(float(shift)))
+    vk = (P.T @ i) / (P.T @ light)
     offset = np.asarray(estimate.backscatter, float)
     if white_value is not None:
         top = float(np.max(vk * (np.asarray(white_value, float) - offset)))

@@ -26,7 +26,7 @@ from forward.spectra import WHITE_PATCH
 
 from .model import CDOM_MAX, CHL_MAX  # where a profile interval is open (one definition)
 
-__all__ = ["CONFIDENCE", "MISFIT_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
+__all__ = ["CONFIDENCE", "MISFIT_P", "SCALE_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
            "BLOCKING", "INFORMATIVE", "profile_delta", "gain_wald", "goodness",
            "input_flag_table", "input_flags", "estimate_flag_table", "estimate_flags",
            "flag_tuples", "is_reliable", "EXACT_SIGMA_FLOOR", "ORDER_FRACTION"]
@@ -35,6 +35,11 @@ __all__ = ["CONFIDENCE", "MISFIT_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDO
 CONFIDENCE = 0.95
 #: A fit whose chi^2 p-value is below this is a ``misfit`` (one in a thousand false alarms).
 MISFIT_P = 1e-3
+#: A known gain whose likelihood-ratio test against a free one (:func:`sca.batch.scale_test`)
+#: has a p-value below this is a ``scale-mismatch``: one in a hundred false alarms, since a
+#: missed wrong scale is fitted as another water with a confident interval (DECISIONS.md, "A
+#: known gain is tested").
+SCALE_P = 0.01
 #: The grey row's white-black contrast must exceed this many standard deviations in at least
 #: one channel, else the chart is ``dark``.
 DARK_SNR = 10.0
@@ -50,7 +55,7 @@ GREY_ROW = tuple(range(WHITE_PATCH, WHITE_PATCH + 6))
 #: Flags that make an estimate unreliable; any other flag is information.
 BLOCKING = ("not-converged", "misfit", "noise-unknown", "unbounded-chl", "unbounded-cdom",
             "interval-failed", "interval-approximate", "no-interval", "dark", "saturated",
-            "patch-order")
+            "patch-order", "scale-mismatch")
 #: Flags that describe the estimate without making it unreliable.
 INFORMATIVE = ("at-bound-chl", "at-bound-cdom")
 
@@ -230,11 +235,13 @@ def input_flags(M, sigma=None, saturation=None) -> list:
 
 
 def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, cdom_ci,
-                        ci_codes, free_chl=True, free_cdom=True) -> dict:
+                        ci_codes, free_chl=True, free_cdom=True, scale_p=None) -> dict:
     """The flags of N fits at once (besides :func:`input_flag_table`): {flag: (N,) bool}.
 
     ``not-converged``; ``noise-unknown``; ``misfit`` (noise known and p-value below
-    :data:`MISFIT_P` or NaN); without intervals ``no-interval``, else ``interval-failed`` (a
+    :data:`MISFIT_P` or NaN); ``scale-mismatch`` (the gain held known, and the test of that
+    gain against a free one, ``scale_p``, below :data:`SCALE_P`: the values are not in the
+    units the fit was told); without intervals ``no-interval``, else ``interval-failed`` (a
     ``BOUND_FAILED`` end or a non-finite lower end of ``chl_ci`` / ``cdom_ci``),
     ``unbounded-chl`` / ``unbounded-cdom`` (a free parameter whose upper end is open or not
     finite); ``at-bound-chl`` / ``at-bound-cdom`` (a free parameter estimated at 0).
@@ -261,11 +268,15 @@ def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, c
     free_chl, free_cdom : bool, optional
         C / a_CDOM was estimated (default True); a fixed one raises no ``unbounded-*`` or
         ``at-bound-*`` flag.
+    scale_p : array_like, (N,), optional
+        p-values of the known gain's test (:func:`sca.batch.scale_test`; NaN: not tested);
+        None: no test (a free gain).
 
     Returns
     -------
     dict
-        Flag name -> ndarray of bool, (N,): 'not-converged', 'noise-unknown', 'misfit', then
+        Flag name -> ndarray of bool, (N,): 'not-converged', 'noise-unknown', 'misfit',
+        'scale-mismatch', then
         'no-interval' or ('interval-failed', 'unbounded-chl', 'unbounded-cdom'), then
         'at-bound-chl', 'at-bound-cdom'.
     """
@@ -277,7 +288,9 @@ def estimate_flag_table(*, converged, noise_known, p_value, chl, cdom, chl_ci, c
     out = {"not-converged": ~converged,
            "noise-unknown": np.full(N, not noise_known),
            "misfit": (~(np.asarray(p_value, float).reshape(N) >= MISFIT_P)) if noise_known
-           else np.zeros(N, bool)}
+           else np.zeros(N, bool),
+           "scale-mismatch": np.zeros(N, bool) if scale_p is None
+           else np.asarray(scale_p, float).reshape(N) < SCALE_P}
     if ci_codes is None:
         out["no-interval"] = np.ones(N, bool)
     else:

@@ -25,6 +25,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import special
 
 from forward import validate
 from forward.imaging import ChartSetup, resolve_setup
@@ -69,6 +70,7 @@ __all__ = [
     "STATUS",
     "BatchEstimate",
     "estimate_batch",
+    "scale_test",
     "start_grid",
 ]
 
@@ -419,7 +421,9 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         estimate_flag_table(converged=converged, noise_known=noise_known, p_value=out["chi2_p"],
                             chl=chl, cdom=cdom, chl_ci=chl_ci, cdom_ci=cdom_ci,
                             ci_codes=out["ci_codes"] if intervals else None,
-                            free_chl="chl" in spec.names, free_cdom="cdom" in spec.names))
+                            free_chl="chl" in spec.names, free_cdom="cdom" in spec.names,
+                            scale_p=None if spec.free_gain or not noise_known
+                            else out["scale_p"]))
     w = (mdl.water.phytoplankton_440(chl) / float(mdl.t440[0]))[:, None]
     objective = out["f"] * (1.0 if noise_known else scale**2)
     if spec.free_gain:
@@ -460,7 +464,7 @@ def _empty(mdl, spec):
             "fit_rms": z, "dof": np.zeros(0, int), "chi2_dof": z, "chi2_p": z,
             "gain_ci": np.zeros((0, 2)), "ci_codes": np.zeros((0, 4), int),
             "values": {n: z for n in names}, "intervals": {n: np.zeros((0, 2)) for n in names},
-            "budget": {}, "quadrature": z, "ssr": z}
+            "budget": {}, "quadrature": z, "ssr": z, "scale_p": z}
 
 
 def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> ChartProblem:
@@ -653,6 +657,10 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     noise_known = sig is not None
     res["chi2_dof"], res["chi2_p"] = goodness(f, dof, noise_known)
     res["gain_ci"] = np.column_stack([gain, gain])
+    # the known gain's test (values in the units the fit was told?)
+    res["scale_p"] = np.full(N, np.nan)
+    if not spec.free_gain and sig is not None and N:
+        res["scale_p"], _ = scale_test(prob, theta, f, geometry)
     res["budget"] = {} if budget is None else _budget_shares(
         prob, theta, gain, s, spec.free_s, sig, sig_photon)
     if spec.free_gain:
@@ -743,3 +751,52 @@ def gain_variance(prob: ChartProblem, theta, gain, s):
                               gain_column=(pred.signal / sc).reshape(shape))
     var = cov[:, -1, -1]
     return np.where(np.isfinite(var) & (var > 0), var, np.inf)
+
+
+#: Levenberg-Marquardt iterations of each fit of the known gain's test.
+SCALE_MAX_ITER = 100
+def scale_test(prob: ChartProblem, theta, f, geometry):
+    """The likelihood-ratio test of a gain held known: are the values in the units the fit was
+    told (a white reflector in air = 1)?
+
+    The same charts are fitted again with the gain free by the one Levenberg-Marquardt, from
+    the known-gain optimum and from the start grid (the better of the two); the statistic f_known - f_free is chi^2 with one degree of freedom
+    where the known gain is right. Values in other units (a chart times 0.4, read as model
+    units) are otherwise fitted as another water, and can pass every other test.
+
+    Parameters
+    ----------
+    prob : ChartProblem
+        The charts, gain known (``free_gain`` False), noise known.
+    theta : ndarray, (N, p)
+        The known-gain optimum.
+    f : ndarray, (N,)
+        Its objective (chi^2 with the priors).
+    geometry : dict
+        'depth' and 'distance', (N,) each, m (for the start grid).
+
+    Returns
+    -------
+    p_value : ndarray, (N,)
+        P(chi^2_1 > f_known - f_free).
+    gain : ndarray, (N,)
+        The gain the data ask for (data units per model unit).
+
+    References
+    ----------
+    S. S. Wilks, "The large-sample distribution of the likelihood ratio for testing composite
+    hypotheses", Ann. Math. Statist. 9 (1938) 60-62.
+    """
+    free = ChartProblem(prob.model, prob.M, prob.W2, prob.scale, prob.names, prob.fixed, True,
+                        prob.fixed_s, prob.prior_mean, prob.prior_weight)
+    N = prob.size
+    th, f_free, _, _ = levenberg_marquardt(free, np.asarray(theta, float),
+                                           max_iter=SCALE_MAX_ITER, tol=LM_TOL,
+                                           f_exact=np.zeros(N))
+    th2, f2, _, _ = levenberg_marquardt(free, start_values(free, geometry),
+                                        max_iter=SCALE_MAX_ITER, tol=LM_TOL, f_exact=np.zeros(N))
+    better = f2 < f_free
+    th[better], f_free[better] = th2[better], f2[better]
+    gain = evaluate(free, np.arange(N), th, False).extras["gain"]
+    stat = np.maximum(np.asarray(f, float) - f_free, 0.0)
+    return special.chdtrc(1, stat), gain

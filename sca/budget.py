@@ -7,8 +7,10 @@ estimator, :func:`sca.precision` and ``measure``) is a dict name -> standard dev
 * **nuisance parameters** with a Gaussian prior centred on the value given (or the water's
   constant): ``depth`` and ``distance`` (m, or a string ``"5%"`` relative to the value), any
   :data:`forward.water.COEFFICIENT_PARAMS` field (its own units, e.g. ``cdom_slope`` in nm^-1),
-  ``balance`` (relative error of each camera channel's sensitivity) and ``camera_shift`` (a
-  wavelength shift of each channel's measured curve, nm; the same sd for every channel). They enter the one model function as parameters; the fit adds
+  ``balance`` (relative error of each camera channel's sensitivity), ``camera_shift`` (a
+  wavelength shift of each channel's measured curve, nm; the same sd for every channel) and
+  ``daylight`` (the surface light's colour temperature's change from the illuminant given,
+  mired: :class:`forward.daylight.DaylightTilt`). They enter the one model function as parameters; the fit adds
   sum ((theta - mu) / sd)^2 to chi^2, and the profile-likelihood intervals profile them;
 * **per-patch systematic terms** (``patch``, relative): chart reflectance tolerance and
   ageing, camera-curve error and the illuminant, independent from patch to patch. They enter the
@@ -36,14 +38,15 @@ from forward.water import COEFFICIENT_PARAMS, Water
 from .budget_defaults import BUDGET_SOURCES, DEFAULT_UNCERTAIN, REAL_WATER_UNCERTAIN
 from .model import covariance
 
-__all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "NUISANCE", "SYSTEMATIC", "Budget",
-           "resolve_budget", "parse_sd", "variance_shares", "limiting_source"]
+__all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
+           "SYSTEMATIC", "Budget", "prior_centre", "resolve_budget", "parse_sd",
+           "variance_shares", "limiting_source"]
 
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
 # plain data in sca.budget_defaults, re-exported here.
 
 #: Names that are nuisance parameters with a Gaussian prior.
-NUISANCE = ("depth", "distance", "balance", "camera_shift") + COEFFICIENT_PARAMS
+NUISANCE = ("depth", "distance", "balance", "camera_shift", "daylight") + COEFFICIENT_PARAMS
 #: Names that enter the noise of every patch (relative sd).
 SYSTEMATIC = ("patch",)
 
@@ -135,6 +138,29 @@ def parse_sd(name: str, value, reference=None):
     return sd
 
 
+#: Nuisances whose prior is centred on 0: errors relative to what was given (the camera's
+#: balance and curves, the daylight's colour).
+CENTRED = ("balance", "camera_shift", "daylight")
+
+
+def prior_centre(name: str, water: Water) -> float:
+    """The centre of a nuisance's prior (not a length's: those are centred on the value
+    given): 0 for :data:`CENTRED` names, else the water's constant.
+
+    Parameters
+    ----------
+    name : str
+        A :data:`NUISANCE` name other than 'depth' and 'distance'.
+    water : forward.Water
+        The water model.
+
+    Returns
+    -------
+    float
+    """
+    return 0.0 if name in CENTRED else float(getattr(water, name))
+
+
 def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:
     """The :class:`Budget` of ``uncertain`` for charts at ``depth`` and ``distance``.
 
@@ -182,8 +208,7 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
             mean = np.broadcast_to(lengths[name], (N,)).astype(float)
             sd = np.broadcast_to(parse_sd(name, value, mean), (N,)).astype(float)
         else:
-            mean = np.full(N, 0.0 if name in ("balance", "camera_shift") else
-                           float(getattr(water, name)))
+            mean = np.full(N, prior_centre(name, water))
             sd = np.full(N, float(parse_sd(name, value)))
         if name in free or name in fixed or not np.any(sd > 0):
             continue

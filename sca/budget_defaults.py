@@ -18,9 +18,12 @@ REAL_WATER_UNCERTAIN = {"phyto_scale": 0.0185, "nap_scale": 0.0133}
 #: measured camera-to-chart distance); eq 6's slope 0.0025 nm^-1 and eq 7's 0.0025 nm^-1 (the
 #: paper's ranges 0.014-0.019 and 0.006-0.014 lie within 2 sd of its values 0.014 and 0.011);
 #: the camera's channel balance 1 % (a profile from another day); each channel's curve shifted
-#: by 1 nm (the wavelength scale of a measured sensitivity); per-patch 1 % (a
-#: ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and the
-#: daylight's spectral variation, in quadrature). Real water's scatter about eqs 8 and 10
+#: by 1 nm (the wavelength scale of a measured sensitivity); the surface daylight's colour
+#: temperature 30 mired about the illuminant given (D65, 154 mired: 5500-8000 K within one
+#: sd, a D50 sky 1.5 sd away, a low sun of 4000 K 3.2 sd; global daylight's CCT runs from
+#: ~4000 K to beyond 10 000 K, 5700 K the most typical, Hernandez-Andres et al. 2001); per-patch
+#: 1 % (a ColorChecker's reflectance tolerance, 0.1-0.7 %, camera-curve error of about 1 nm and
+#: the daylight's spectral variation beyond its colour, in quadrature). Real water's scatter about eqs 8 and 10
 #: (:data:`REAL_WATER_UNCERTAIN`) is not in it yet (DECISIONS.md, "The defaults after real
 #: water").
 DEFAULT_UNCERTAIN = {
@@ -30,6 +33,7 @@ DEFAULT_UNCERTAIN = {
     "nap_slope": 0.0025,
     "balance": 0.01,
     "camera_shift": 1.0,
+    "daylight": 30.0,
     "patch": 0.01,
 }
 #: Where each default comes from (recorded with every result's budget).
@@ -40,5 +44,7 @@ BUDGET_SOURCES = {
     "nap_slope": "Blasinski & Farrell eq 7: 0.006-0.014 nm^-1",
     "balance": "camera channel balance from a profile of another day, ~1 %",
     "camera_shift": "wavelength scale of measured camera curves, ~1 nm per channel",
+    "daylight": "surface daylight's colour temperature, 30 mired (global daylight 4000 K to "
+                "beyond 10 000 K, 5700 K typical: Hernandez-Andres et al., JOSA A 18 (2001) 1325)",
     "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
 }

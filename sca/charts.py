@@ -106,3 +106,4 @@ class ChartProblem(Problem):
         f, g, H, gain, s, ssr = project(pred.signal * inv, JR, self.M[idx], self.W2[idx], fs,
                                         self.free_gain, mdl.m, mdl.n, grad, col_scale)
         return Evaluation(f, g, H, {"gain": gain, "s": s, "ssr": ssr, "k": pred.attenuation})
+

@@ -38,7 +38,7 @@ from forward.imaging import ChartSetup
 from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
-from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd
+from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
@@ -240,8 +240,7 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
             continue
         sd = float(parse_sd(name, value))
         if sd > 0:
-            mean = 0.0 if name in CAMERA else float(getattr(water, name))
-            priors[name] = (mean, sd)
+            priors[name] = (prior_centre(name, water), sd)
     geo = {}
     for name, given, ref in (("depth", depth_sd, depth), ("distance", distance_sd, distance)):
         if given is not None:

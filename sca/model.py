@@ -32,7 +32,7 @@ from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
 from .projection import linear_part_stats
 
-__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
+__all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
            "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "chl_from_u", "u_from_chl",
            "du_chain"]
@@ -48,11 +48,16 @@ LINEAR = ("gain", "backscatter")
 CAMERA = ("balance", "camera_shift")
 #: Names with one value per camera channel.
 PER_CHANNEL = ("backscatter", "balance", "camera_shift")
+#: The surface light's colour: 'daylight', its temperature's change from the given
+#: illuminant's, mired (:class:`forward.daylight.DaylightTilt`): the light at the chart is
+#: i (lambda) r(lambda) k(lambda), r = S_D(T) / S_D(T_ref), normalised so that a white
+#: reflector in air stays 1 in the reference channel (a nuisance of the uncertainty budget).
+LIGHT = ("daylight",)
 #: Parameters of c(x): C, a_CDOM(440), the phytoplankton weights w of eq 9 and any
 #: coefficient field of :class:`forward.Water`.
 SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
 #: Every name the model differentiates by.
-PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA
+PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA + LIGHT
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
 #: cvxpy loop: both are infinite at C = 0 (DECISIONS.md).
@@ -130,7 +135,7 @@ def lower_bound(name: str, water: Water) -> float:
     float
         0.0 or -inf, in the parameter's own units.
     """
-    if name in Water._ANY_SIGN or name == "camera_shift":
+    if name in Water._ANY_SIGN or name in ("camera_shift",) + LIGHT:
         return -np.inf
     if name == "balance":
         return BALANCE_MIN
@@ -291,6 +296,10 @@ class ChartModel:
         #: where :attr:`Dt` comes from: None (this setup's curves) or (model, factor) for a
         #: :meth:`scaled` copy (the model's Dt / factor)
         self._dt_source = None
+        #: a white reflector in air's signal in the reference channel (the one P is scaled
+        #: by), per wavelength: its sum is 1 (the normalisation of model units)
+        ref = int(np.argmax(P.T @ i))
+        self.white = np.ascontiguousarray(P[:, ref] * i)
         #: d M / d s: one row per channel, 1 on that channel's patches (read-only)
         self._indicators = np.repeat(np.eye(self.m), self.n, axis=1)
         self._indicators.setflags(write=False)
@@ -333,6 +342,8 @@ class ChartModel:
         new.B = rule.B / self._factor
         new.Bt = np.ascontiguousarray(new.B.T)
         new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T / self._factor)
+        new.__dict__.pop("daylight_tilt", None)
+        new.white = rule.white
         new._dt_source = None
         new.rule = rule
         return new
@@ -348,6 +359,25 @@ class ChartModel:
             Its ``full`` is this model, ``rule`` the :class:`sca.quadrature.QuadratureRule`.
         """
         return self._reduced
+
+    @functools.cached_property
+    def daylight_tilt(self):
+        """The surface light's change with its colour temperature on this model's grid
+        (:class:`forward.daylight.DaylightTilt`, reference the setup's ``daylight_cct``)."""
+        from forward.daylight import DaylightTilt
+
+        return DaylightTilt(self.wavelengths, self.setup.daylight_cct)
+
+    def _light(self, k, shift, derivative: bool):
+        """The light at the chart relative to the given illuminant's, k r, its normalisation
+        n = white . r (S,) and, with ``derivative``, d ln r / d shift (S + (q,)) and dn."""
+        out = self.daylight_tilt.log_ratio(np.asarray(shift, float), derivative=derivative)
+        lnr, dlnr = out if derivative else (out, None)
+        r = np.exp(lnr)
+        n = r @ self.white
+        if not derivative:
+            return k * r, n, None, None
+        return k * r, n, dlnr, (r * dlnr) @ self.white
 
     @functools.cached_property
     def Dt(self) -> np.ndarray:
@@ -376,7 +406,7 @@ class ChartModel:
             return 1.0
         if name in PER_CHANNEL:
             return np.zeros(self.m)
-        if name == "cdom":
+        if name == "cdom" or name in LIGHT:
             return 0.0
         raise ValueError(f"params: '{name}' has no default; give its value")
 
@@ -453,12 +483,21 @@ class ChartModel:
             k = np.exp(-L[..., None] * c)
         lead = k.shape[:-1]
         q, mn = self.wavelengths.size, self.m * self.n
+        # the light at the chart: k, or k r where the surface light's colour is a parameter
+        day = params.get("daylight")
+        with_day = day is not None or "daylight" in free
+        kl, norm, dlnr, dnorm = (k, None, None, None) if not with_day else self._light(
+            k, 0.0 if day is None else day, jacobian and "daylight" in free)
+        if with_day and np.ndim(norm) < len(lead):
+            norm = np.broadcast_to(norm, lead)
         if not jacobian:
             if shift is not None:  # both projections by one product, as with the Jacobian
-                both = k @ self.BDt
+                both = kl @ self.BDt
                 G = both[..., :mn] + np.repeat(shift, self.n, axis=-1) * both[..., mn:]
             else:
-                G = k @ self.Bt
+                G = kl @ self.Bt
+            if with_day:
+                G = G / norm[..., None]
             if balance is not None:
                 G = G * np.repeat(1.0 + balance, self.n, axis=-1)
             values = gain[..., None] * G + np.repeat(s, self.n, axis=-1)
@@ -467,21 +506,23 @@ class ChartModel:
                  for name in free}
         # k and every column of dk/dtheta stacked (S, 1 + p_q, q) and projected onto the
         # patches by one matrix product: dk = -L k dc/dtheta (spectral), -c k (path length)
-        in_q = [name for name in free if name in SPECTRAL or name in GEOMETRY]
+        in_q = [name for name in free if name in SPECTRAL or name in GEOMETRY or name in LIGHT]
         stack = np.empty(lead + (1 + sum(count[n] for n in in_q), q))
-        stack[..., 0, :] = k
-        minus_Lk = -L[..., None] * k
+        stack[..., 0, :] = kl
+        minus_Lk = -L[..., None] * kl
         row = 1
         for name in in_q:
-            if legs:  # dk = -k d tau / d theta
+            if name in LIGHT:  # d (k r) / d shift = k r d ln r / d shift
+                stack[..., row, :] = kl * dlnr
+            elif legs:  # dk = -k d tau / d theta
                 d = dtau[name]
                 stack[..., row:row + count[name], :] = (
-                    -k[..., None, :] * np.swapaxes(d, -1, -2) if name == "w" else -k * d
+                    -kl[..., None, :] * np.swapaxes(d, -1, -2) if name == "w" else -kl * d
                 ).reshape(lead + (count[name], q))
             elif name == "w":
                 stack[..., row:row + self.z, :] = minus_Lk[..., None, :] * np.swapaxes(dc["w"], -1, -2)
             elif name in GEOMETRY:
-                stack[..., row, :] = -c * k
+                stack[..., row, :] = -c * kl
             else:
                 stack[..., row, :] = minus_Lk * dc[name]
             row += count[name]
@@ -494,6 +535,13 @@ class ChartModel:
                 proj = proj + np.repeat(shift, self.n, axis=-1)[..., None, :] * projD
         else:
             proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
+        if with_day:  # the normalisation of model units: a white in air stays 1
+            proj = proj / norm[..., None, None]
+            if GD is not None:
+                GD = GD / norm[..., None]
+            if "daylight" in free:
+                j = 1 + sum(count[n] for n in in_q[:in_q.index("daylight")])
+                proj[..., j, :] -= proj[..., 0, :] * (dnorm / norm)[..., None]
         G_raw = proj[..., 0, :]
         if balance is not None:  # every row of channel c times 1 + beta_c
             G_raw = G_raw.copy()

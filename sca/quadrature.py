@@ -8,9 +8,9 @@ B k to a few parts in 10^5: a quadrature rule B_r (m n x r) with B k ~ B_r k[nod
 water the estimators meet. The rule's weights are not an interpolation formula (the pure-water
 table has kinks every 10 nm that a spline through 5 nm nodes misses by 1 %) but a weighted
 least-squares fit, output by output, of the full-grid integrals of snapshots of k drawn over
-:data:`SNAPSHOT_DOMAIN` (every path model; C, a_CDOM, depth, distance, the CDOM and NAP slopes
-and the two chlorophyll-specific scales over their ranges; charts brighter than
-:data:`DARKEST`), each output weighted by 1 / (its value + :data:`WEIGHT_FLOOR` of the chart's brightest
+:data:`SNAPSHOT_DOMAIN` (every path model; C, a_CDOM, depth, distance, the CDOM and NAP slopes,
+the two chlorophyll-specific scales and the surface light's colour over their ranges; charts
+brighter than :data:`DARKEST`), each output weighted by 1 / (its value + :data:`WEIGHT_FLOOR` of the chart's brightest
 value): the error is relative, as the sensor's noise is.
 
 The rule is **certified twice**: on independent validation snapshots when it is built (its
@@ -61,10 +61,11 @@ DARKEST = 1e-4
 #: The domain of the snapshots: log-uniform C (mg m^-3) and a_CDOM(440) (m^-1) with a tenth at
 #: exactly 0, uniform depth and distance (m), and the budget's nuisances: the slopes of eqs 6-7
 #: (nm^-1) uniform over the water's value +/- the half-width given, the scales of eqs 8 and 10
-#: log-uniform over the factor given.
+#: log-uniform over the factor given, the daylight's temperature uniform over +/- the mired
+#: given (:class:`forward.daylight.DaylightTilt`).
 SNAPSHOT_DOMAIN = {"chl": (1e-3, 100.0), "cdom": (1e-4, 5.0), "depth": (0.0, 30.0),
                    "distance": (0.0, 10.0), "cdom_slope": 0.01, "nap_slope": 0.01,
-                   "phyto_scale": 4.0, "nap_scale": 4.0}
+                   "phyto_scale": 4.0, "nap_scale": 4.0, "daylight": 120.0}
 #: Relative weight floor: an output's error counts relative to its value plus this fraction of
 #: the snapshot's brightest value (a black patch in a bright chart is not held to 1e-5 of
 #: nothing).
@@ -118,6 +119,9 @@ class QuadratureRule:
         The signals' weights (unit gain, model units).
     D : ndarray, (m n, r)
         The camera curves' shift's weights (per nm).
+    white : ndarray, (r,)
+        A white reflector in air's reference-channel signal (the normalisation of model
+        units, :attr:`sca.ChartModel.white`).
     error : float
         Largest relative error of B_r on the validation snapshots.
     """
@@ -125,6 +129,7 @@ class QuadratureRule:
     index: np.ndarray
     B: np.ndarray
     D: np.ndarray
+    white: np.ndarray
     error: float
 
 
@@ -151,29 +156,33 @@ def _snapshots(model, rng, count):
             f = SNAPSHOT_DOMAIN[name]
             values[name] = float(getattr(water, name)) * f ** rng.uniform(-1, 1, count)
         tau, _ = terms.optical_depth(chl, cdom, depth, distance, values=values)
-        rows.append(np.exp(-tau))
+        shift = rng.uniform(-1, 1, count) * SNAPSHOT_DOMAIN["daylight"]
+        rows.append(np.exp(-tau + model.daylight_tilt.log_ratio(shift)))
     K = np.concatenate(rows)
     return K[np.abs(K @ model.Bt).max(axis=1) >= DARKEST]
 
 
 def _fit(K, Y, YD, index):
-    """Weighted least squares of every output (rows of the result) on the nodes' values."""
+    """Weighted least squares of every output (rows of the result) on the nodes' values: the
+    outputs ``Y`` (S, o) each relative to itself, ``YD`` (S, o) with ``Y``'s weights."""
     scale = np.maximum(np.abs(Y).max(axis=1, keepdims=True), 1e-300)
     X, Yn, YDn = K[:, index] / scale, Y / scale, YD / scale
-    W2 = (1.0 / (np.abs(Yn) + WEIGHT_FLOOR)) ** 2  # (S, mn)
+    W2 = (1.0 / (np.abs(Yn) + WEIGHT_FLOOR)) ** 2  # (S, o)
     # one orthonormal basis of the nodes' values: every output's normal equations in it are
     # well conditioned (the nodes' values are strongly correlated)
     U, s, Vt = np.linalg.svd(X, full_matrices=False)
-    A = np.matmul(U.T[None] * W2.T[:, None, :], U[None])  # (mn, r, r)
+    A = np.matmul(U.T[None] * W2.T[:, None, :], U[None])  # (o, r, r)
     coef = [np.linalg.solve(A, np.einsum("so,si->oi", W2 * T, U)[..., None])[..., 0]
             for T in (Yn, YDn)]
     return [(c / s) @ Vt for c in coef]
 
 
 def _fingerprint(setup) -> str:
-    """The setup's numbers (grid, P, i, R) as one hash: the rule's cache key."""
+    """The setup's numbers (grid, P, i, R, the daylight reference) as one hash: the rule's
+    cache key."""
     h = hashlib.sha256(_settings_key().encode())
-    for a in (setup.wavelengths, setup.sensitivities, setup.illuminant, setup.reflectances):
+    for a in (setup.wavelengths, setup.sensitivities, setup.illuminant, setup.reflectances,
+              setup.daylight_cct):
         h.update(np.ascontiguousarray(a, float).tobytes())
         h.update(str(np.shape(a)).encode())
     return h.hexdigest()
@@ -205,12 +214,13 @@ def _settings_key() -> str:
 def _load(path: Path) -> QuadratureRule | None:
     try:
         with np.load(path) as z:
-            arrays = {k: z[k] for k in ("index", "B", "D", "error")}
+            arrays = {k: z[k] for k in ("index", "B", "D", "white", "error")}
     except (OSError, ValueError, KeyError):
         return None
     for a in arrays.values():
         a.setflags(write=False)
-    return QuadratureRule(arrays["index"], arrays["B"], arrays["D"], float(arrays["error"]))
+    return QuadratureRule(arrays["index"], arrays["B"], arrays["D"], arrays["white"],
+                          float(arrays["error"]))
 
 
 def _save(path: Path, rule: QuadratureRule) -> None:
@@ -219,7 +229,8 @@ def _save(path: Path, rule: QuadratureRule) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
         with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, index=rule.index, B=rule.B, D=rule.D, error=rule.error)
+            np.savez(fh, index=rule.index, B=rule.B, D=rule.D, white=rule.white,
+                     error=rule.error)
         os.replace(tmp, path)
     except OSError:
         return
@@ -248,14 +259,18 @@ def _build(setup) -> QuadratureRule | None:
     model = ChartModel(setup, water=PAPER_WATER)  # the domain is the paper's water's
     rng = np.random.default_rng(20161)  # fixed: the same rule on every run and machine
     K = _snapshots(model, rng, SNAPSHOTS)
-    B_r, D_r = _fit(K, K @ model.Bt, K @ model.Dt, index)
+    # the patches' signals and the white's (its shift rows unused), one fit
+    Y = np.column_stack([K @ model.Bt, K @ model.white])
+    YD = np.column_stack([K @ model.Dt, K @ model.white])
+    BW, DW = _fit(K, Y, YD, index)
+    B_r, D_r, white = BW[:-1], DW[:-1], BW[-1]
     Kv = _snapshots(model, rng, SNAPSHOTS)
     Yv = Kv @ model.Bt
     err = np.abs(Kv[:, index] @ B_r.T - Yv) / (
         np.abs(Yv) + 1e-4 * np.abs(Yv).max(axis=1, keepdims=True))
-    for a in (B_r, D_r, index):
+    for a in (B_r, D_r, white, index):
         a.setflags(write=False)
-    return QuadratureRule(index, B_r, D_r, float(err.max()))
+    return QuadratureRule(index, B_r, D_r, white, float(err.max()))
 
 
 class _Ref:

@@ -18,6 +18,7 @@ from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags
     profile_delta
 from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
+from .batch import scale_test
 from .charts import ChartProblem
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
@@ -214,6 +215,17 @@ def _certify(est, st):
         _refine(est, st, always=True)
 
 
+def _scale_p(est, st):
+    """The known gain's test (:func:`sca.charts.scale_test`) where the gain is held and the
+    noise known (one basis function); None otherwise."""
+    if est.free_gain or not st.noise_known or st.mdl.z != 1:
+        return None
+    prob = _problem(est, st)
+    geometry = {"depth": np.array([est.depth]), "distance": np.array([est.distance])}
+    p, _ = scale_test(prob, _theta(est, st, prob), np.array([st.f]), geometry)
+    return float(p[0])
+
+
 def _shares(est, st, x) -> dict:
     """Each source's share of the variance of C and a_CDOM at the fit
     (:func:`sca.budget.variance_shares`): {} where no budget applies."""
@@ -334,7 +346,8 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     flags = estimate_flags(converged=st.converged, noise_known=st.noise_known,
                            p_value=float(chi2_p), chl=x["chl"], cdom=x["cdom"],
                            chl_ci=intervals["chl"], cdom_ci=intervals["cdom"], ci_codes=codes,
-                           free_chl=est.free_chl, free_cdom=est.free_cdom)
+                           free_chl=est.free_chl, free_cdom=est.free_cdom,
+                           scale_p=_scale_p(est, st))
     if codes is None and "no-interval" in flags:  # Wald intervals (z > 1)
         flags[flags.index("no-interval")] = "interval-approximate"
     sigma = (st.scale / st.wt).reshape(mdl.m, mdl.n) if st.noise_known else None

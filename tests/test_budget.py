@@ -119,7 +119,7 @@ def test_shares_add_up_and_agree_with_the_bound():
         assert sum(e.budget[name]["shares"].values()) == pytest.approx(1.0, rel=1e-9)
         assert set(e.budget[name]["shares"]) == {"noise", "patch", "depth", "distance",
                                                  "cdom_slope", "nap_slope", "balance",
-                                                 "camera_shift"}
+                                                 "camera_shift", "daylight"}
     p = sca.precision(1.5, 0.15, depth=6.0, distance=1.5, setup=SETUP)
     assert sum(p.budget["chl"]["shares"].values()) == pytest.approx(1.0, rel=1e-9)
     assert p.limiting in p.budget["chl"]["shares"]

@@ -21,6 +21,9 @@ def chart():
 
 
 def _all(rgb, sigma, **kw):
+    # every estimator on the grid as given: the same objective (the certified quadrature is
+    # tested against it in tests/test_quadrature.py)
+    kw.setdefault("quadrature", "full")
     out = {"loop": sca.estimate(rgb, depth=8.0, distance=3.0, sigma=sigma, gain="free", **kw, uncertain={}),
            "scipy": sca.estimate_least_squares(rgb, depth=8.0, distance=3.0, sigma=sigma,
                                                gain="free", **kw, uncertain={})}
