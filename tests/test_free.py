@@ -106,3 +106,74 @@ def test_two_basis_functions_with_a_free_slope_keep_eq16_and_eq17():
     assert est.values["cdom_slope"] == pytest.approx(SLOPE, rel=1e-3), est.status
     lo, hi = est.intervals["cdom_slope"]  # Wald (z > 1), around the estimate
     assert lo < est.values["cdom_slope"] < hi and "interval-approximate" in est.flags
+
+
+_NEW_UNKNOWN = r'''
+import dataclasses, numpy as np
+import forward.water as fw
+
+# a developer adds an unknown to forward.Water: a field, its term of c(x) beside its
+# derivative, and its name among the coefficients; nothing else is edited
+@dataclasses.dataclass(frozen=True, eq=False)
+class Water(fw.Water):
+    b_extra: float = 0.0  # a flat background attenuation, m^-1
+
+def _extra_term(x, wrt):
+    flat = np.ones_like(x.terms.wavelengths)
+    return [(x.get("b_extra"), flat)], ({"b_extra": [(1.0, flat)]} if "b_extra" in wrt else {})
+
+fw.COEFFICIENT_PARAMS = fw.COEFFICIENT_PARAMS + ("b_extra",)
+fw.PATH_TERMS["beam"] = fw.PATH_TERMS["beam"] + (_extra_term,)
+fw.PATH_LEGS["beam"] = ((fw.PATH_TERMS["beam"], "path"),)
+fw.Water, fw.PAPER_WATER = Water, Water()
+
+import forward, sca
+from sca.joint import estimate_joint
+truth = Water(b_extra=0.05)
+sims = [forward.simulate_chart(1.0, 0.1, d, 1.5, water=truth, seed=i) for i, d in enumerate((4.0, 8.0))]
+free = ("b_extra",)
+out = {}
+e = sca.estimate(sims[0].rgb, depth=4.0, distance=1.5, sigma=sims[0].rgb_sigma, free=free,
+                 uncertain={}, mode="lm")
+out["single"] = (e.values["b_extra"], *e.intervals["b_extra"])
+b = sca.estimate_batch(np.array([s.rgb for s in sims]), depth=[4.0, 8.0], distance=1.5,
+                       sigma=np.array([s.rgb_sigma for s in sims]), free=free, uncertain={})
+out["batch"] = (b.values["b_extra"][0], *b.intervals["b_extra"][0])
+p = sca.precision(1.0, 0.1, depth=4.0, distance=1.5, free=free, uncertain={})
+out["precision"] = (p.sd["b_extra"],)
+# a nuisance of the budget by its name: in a single fit and in a dive's joint fit
+unc = {"b_extra": 0.02, "patch": 0.01}
+e2 = sca.estimate(sims[0].rgb, depth=4.0, distance=1.5, sigma=sims[0].rgb_sigma, mode="lm",
+                  uncertain=unc, water=Water(b_extra=0.04))
+out["nuisance"] = (e2.nuisance["b_extra"],)
+j = estimate_joint(np.array([s.rgb for s in sims]), depth=[4.0, 8.0], distance=1.5,
+                   sigma=np.array([s.rgb_sigma for s in sims]), setup=sims[0].setup,
+                   water=Water(b_extra=0.04), uncertain=unc, path_models=("beam",))
+out["joint"] = (j.nuisance["b_extra"],)
+print(repr({k: tuple(float(x) for x in v) for k, v in out.items()}))
+'''
+
+
+@pytest.mark.slow
+def test_a_new_unknown_reaches_every_estimator_by_its_name_alone():
+    """One inference layer: an unknown added to forward.Water (a field, its term and its name)
+    is estimated with an interval by the single fit and the batch, bounded by the precision,
+    and carried as a budget nuisance by a single fit and a dive's joint fit, without any other
+    code knowing it."""
+    import ast
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    run = subprocess.run([sys.executable, "-c", _NEW_UNKNOWN], cwd=root, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = ast.literal_eval(run.stdout.strip().splitlines()[-1])
+    for name in ("single", "batch"):
+        value, lo, hi = out[name]
+        assert lo <= 0.05 <= hi and hi - lo < 0.05, (name, out[name])
+        assert abs(value - 0.05) < 0.02, (name, value)
+    assert 0 < out["precision"][0] < 0.02
+    for name in ("nuisance", "joint"):
+        assert abs(out[name][0] - 0.04) < 0.02 and out[name][0] != 0.04, (name, out[name])
