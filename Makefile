@@ -9,6 +9,7 @@ STAMP  := $(VENV)/.installed-stamp
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test]"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m uw3p.warm
 	@touch $(STAMP)
 
 install: $(STAMP)

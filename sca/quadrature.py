@@ -223,8 +223,13 @@ def _load(path: Path) -> QuadratureRule | None:
                           float(arrays["error"]))
 
 
+#: The disk cache keeps the most recently used rules, at most this many (each ~80 kB).
+CACHE_KEEP = 64
+
+
 def _save(path: Path, rule: QuadratureRule) -> None:
-    """Written whole or not at all; an unwritable cache is no cache."""
+    """Written whole or not at all, the least recently used rules beyond :data:`CACHE_KEEP`
+    removed; an unwritable cache is no cache."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
@@ -232,6 +237,9 @@ def _save(path: Path, rule: QuadratureRule) -> None:
             np.savez(fh, index=rule.index, B=rule.B, D=rule.D, white=rule.white,
                      error=rule.error)
         os.replace(tmp, path)
+        rules = sorted(path.parent.glob("*.npz"), key=lambda f: f.stat().st_mtime, reverse=True)
+        for old in rules[CACHE_KEEP:]:
+            old.unlink(missing_ok=True)
     except OSError:
         return
 
@@ -243,6 +251,10 @@ def _rule(key, setup_ref) -> QuadratureRule | None:
     if path is not None and path.is_file():
         rule = _load(path)
         if rule is not None:
+            try:
+                os.utime(path)  # recently used
+            except OSError:
+                pass
             return rule
     rule = _build(setup_ref())
     if path is not None and rule is not None:
