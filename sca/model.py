@@ -737,6 +737,8 @@ def covariance_from_information(F, sigma2=1.0, *, cond_max: float = COND_MAX):
         or has a zero column.
     """
     F = np.asarray(F, float)
+    if F.shape[-1] == 0:  # nothing free: nothing uncertain
+        return np.zeros(F.shape)
     out = np.full(F.shape, np.inf)
     flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
     if F.shape[-1]:
