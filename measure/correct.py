@@ -452,7 +452,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         For :func:`measure.read_image`.
     **water_options
         For :func:`measure.correctwater.correction_water` (``setup``, ``depth``, ``photo``,
-        ``exposure_ratio``, ``water``).
+        ``exposure_ratio``, ``model``).
 
     Returns
     -------

@@ -8,15 +8,17 @@ keeps the chart's colour, i.e. the camera's response to a white along the chart'
 a_CDOM trade off along a valley; the corners of the box of the two intervals lie far outside
 the joint confidence region and would overstate the spread several times). Each is corrected
 with its exposure gain refitted so that the chart's white patch keeps its luminance (the fit's
-gain moves with the water). The spread is the CIEDE2000 colour difference (colour-science, ``colour.delta_E(...,
-method="CIE 2000")``) of the corrected colours from those of the fitted water:
+gain moves with the water). The spread is the CIEDE2000 colour difference (scikit-image's ``skimage.color.deltaE_ciede2000``,
+equal to colour-science's ``colour.delta_E(..., method="CIE 2000")``, tests/test_correct.py;
+scikit-image because a photo's measurement must not import colour-science, about 3 s:
+DECISIONS.md "Start-up") of the corrected colours from those of the fitted water:
 
 - of the chart's 24 patches at the chart's distance (median and largest over the patches, of
   the largest over the corners);
 - of an 18 % grey at each range of :data:`GREY_RANGES_M` (the largest over the corners).
 
 Lab is computed from the camera's values in air through :func:`forward.camera_to_xyz_matrix`
-(a white reflector Y = 1) under D65. An open interval (``inf``) leaves the spread unbounded
+(a white reflector Y = 1) under D65 (``skimage.color.xyz2lab``). An open interval (``inf``) leaves the spread unbounded
 (reported as None with a note).
 """
 
@@ -43,17 +45,21 @@ GREY_REFLECTANCE = 0.18
 
 
 def _lab(setup, J):
-    import colour
+    """CIELAB (D65, 2 degree observer) of camera values in air (model units)."""
+    from skimage.color import xyz2lab
 
     xyz = np.asarray(J, float) @ forward.camera_to_xyz_matrix(setup).T
-    white = colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"]
-    return colour.XYZ_to_Lab(xyz, white)
+    return xyz2lab(np.atleast_2d(xyz), illuminant="D65", observer="2",
+                   channel_axis=-1).reshape(xyz.shape)
 
 
 def _de(a, b):
-    import colour
+    """CIEDE2000 between two arrays of Lab."""
+    from skimage.color import deltaE_ciede2000
 
-    return np.asarray(colour.delta_E(a, b, method="CIE 2000"), float)
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    return np.asarray(deltaE_ciede2000(np.atleast_2d(a), np.atleast_2d(b), channel_axis=-1),
+                      float).reshape(a.shape[:-1])
 
 
 def _partner(water: CorrectionWater, name: str, value: float, upper: float) -> float:
@@ -97,7 +103,7 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
     lo_a, hi_a = (float(v) for v in water.cdom_ci)
     out = {"method": "the correction redone at the ends of the 95 % intervals of C and "
                      "a_CDOM(440) (the other profiled on the chart's white), the gain refitted to "
-                     "the chart's white; CIEDE2000 (colour-science) against the fitted water's",
+                     "the chart's white; CIEDE2000 (scikit-image) against the fitted water's",
            "chart_de00": None, "grey_de00": [{"range_m": float(r), "de00": None} for r in ranges],
            "samples": [], "notes": []}
     if not all(math.isfinite(v) for v in (lo_c, hi_c, lo_a, hi_a)) or \

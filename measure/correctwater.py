@@ -194,7 +194,7 @@ def _from_measurement(rec: dict, source: str, setup, depth, ratio) -> Correction
         notes=notes)
 
 
-def _from_joint(rec: dict, source: str, setup, depth, photo, ratio, water) -> CorrectionWater:
+def _from_joint(rec: dict, source: str, setup, depth, photo, ratio, model) -> CorrectionWater:
     photos = rec.get("photos") or {}
     if not photos:
         raise ValueError(f"water: {source}: joint.json lists no photo")
@@ -212,9 +212,8 @@ def _from_joint(rec: dict, source: str, setup, depth, photo, ratio, water) -> Co
         s, gain = s * ratio, gain * ratio
         notes.append(f"gain and veiling light scaled by the exposure ratio {ratio:.4g}")
     d = float(p["depth"]) if depth is None else float(depth)
-    base = water if water is not None else None
-    model = (dataclasses.replace(base, path_model=rec.get("path_model") or base.path_model)
-             if base is not None else _water_model({}, rec.get("path_model")))
+    model = (dataclasses.replace(model, path_model=rec.get("path_model") or model.path_model)
+             if model is not None else _water_model({}, rec.get("path_model")))
     return CorrectionWater(
         chl=float(rec["chl"]), cdom=float(rec["cdom"]),
         chl_ci=tuple(_num(v) for v in rec["chl_ci"]), cdom_ci=tuple(_num(v) for v in rec["cdom_ci"]),
@@ -225,7 +224,7 @@ def _from_joint(rec: dict, source: str, setup, depth, photo, ratio, water) -> Co
 
 
 def correction_water(source, *, setup=None, depth=None, photo=None, exposure_ratio=None,
-                     water=None) -> CorrectionWater:
+                     model=None) -> CorrectionWater:
     """The water, light and camera a photo is corrected with.
 
     Parameters
@@ -243,7 +242,7 @@ def correction_water(source, *, setup=None, depth=None, photo=None, exposure_rat
         (default the one nearest in depth).
     exposure_ratio : float, optional
         The photo's exposure over the chart photo's (:func:`exposure_ratio`); default 1.
-    water : forward.Water, optional
+    model : forward.Water, optional
         joint.json: the run's water model (joint.json records only the path model and the
         fitted constants); default the paper's.
 
@@ -268,6 +267,6 @@ def correction_water(source, *, setup=None, depth=None, photo=None, exposure_rat
     if "estimate" in rec:
         return _from_measurement(rec, where, setup, depth, exposure_ratio)
     if "photos" in rec and "chl" in rec:
-        return _from_joint(rec, where, setup, depth, photo, exposure_ratio, water)
+        return _from_joint(rec, where, setup, depth, photo, exposure_ratio, model)
     raise ValueError(f"water: {where}: neither measurement.json (an 'estimate') nor joint.json "
                      "('photos')")
