@@ -52,7 +52,7 @@ from forward.water import COEFFICIENT_PARAMS
 from sca.compiled import KERNEL_LOCK, njit, prange
 
 from .correctwater import CorrectionWater, correction_water
-from .image import UINT16_MAX, Photo, read_image
+from .image import UINT16_MAX, Photo, bilinear_pixel, read_image
 from .measurement import WHITE_TARGET
 from .rangemap import read_range
 
@@ -261,41 +261,6 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
 
 
 # --------------------------------------------------------------------------- pixels
-@njit(cache=True, inline="always")
-def _raw_rgb(data, channel, y, x, H, W):  # pragma: no cover - compiled
-    """Bilinear demosaic of one pixel (as measure.image's kernel: [1 2 1] x [1 2 1],
-    normalised per channel, edges mirrored)."""
-    num0 = num1 = num2 = 0.0
-    den0 = den1 = den2 = 0.0
-    for dy in range(-1, 2):
-        yy = y + dy
-        if yy < 0:
-            yy = -yy
-        elif yy >= H:
-            yy = 2 * H - 2 - yy
-        wy = 2.0 if dy == 0 else 1.0
-        for dx in range(-1, 2):
-            xx = x + dx
-            if xx < 0:
-                xx = -xx
-            elif xx >= W:
-                xx = 2 * W - 2 - xx
-            w = wy * (2.0 if dx == 0 else 1.0)
-            c = channel[yy, xx]
-            v = data[yy, xx] * w
-            if c == 0:
-                num0 += v
-                den0 += w
-            elif c == 1:
-                num1 += v
-                den1 += w
-            else:
-                num2 += v
-                den2 += w
-    return (num0 / den0 if den0 > 0 else 0.0, num1 / den1 if den1 > 0 else 0.0,
-            num2 / den2 if den2 > 0 else 0.0)
-
-
 @njit(parallel=True, cache=True)
 def _correct(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, unknown, cap, step,
              A, B, M, lut, lin_scale, lin16, srgb16, flt, modes):  # pragma: no cover - compiled
@@ -305,10 +270,12 @@ def _correct(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, unknown,
     srgb, float) ask."""
     n = A.shape[0]
     top = lut.shape[0] - 1
+    ones = np.ones(3, np.float32)
+    zeros = np.zeros(3, np.float32)
     for y in prange(H):
         for x in range(W):
             if raw:
-                v0, v1, v2 = _raw_rgb(mosaic, channel, y, x, H, W)
+                v0, v1, v2 = bilinear_pixel(mosaic, channel, y, x, H, W, ones, zeros)
             else:
                 v0, v1, v2 = rgb[y, x, 0], rgb[y, x, 1], rgb[y, x, 2]
             r = ranges[y, x] if has_map else const_r

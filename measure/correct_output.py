@@ -17,14 +17,12 @@ from __future__ import annotations
 
 import functools
 import json
-import shutil
-import tempfile
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from .output import MARKER, TEMP_PREFIX, TIFF_COMPRESSION, TIFF_MODES, _swap, check_out, strict_json
+from .output import MARKER, TIFF_COMPRESSION, TIFF_MODES, strict_json, write_folder
 
 __all__ = ["JPEG_QUALITY", "JPEG_ROWS", "NOT_MODELLED", "srgb_icc", "to_8bit", "write_corrected",
            "write_jpeg", "write_srgb_tiff"]
@@ -145,14 +143,8 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
-    out = Path(outdir)
-    check_out(out, corr.photo.path, overwrite)
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
-    except OSError as exc:
-        raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
-    try:
+
+    def write(tmp: Path) -> list:
         names = ["correction.json"]
         _json(tmp / "correction.json", record)
         # the TIFFs are compressed by imagecodecs outside the GIL while the JPEG is encoded
@@ -178,10 +170,5 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
         names.append(MARKER)
         _json(tmp / MARKER, {"image": str(corr.photo.path), "version": version, "files": names}
               | (marker or {}))
-        _swap(tmp, out)
-    except OSError as exc:
-        raise ValueError(f"out: cannot write {out}: {exc.strerror}") from None
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-    return {k: str(out / k) for k in names}
+        return names
+    return write_folder(outdir, corr.photo.path, overwrite, write)

@@ -25,7 +25,7 @@ from .image import demosaic
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
            "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "result_owner",
-           "srgb_preview", "strict_json", "write_outputs"]
+           "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -427,15 +427,45 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+    return write_folder(outdir, meas.photo.path, overwrite,
+                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range))
+
+
+def write_folder(outdir, image, overwrite: bool, write) -> dict:
+    """A result folder written whole or not at all: ``write(tmp)`` fills a temporary folder
+    beside ``outdir`` (:data:`MARKER` last) and returns the names written; the folder is then
+    swapped into place.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        The folder.
+    image : str or os.PathLike
+        The photo whose results it holds (:func:`check_out`).
+    overwrite : bool
+        Another photo's results may be replaced.
+    write : callable
+        ``write(tmp) -> list of file names``.
+
+    Returns
+    -------
+    dict
+        file name -> path.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out``: see :func:`check_out`; the folder cannot be created or written.
+    """
     out = Path(outdir)
-    check_out(out, meas.photo.path, overwrite)
+    check_out(out, image, overwrite)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
     except OSError as exc:
         raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
     try:
-        names = _write_files(meas, tmp, version, report, tiff, marker, range)
+        names = write(tmp)
         _swap(tmp, out)
     except OSError as exc:
         raise ValueError(f"out: cannot write {out}: {exc.strerror}") from None
