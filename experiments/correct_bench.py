@@ -45,11 +45,13 @@ REPEATS = 2
 
 
 def _timed(argv) -> tuple:
-    """(wall seconds, max RSS MB, exit status) of one fresh process under /usr/bin/time."""
+    """(wall seconds, max RSS MB, exit status, the last line of its own stderr) of one fresh
+    process under /usr/bin/time."""
     proc = subprocess.run(["/usr/bin/time", "-f", "%e %M", *argv], capture_output=True,
                           text=True, check=False)
-    last = proc.stderr.strip().splitlines()[-1].split()
-    return float(last[0]), float(last[1]) / 1024.0, proc.returncode
+    lines = proc.stderr.strip().splitlines()
+    last = lines[-1].split()
+    return float(last[0]), float(last[1]) / 1024.0, proc.returncode, " ".join(lines[-2:-1])
 
 
 def run(repeats: int = REPEATS, folder=None) -> dict:
@@ -63,8 +65,11 @@ def run(repeats: int = REPEATS, folder=None) -> dict:
         uw3p = _uw3p()
         geometry = ["--depth", "8", "--distance", "1.5"]
         meas = root / "meas"
-        subprocess.run([*uw3p, "measure", fx["dng"], *geometry, "--corners", fx["corners"],
-                        "--out", str(meas), "--tiff", "none"], check=False, capture_output=True)
+        first = subprocess.run([*uw3p, "measure", fx["dng"], *geometry, "--corners",
+                                fx["corners"], "--out", str(meas), "--tiff", "none"],
+                               check=False, capture_output=True, text=True)
+        if not (meas / "measurement.json").exists():
+            raise RuntimeError(f"the fixture's measurement failed: {first.stderr[-500:]}")
         H, W = FRAME
         v = np.linspace(-1, 1, H, dtype=np.float32)[:, None]
         u = np.linspace(-1, 1, W, dtype=np.float32)[None, :]
@@ -85,16 +90,16 @@ def run(repeats: int = REPEATS, folder=None) -> dict:
         }
         times = {k: [] for k in cmds}
         mem = {k: 0.0 for k in cmds}
-        codes = {}
+        codes, said = {}, {}
         for _ in range(repeats):
             for name, argv in cmds.items():
-                s, mb, code = _timed(argv)
+                s, mb, code, text = _timed(argv)
                 times[name].append(s)
                 mem[name] = max(mem[name], mb)
-                codes[name] = code
+                codes[name], said[name] = code, text
         best = {k: min(v) for k, v in times.items()}
         return {"frame": list(FRAME), "best_s": best, "times_s": times, "peak_mb": mem,
-                "exit": codes, "ratio_to_decode": {k: best[k] / best["decode"] for k in best},
+                "exit": codes, "stderr": said, "ratio_to_decode": {k: best[k] / best["decode"] for k in best},
                 "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                             "platform": platform.platform()}}
     finally:
