@@ -259,40 +259,48 @@ def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> 
     return out
 
 
+@njit(cache=True, inline="always")
+def bilinear_pixel(data, channel, y, x, H, W, gains, offset):  # pragma: no cover - compiled
+    """One pixel of the bilinear demosaic (:func:`demosaic`'s kernel, and measure.correct's):
+    (value - offset[c]) gains[c] of each channel's pixels in the 3 x 3 neighbourhood, weighted
+    [1 2 1] x [1 2 1] and normalised per channel, edges mirrored; (red, green, blue)."""
+    num0 = num1 = num2 = 0.0
+    den0 = den1 = den2 = 0.0
+    for dy in range(-1, 2):
+        yy = y + dy
+        if yy < 0:
+            yy = -yy
+        elif yy >= H:
+            yy = 2 * H - 2 - yy
+        wy = 2.0 if dy == 0 else 1.0
+        for dx in range(-1, 2):
+            xx = x + dx
+            if xx < 0:
+                xx = -xx
+            elif xx >= W:
+                xx = 2 * W - 2 - xx
+            w = wy * (2.0 if dx == 0 else 1.0)
+            c = channel[yy, xx]
+            v = (data[yy, xx] - offset[c]) * gains[c] * w
+            if c == 0:
+                num0 += v
+                den0 += w
+            elif c == 1:
+                num1 += v
+                den1 += w
+            else:
+                num2 += v
+                den2 += w
+    return (num0 / den0 if den0 > 0 else 0.0, num1 / den1 if den1 > 0 else 0.0,
+            num2 / den2 if den2 > 0 else 0.0)
+
+
 @njit(parallel=True, cache=True)
 def _bilinear(data, channel, gains, offset, out, to_uint16):  # pragma: no cover - compiled
     H, W = data.shape
     for y in prange(H):
         for x in range(W):
-            num0 = num1 = num2 = 0.0
-            den0 = den1 = den2 = 0.0
-            for dy in range(-1, 2):
-                yy = y + dy
-                if yy < 0:
-                    yy = -yy
-                elif yy >= H:
-                    yy = 2 * H - 2 - yy
-                wy = 2.0 if dy == 0 else 1.0
-                for dx in range(-1, 2):
-                    xx = x + dx
-                    if xx < 0:
-                        xx = -xx
-                    elif xx >= W:
-                        xx = 2 * W - 2 - xx
-                    w = wy * (2.0 if dx == 0 else 1.0)
-                    c = channel[yy, xx]
-                    v = (data[yy, xx] - offset[c]) * gains[c] * w
-                    if c == 0:
-                        num0 += v
-                        den0 += w
-                    elif c == 1:
-                        num1 += v
-                        den1 += w
-                    else:
-                        num2 += v
-                        den2 += w
-            vals = (num0 / den0 if den0 > 0 else 0.0, num1 / den1 if den1 > 0 else 0.0,
-                    num2 / den2 if den2 > 0 else 0.0)
+            vals = bilinear_pixel(data, channel, y, x, H, W, gains, offset)
             for c in range(3):
                 v = vals[c]
                 if to_uint16:

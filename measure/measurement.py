@@ -120,6 +120,10 @@ class Measurement:
     #: every input used (the audit trail of measurement.json): depth and distance (m) with
     #: their sds, the uncertainty budget, the water model and path model, the options
     inputs: dict = field(default_factory=dict)
+    #: the correction's own uncertainty: the ΔE00 spread of the corrected chart and of a grey
+    #: at each range over the water's 95 % intervals (:func:`measure.correct_uncertainty.
+    #: correction_spread`)
+    correction_uncertainty: dict = field(default_factory=dict)
 
     def to_dict(self, version: str = "") -> dict:
         """measurement.json's content (numbers as Python lists; units in ``estimate.units``),
@@ -134,7 +138,7 @@ class Measurement:
                 "wavelengths": e.wavelengths.tolist(), "backscatter": e.backscatter.tolist(),
                 "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
                 "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
-                "converged": e.converged, "status": e.status,
+                "converged": e.converged, "status": e.status, "path_model": e.path_model,
                 "budget": e.budget, "nuisance": {k: np.asarray(v, float).tolist()
                                                  for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
@@ -150,7 +154,8 @@ class Measurement:
             "orientation": self.orientation,
             "corners": self.corners.tolist(),
             "light_field": self.light_field,
-            "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist()},
+            "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist(),
+                           "uncertainty": self.correction_uncertainty},
             "camera": self.camera,
             "image": {"path": self.photo.path, "size": list(self.photo.size),
                       "kind": self.photo.kind, "exposure": self.photo.exposure,
@@ -474,5 +479,11 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
                         if not f.name.endswith("_table")},
               "path_model": water.path_model, "light_field": light_field,
               "layout": dataclasses.asdict(lay), "chart": chart}
-    return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
+    meas = Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
                        all_flags, reliable, notes, field_report, inputs)
+    from .correct_uncertainty import correction_spread
+    from .correctwater import correction_water
+
+    meas.correction_uncertainty = correction_spread(correction_water(meas),
+                                                    chart_rgb=sample.rgb)
+    return meas

@@ -1,5 +1,5 @@
-"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected.png, report.png,
-complete.json.
+"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected_srgb.tif,
+corrected.jpg, corrected.png, report.png, complete.json.
 
 A photo's folder is written whole or not at all: the files go to a temporary folder beside it
 (its name starts with :data:`TEMP_PREFIX`), ``complete.json`` (:data:`MARKER`) is written last,
@@ -25,7 +25,7 @@ from .image import demosaic
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
            "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "result_owner",
-           "srgb_preview", "strict_json", "write_outputs"]
+           "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -380,7 +380,7 @@ def _swap(tmp: Path, out: Path) -> None:
 
 def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
                   tiff: str = "compressed", overwrite: bool = False,
-                  marker: dict | None = None) -> dict:
+                  marker: dict | None = None, range=None) -> dict:  # noqa: A002
     """Write the files of ``uw3p measure``, whole or not at all.
 
     The files are written into a temporary folder beside ``outdir``, :data:`MARKER` last, and
@@ -405,12 +405,18 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
         Replace a folder that holds another photo's results.
     marker : dict, optional
         More entries of complete.json (a dive records the key of its inputs and options).
+    range : float, str or os.PathLike, optional
+        What corrected_srgb.tif and corrected.jpg are corrected along
+        (:func:`measure.correct_image`: a distance in m, a range map or a plane); default the
+        chart's distance.
 
     Returns
     -------
     dict
         {file name: path} of measurement.json, corrected.tiff (16-bit linear, corrected; unless
-        ``tiff='none'``), corrected.png (sRGB preview), report.png and complete.json.
+        ``tiff='none'``), corrected_srgb.tif (16-bit sRGB with its ICC profile, full
+        resolution; unless ``tiff='none'``), corrected.jpg (the same, 8-bit JPEG),
+        corrected.png (sRGB preview), report.png and complete.json.
 
     Raises
     ------
@@ -421,15 +427,45 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+    return write_folder(outdir, meas.photo.path, overwrite,
+                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range))
+
+
+def write_folder(outdir, image, overwrite: bool, write) -> dict:
+    """A result folder written whole or not at all: ``write(tmp)`` fills a temporary folder
+    beside ``outdir`` (:data:`MARKER` last) and returns the names written; the folder is then
+    swapped into place.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        The folder.
+    image : str or os.PathLike
+        The photo whose results it holds (:func:`check_out`).
+    overwrite : bool
+        Another photo's results may be replaced.
+    write : callable
+        ``write(tmp) -> list of file names``.
+
+    Returns
+    -------
+    dict
+        file name -> path.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out``: see :func:`check_out`; the folder cannot be created or written.
+    """
     out = Path(outdir)
-    check_out(out, meas.photo.path, overwrite)
+    check_out(out, image, overwrite)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
     except OSError as exc:
         raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
     try:
-        names = _write_files(meas, tmp, version, report, tiff, marker)
+        names = write(tmp)
         _swap(tmp, out)
     except OSError as exc:
         raise ValueError(f"out: cannot write {out}: {exc.strerror}") from None
@@ -439,15 +475,21 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     return {k: str(out / k) for k in names}
 
 
-def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
+def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
     import tifffile
+
+    from .correct import correct_image
+    from .correct_output import write_jpeg, write_srgb_tiff
 
     names = ["measurement.json"]
     (folder / "measurement.json").write_text(
         json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
     img = corrected_image(meas)
+    # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
+    srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
+                         if rng is None else rng, linear=False).srgb
     # corrected.tiff is compressed by imagecodecs outside the GIL while this thread draws the
     # previews and the report; its error, if any, is raised before the marker is written
     with ThreadPoolExecutor(max_workers=1) as pool:
@@ -456,6 +498,9 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
             options = TIFF_COMPRESSION if tiff == "compressed" else {}
             pending = pool.submit(tifffile.imwrite, folder / "corrected.tiff", img,
                                   photometric="rgb", **options)
+            pending_srgb = pool.submit(write_srgb_tiff, folder / "corrected_srgb.tif", srgb,
+                                       compressed=tiff == "compressed")
+        write_jpeg(folder / "corrected.jpg", srgb)
         white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white
         _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
         if report:
@@ -463,8 +508,9 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
                                                               meas.sample.rgb[:, WHITE_PATCH]))
         if pending is not None:
             pending.result()
-            names.append("corrected.tiff")
-    names.append("corrected.png")
+            pending_srgb.result()
+            names += ["corrected.tiff", "corrected_srgb.tif"]
+    names += ["corrected.jpg", "corrected.png"]
     if report:
         names.append("report.png")
     names.append(MARKER)

@@ -85,7 +85,7 @@ def _csv(path):
 
 def _mtimes(root):
     return {p: p.stat().st_mtime_ns for p in root.rglob("*") if p.is_file()
-            and p.name not in ("summary.csv", "survey.nc", "survey.png")}
+            and p.name not in ("summary.csv", "survey.nc", "survey.png", "ifdo.json")}
 
 
 # --------------------------------------------------------------------------- inputs

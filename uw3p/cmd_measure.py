@@ -10,7 +10,11 @@ joint.json; run on Dask (a local cluster, or ``--scheduler ADDRESS``); a rerun s
 already complete with the same inputs and options, and a rerun with other options is refused
 (``--overwrite``, or another ``--out``). Exit status 0 when every photo measured is reliable, 1
 when one is not, 2 when one could not be measured (bad input) or none was, 130 interrupted
-(Ctrl-C; the summary lists what was done).
+(Ctrl-C; the summary lists what was done). With ``--joint``, the frames in which no chart is
+found are corrected with the dive's joint water at their depth along their range (metadata
+columns ``range_m`` or ``range_map``; else ``distance_m``): status "corrected with the dive's
+water", which leaves the exit status as the measured photos make it. ifdo.json holds the dive's
+photometric fields of the iFDO standard.
 """
 
 from __future__ import annotations
@@ -52,8 +56,9 @@ def add_parser(sub):
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--metadata", default=None, metavar="CSV",
                    help="a folder's per-photo inputs: columns image,depth_m,distance_m and "
-                        "optionally depth_sd_m,distance_sd_m,corners (image names relative to "
-                        "the folder; a photo without a row is not measured)")
+                        "optionally depth_sd_m,distance_sd_m,corners,range_m,range_map (image "
+                        "names relative to the folder, range maps to the CSV's; a photo without "
+                        "a row is not measured)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
@@ -61,7 +66,8 @@ def add_parser(sub):
                    help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
                         "preview corrected.png is always written)")
     p.add_argument("--joint", action="store_true",
-                   help="a folder: also fit all its photos as one water (joint.json)")
+                   help="a folder: also fit all its photos as one water (joint.json) and "
+                        "correct the frames without a chart with it")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a folder: the Dask scheduler to run on (e.g. tcp://host:8786); default "
                         "a local cluster of one process per core; 'synchronous': no Dask")
@@ -185,6 +191,7 @@ def _measure_folder(args, src, out, err):
     import warnings
 
     from measure.dive import DiveWarning, measure_dive
+    from measure.dive.summary import CORRECTED
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DiveWarning)  # written below, in the command's words
@@ -200,10 +207,11 @@ def _measure_folder(args, src, out, err):
     out.write(f"{n} rows: {c['measured'] + c['done earlier']} measured ({c['done earlier']} "
               f"complete from an earlier run), {sum(r.get('reliable') is True for r in res.rows)} "
               f"reliable; {c['error']} not measurable, {c['no chart']} without a chart, "
+              f"{c[CORRECTED]} without a chart corrected with the dive's water, "
               f"{c['not in metadata']} without a metadata row, {c['no such photo']} metadata "
               f"rows naming no photo, {c['not an image']} not photos, {c['interrupted']} "
               "interrupted\n")
-    for path in (res.summary, res.survey, res.figure, res.joint):
+    for path in (res.summary, res.survey, res.figure, res.joint, res.ifdo):
         if path is not None:
             out.write(f"wrote {path}\n")
     if args.joint and res.joint is None:

@@ -15,8 +15,11 @@ __all__ = ["DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "METADATA_COLUMNS", "META
 #: folder, the chart's depth (m) and the camera-to-chart distance (m)
 METADATA_COLUMNS = ("image", "depth_m", "distance_m")
 #: Optional columns: the standard deviations (m) of depth and distance, the chart's corners
-#: ("x1,y1 x2,y2 x3,y3 x4,y4", pixels; empty: detected)
-METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners")
+#: ("x1,y1 x2,y2 x3,y3 x4,y4", pixels; empty: detected), and what a photo is corrected along:
+#: ``range_m``, the camera-to-scene range (m), or ``range_map``, a range-map file (a float TIFF
+#: in m, a 16-bit PNG in mm or a .npy in m; relative to the metadata file's folder;
+#: :mod:`measure.rangemap`). Without either a photo is corrected at its ``distance_m``.
+METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners", "range_m", "range_map")
 #: EXIF tags that record the depth under water, in the order tried. EXIF 2.31 (CIPA DC-008-2016)
 #: added ``WaterDepth`` (tag 0x9403 = 37891, signed rational, m) to the Exif IFD; tough
 #: compacts (e.g. Olympus/OM System TG series) write it. Dive-log geotagging tools write the
@@ -47,7 +50,8 @@ def read_metadata(path) -> dict:
 
     Columns (by name, any order; UTF-8 with or without a byte-order mark): ``image`` (file name
     relative to the folder), ``depth_m``, ``distance_m`` (m) and optionally ``depth_sd_m``,
-    ``distance_sd_m`` (m) and ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels). An empty cell
+    ``distance_sd_m`` (m), ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels), ``range_m`` (m)
+    and ``range_map`` (a range-map file, relative to the CSV's folder). An empty cell
     means "not given here": the EXIF depth or the default applies (corners: detected). A quoted
     cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
     are ignored when their cells are empty.
@@ -60,8 +64,9 @@ def read_metadata(path) -> dict:
     Returns
     -------
     dict
-        image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m' (floats or None),
-        'corners' (str or None), 'line' (int: the line the row starts on)}.
+        image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m', 'range_m'
+        (floats or None), 'corners' (str or None), 'range_map' (absolute path or None), 'line'
+        (int: the line the row starts on)}.
 
     Raises
     ------
@@ -123,10 +128,25 @@ def _rows(p: Path, fh) -> dict:
                                                 positive=False),
                           "distance_sd_m": _number(cell.get("distance_sd_m", ""),
                                                    "distance_sd_m", where, positive=False),
-                          "corners": cell.get("corners", "").strip() or None, "line": n}
+                          "corners": cell.get("corners", "").strip() or None,
+                          "range_m": _number(cell.get("range_m", ""), "range_m", where),
+                          "range_map": _range_map(p, cell.get("range_map", ""), where),
+                          "line": n}
     except csv.Error as exc:
         raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
     return rows
+
+
+def _range_map(csv_path: Path, value: str, where: str):
+    """A range map's absolute path (relative to the CSV's folder), or None for an empty cell."""
+    value = value.strip()
+    if not value:
+        return None
+    p = Path(value)
+    p = p if p.is_absolute() else csv_path.resolve().parent / p
+    if not p.is_file():
+        raise ValueError(f"{where}: range_map: no such file: {value}")
+    return str(p)
 
 
 def _rational(value):

@@ -19,15 +19,18 @@ from pathlib import Path
 from ..csvsafe import safe_writer
 from .files import atomic
 
-__all__ = ["MEASURED", "STATUSES", "SUMMARY_COLUMNS", "dive_code", "exit_code", "summary_row",
+__all__ = ["CORRECTED", "MEASURED", "STATUSES", "SUMMARY_COLUMNS", "dive_code", "exit_code", "summary_row",
            "to_float", "write_summary"]
 
+#: A frame without a chart corrected with the dive's joint water (measure.dive.chartless)
+CORRECTED = "corrected with the dive's water"
 #: A row's status: measured now; complete results of the same inputs found (not redone);
 #: not measurable (``error`` says why); not measured because the run was interrupted; a file
-#: that is not a photo; a photo in which no chart was found (its inputs kept); a metadata row
-#: that names no photo of the folder; a photo that has no metadata row (``error`` says why)
+#: that is not a photo; a photo in which no chart was found (its inputs kept; not corrected:
+#: ``error`` says why); a metadata row that names no photo of the folder; a photo that has no
+#: metadata row (``error`` says why); a photo without a chart corrected with the dive's water
 STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image", "no chart",
-            "no such photo", "not in metadata")
+            "no such photo", "not in metadata", CORRECTED)
 #: The statuses of a photo with results
 MEASURED = ("measured", "done earlier")
 #: Columns of summary.csv, one row per file (the first 20 as in earlier versions)
@@ -36,7 +39,7 @@ SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_
                    "depth_sd", "distance_m", "distance_sd", "chl_budget", "out", "error",
                    "status", "depth_source", "distance_source", "corners", "corners_source",
                    "time", "camera", "profile", "illuminant", "layout", "path_model",
-                   "uncertain", "tiff")
+                   "uncertain", "tiff", "range_m", "range_map")
 
 
 def to_float(v) -> float:
@@ -87,7 +90,7 @@ def summary_row(photo, plan, status, record=None, error="") -> dict:
     row = {"image": str(photo), "status": status, "error": error, "out": plan.get("out", ""),
            "tiff": plan.get("tiff", "")}
     for k in ("depth_m", "distance_m", "depth_source", "distance_source", "corners_source",
-              "time"):
+              "time", "range_m", "range_map"):
         row[k] = inputs.get(k, "")
     row["corners"] = corners if corners is None or isinstance(corners, str) else " ".join(
         f"{x:g},{y:g}" for x, y in corners)

@@ -14,6 +14,7 @@ import signal
 import threading
 
 from ..output import strict_json
+from .plan import correction_range
 
 __all__ = ["dask_setup", "run_job"]
 
@@ -74,7 +75,7 @@ def run_job(job: dict) -> dict:
                                                    "corners_source", "time")})
         meas.inputs["command"] = job["command"]
         write_outputs(meas, job["out"], version=job["version"], report=job["report"],
-                      tiff=job["tiff"],
+                      tiff=job["tiff"], range=correction_range(inputs),
                       overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
         return {"status": "measured", "record": record}
