@@ -49,10 +49,11 @@ import numpy as np
 
 import forward
 from forward.water import COEFFICIENT_PARAMS
-from sca.compiled import KERNEL_LOCK, njit, prange
+from sca.compiled import KERNEL_LOCK
 
 from .correctwater import CorrectionWater, correction_water
-from .image import UINT16_MAX, Photo, bilinear_pixel, read_image
+from .image import UINT16_MAX, Photo, read_image
+from .pixels import correct_pixels
 from .measurement import WHITE_TARGET
 from .rangemap import read_range
 
@@ -261,53 +262,6 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
 
 
 # --------------------------------------------------------------------------- pixels
-@njit(parallel=True, cache=True)
-def _correct(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, unknown, cap, step,
-             A, B, M, lut, lin_scale, lin16, srgb16, flt, modes):  # pragma: no cover - compiled
-    """Per pixel: demosaic the RAW ``mosaic`` or read the RGB ``rgb`` (the other a dummy), the
-    range (map, or const_r), the table row interpolated, J = (v - B) A; then linear uint16
-    (J lin_scale), sRGB uint16 (the table lut of clip(M J)) and float J, as ``modes`` (lin,
-    srgb, float) ask."""
-    n = A.shape[0]
-    top = lut.shape[0] - 1
-    ones = np.ones(3, np.float32)
-    zeros = np.zeros(3, np.float32)
-    for y in prange(H):
-        for x in range(W):
-            if raw:
-                v0, v1, v2 = bilinear_pixel(mosaic, channel, y, x, H, W, ones, zeros)
-            else:
-                v0, v1, v2 = rgb[y, x, 0], rgb[y, x, 1], rgb[y, x, 2]
-            r = ranges[y, x] if has_map else const_r
-            if not (r > 0.0):  # NaN or 0: unknown
-                r = unknown
-            if r > cap:
-                r = cap
-            f = r / step
-            i = int(f)
-            if i >= n - 1:
-                i = n - 2
-                w = 1.0
-            else:
-                w = f - i
-            j0 = (v0 - (B[i, 0] + w * (B[i + 1, 0] - B[i, 0]))) * (A[i, 0] + w * (A[i + 1, 0] - A[i, 0]))
-            j1 = (v1 - (B[i, 1] + w * (B[i + 1, 1] - B[i, 1]))) * (A[i, 1] + w * (A[i + 1, 1] - A[i, 1]))
-            j2 = (v2 - (B[i, 2] + w * (B[i + 1, 2] - B[i, 2]))) * (A[i, 2] + w * (A[i + 1, 2] - A[i, 2]))
-            if modes[0]:
-                lin16[y, x, 0] = int(min(max(j0 * lin_scale + 0.5, 0.0), 65535.0))
-                lin16[y, x, 1] = int(min(max(j1 * lin_scale + 0.5, 0.0), 65535.0))
-                lin16[y, x, 2] = int(min(max(j2 * lin_scale + 0.5, 0.0), 65535.0))
-            if modes[1]:
-                for c in range(3):
-                    s = M[c, 0] * j0 + M[c, 1] * j1 + M[c, 2] * j2
-                    s = min(max(s, 0.0), 1.0)
-                    srgb16[y, x, c] = lut[int(s * top + 0.5)]
-            if modes[2]:
-                flt[y, x, 0] = j0
-                flt[y, x, 1] = j1
-                flt[y, x, 2] = j2
-
-
 _LUT = {}
 
 
@@ -466,7 +420,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     channel = photo.channel if raw else np.zeros((1, 1), np.int8)
     rmap = np.ascontiguousarray(rng, np.float32) if has_map else np.zeros((1, 1), np.float32)
     with KERNEL_LOCK:
-        _correct(mosaic, channel, rgb, raw, H, W, rmap, has_map, 0.0 if has_map else float(rng),
+        correct_pixels(mosaic, channel, rgb, raw, H, W, rmap, has_map, 0.0 if has_map else float(rng),
                  float(table.unknown), float(table.cap), table.step, A, B, M, lut,
                  float(white_linear * UINT16_MAX), lin16, s16, flt,
                  np.array([linear, srgb, float_output]))

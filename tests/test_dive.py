@@ -613,7 +613,7 @@ def test_dask_jobs_carry_absolute_paths(tmp_path, shots, monkeypatch):
 
     from measure.dive import run as run_mod
 
-    d = _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
+    _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
     shutil.copy(shots["profile"], tmp_path / "profile.json")
     seen = []
 

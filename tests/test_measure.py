@@ -78,7 +78,7 @@ def test_raw_mosaic_unpacked_in_one_pass_as_numpy_would():
     """The compiled one-pass unpack gives numpy's own float32 mosaic - black[colour], the
     channel lut[colour] and the clip test, value for value (black levels per colour index, a
     white level between the values)."""
-    from measure.image import _unpack
+    from measure.pixels import unpack as _unpack
 
     rng = np.random.default_rng(2)
     mosaic = rng.integers(0, 2 ** 14, (37, 52)).astype(np.uint16)
