@@ -638,7 +638,7 @@ def test_a_real_scheduler_from_another_cwd_measures_relative_paths(tmp_path, sho
 
     from distributed import Client, LocalCluster
 
-    d = _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
+    _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
     shutil.copy(shots["profile"], tmp_path / "profile.json")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
