@@ -47,7 +47,8 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
     Returns
     -------
     dict
-        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time`` and their sources.
+        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time``, the row's measurements
+        of the water (``auxiliary``, :mod:`sca.auxiliary`'s form) and their sources.
 
     Raises
     ------
@@ -74,7 +75,9 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
     return {"depth_m": d, "depth_source": d_src, "distance_m": r, "distance_source": r_src,
             "depth_sd_m": row.get("depth_sd_m"), "distance_sd_m": row.get("distance_sd_m"),
             "corners": c if c is None or isinstance(c, str) else np.asarray(c, float).tolist(),
-            "corners_source": c_src, "time": exif.get("time")}
+            "corners_source": c_src, "time": exif.get("time"),
+            "auxiliary": row.get("auxiliary") or {},
+            "auxiliary_source": f"metadata line {row['line']}" if row.get("line") else ""}
 
 
 def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
