@@ -24,8 +24,8 @@ from forward.spectra import WHITE_PATCH, srgb_8bit
 from .image import demosaic
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
-           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "result_owner",
-           "srgb_preview", "strict_json", "write_folder", "write_outputs"]
+           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",
+           "result_owner", "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -202,9 +202,31 @@ def _quick_rgb(photo) -> np.ndarray:
     return out / count.astype(np.float32)
 
 
-def _report(meas, path, raw_preview):
+def report_figure(meas, raw_preview):
+    """report.png's figure: the photo with the sampled boxes; the residuals in units of the
+    standard error chi^2 uses; the attenuation coefficient of the light's path in m^-1 with its
+    own 95 % band; what the photo measures and what it does not, in words.
+
+    Parameters
+    ----------
+    meas : Measurement
+        A result of :func:`measure.measure`.
+    raw_preview : numpy.ndarray, (h, w, 3)
+        An 8-bit preview of the photo (:func:`srgb_preview`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four panels (axes in the order photo, residuals, coefficient, words).
+    """
     # matplotlib's object interface: no pyplot (its import, its global figures and backend)
+    import textwrap
+
     from matplotlib.figure import Figure
+
+    from sca.derived import BANDS_NM
+
+    from .statements import statements
 
     e = meas.estimate
     fig = Figure(figsize=(11, 8.5), dpi=90)
@@ -220,44 +242,68 @@ def _report(meas, path, raw_preview):
     a.set_title(f"photo (sampled boxes; orientation: {meas.orientation})", fontsize=9)
     a.axis("off")
     a = ax[0, 1]
-    # residuals in units of each value's standard error: a misfit shows even where measured
-    # and fitted values look equal on a log scale
+    # residuals in units of the standard error chi^2 uses (photon noise with the budget's
+    # per-patch term): the panel and chi^2/dof say the same thing
     patches = np.arange(1, meas.fitted.shape[1] + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = (meas.sample.rgb - meas.fitted) / meas.sample.sigma
+        z = (meas.sample.rgb - meas.fitted) / meas.residual_sd
     for c, col in enumerate("rgb"):
         a.plot(patches + (c - 1) * 0.2, z[c], "o", ms=3, color=col, label="RGB"[c])
     a.axhline(0, color="k", lw=0.8)
     for v in (-2, 2):
         a.axhline(v, color="k", lw=0.6, ls=":")
+    patch = meas.patch_term
+    se = ("SE: photon noise" + (f" with the budget's {100 * patch:.2g} % per patch"
+                                if patch else " only (no per-patch term)") + ", as in chi²")
     a.set_xlabel("patch")
     a.set_ylabel("(measured - fitted) / SE")
-    a.set_title(f"residuals: fit_rms {e.fit_rms:.3g}, chi²/dof {e.chi2_dof:.3g} (with the "
-                "budget's per-patch term)", fontsize=9)
+    a.set_title(f"residuals: chi²/dof {e.chi2_dof:.3g}, fit_rms {e.fit_rms:.3g}\n{se}",
+                fontsize=9)
     a.legend(fontsize=8)
     a = ax[1, 0]
     wl = e.wavelengths
-    if np.all(np.isfinite(meas.attenuation_band)):
-        a.fill_between(wl, meas.attenuation_band[0], meas.attenuation_band[1], color="C0",
-                       alpha=0.3, label="95 % band (C, a_CDOM intervals)")
-    a.plot(wl, e.attenuation, color="C0", label="estimated k")
+    c = np.asarray(e.beam_attenuation, float)
+    ci = np.asarray(e.beam_attenuation_ci, float)
+    finite = np.isfinite(ci[:, 1])
+    a.fill_between(wl[finite], ci[finite, 0], ci[finite, 1], color="C0", alpha=0.3,
+                   label="95 % interval (its own)")
+    a.plot(wl, c, color="C0", label="estimate")
+    at = [e.quantities.get(f"c_{b:.0f}") for b in BANDS_NM]
+    if all(v is not None for v in at):
+        lo = [e.quantity_intervals[f"c_{b:.0f}"][0] for b in BANDS_NM]
+        hi = [e.quantity_intervals[f"c_{b:.0f}"][1] for b in BANDS_NM]
+        a.errorbar(BANDS_NM, at, yerr=[np.subtract(at, lo), np.where(
+            np.isfinite(hi), np.subtract(hi, at), np.nan)], fmt="o", color="C3", ms=3,
+            capsize=3, label="443, 490, 555, 670 nm")
+    top = np.nanmax(np.where(finite, ci[:, 1], c))
+    a.set_ylim(0, 1.05 * top if np.isfinite(top) and top > 0 else None)
     a.set_xlabel("wavelength (nm)")
-    a.set_ylabel("attenuation k (dimensionless)")
+    a.set_ylabel("attenuation coefficient c (m⁻¹)")
     a.legend(fontsize=8)
-    a.set_title("path attenuation exp(-(depth + distance) c)", fontsize=9)
+    kind = {"beam": "beam attenuation c = a + b", "absorption": "absorption a",
+            "split": "path-weighted K_d and c"}.get(e.path_model, e.path_model)
+    span = ("; intervals span " + ", ".join(e.path_models)) if len(e.path_models) > 1 else ""
+    a.set_title(f"attenuation coefficient of the light's path, m⁻¹\n(path model "
+                f"{e.path_model}: {kind}{span})", fontsize=9)
     a = ax[1, 1]
     a.axis("off")
     hi = lambda v: "inf" if not np.isfinite(v) else f"{v:.4g}"  # noqa: E731
-    lines = [f"C = {e.chl:.4g} mg m⁻³  [{e.chl_ci[0]:.4g}, {hi(e.chl_ci[1])}]",
-             f"a_CDOM(440) = {e.cdom:.4g} m⁻¹  [{e.cdom_ci[0]:.4g}, {hi(e.cdom_ci[1])}]",
-             f"gain = {e.gain:.4g}  [{e.gain_ci[0]:.4g}, {hi(e.gain_ci[1])}] raw / model unit",
-             "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
-             f"reliable: {meas.reliable}",
-             "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
+    lines = statements(e, "photo", meas.auxiliary_kinds)
+    lines += [f"gain = {e.gain:.4g}  [{e.gain_ci[0]:.4g}, {hi(e.gain_ci[1])}] raw / model unit",
+              "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
+              f"reliable: {meas.reliable}",
+              "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
     inp = meas.inputs
     if inp:
         lines.append(f"depth {inp.get('depth_m')} m (sd {inp.get('depth_sd', '-')}), distance "
                      f"{inp.get('distance_m')} m (sd {inp.get('distance_sd', '-')})")
+        for r in inp.get("auxiliary") or []:
+            band = f" at {r['band_nm']:g} nm" if "band_nm" in r else ""
+            lines.append(f"fused: {r['kind']}{band} {r['value']:.4g} ± {r['sd']:.2g} "
+                         f"{r['units']} ({r['source']})")
+        if inp.get("chart_reflectance"):
+            lines.append("chart: measured spectra (" + str(inp["chart_reflectance"]["path"])
+                         + ")")
     for name, label in (("chl", "C"), ("cdom", "a_CDOM")):
         shares = e.budget.get(name, {}).get("shares", {})
         if shares:
@@ -267,13 +313,15 @@ def _report(meas, path, raw_preview):
     if not e.budget:
         lines.append("budget: none (the paper's exact model)")
     lines += [f"note: {n}" for n in meas.notes]
-    import textwrap
+    text = "\n".join(textwrap.fill(x, 66, subsequent_indent="  ") for x in lines)
+    a.text(0, 1, text, va="top", fontsize=7.5, family="monospace")
+    a.set_title("what this photo measures (95 % intervals)", fontsize=9)
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.93, wspace=0.25, hspace=0.35)
+    return fig
 
-    text = "\n".join(textwrap.fill(x, 60) for x in lines)
-    a.text(0, 1, text, va="top", fontsize=9, family="monospace")
-    a.set_title("estimate (95 % intervals)", fontsize=9)
-    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.95, wspace=0.25, hspace=0.3)
-    fig.savefig(path, pil_kwargs=PNG_OPTIONS)
+
+def _report(meas, path, raw_preview):
+    report_figure(meas, raw_preview).savefig(path, pil_kwargs=PNG_OPTIONS)
 
 
 def read_marker(outdir) -> dict | None:

@@ -207,13 +207,13 @@ def test_survey_nc_has_cf_names_bounds_and_the_spectrum(tmp_path, shots):
             "organic_matter")
         assert ds["cdom"].attrs["units"] == "m-1"
         assert ds["chl_bounds"].dims == ("photo", "nv") and ds.sizes["nv"] == 2
-        assert ds["attenuation"].dims == ("photo", "wavelength")
+        assert ds["transmittance"].dims == ("photo", "wavelength")
         assert ds["wavelength"].attrs["units"] == "nm"
         ok = ds["status"].values == "measured"
         assert ok.sum() == 2 and np.isnan(ds["chl"].values[~ok]).all()
         b = ds["chl_bounds"].values[ok]
         assert np.all(b[:, 0] <= ds["chl"].values[ok]) and np.all(ds["chl"].values[ok] <= b[:, 1])
-        assert np.all((ds["attenuation"].values[ok] > 0) & (ds["attenuation"].values[ok] < 1))
+        assert np.all((ds["transmittance"].values[ok] > 0) & (ds["transmittance"].values[ok] < 1))
         assert list(ds["depth"].values[ok]) == [5.0, 5.0] and ds["depth"].attrs["units"] == "m"
         rows = {r["image"]: r for r in res.rows}
         assert [rows[i]["chl"] for i in ds["image"].values[ok]] == list(ds["chl"].values[ok])
@@ -593,7 +593,7 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
                  "none"])
     text = capsys.readouterr().out
     assert code in (0, 1) and (out / "joint.json").exists(), text
-    assert "joint: C" in text
+    assert "joint: C" in text and "what the dive measures: measured: c(443)" in text
     rows = {Path(r["image"]).name: r for r in _csv(out / "summary.csv")}
     assert float(rows["IMG_0101.dng"]["depth_sd"]) == 0.1
 

@@ -247,8 +247,10 @@ def test_cli_calibrate_then_measure(files, corners, tmp_path):
                  "--distance", "1.5", "--out", str(out)])
     assert code == 0
     data = json.loads((out / "measurement.json").read_text())
-    for key in ("chl", "cdom", "chl_ci", "cdom_ci", "gain", "attenuation", "wavelengths",
-                "backscatter", "reliable", "flags", "fit_rms", "chi2_dof"):
+    for key in ("chl", "cdom", "chl_ci", "cdom_ci", "gain", "transmittance", "wavelengths",
+                "backscatter", "reliable", "flags", "fit_rms", "chi2_dof", "beam_attenuation",
+                "beam_attenuation_ci", "quantities", "quantity_intervals", "verdicts",
+                "statements"):
         assert key in data["estimate"], key
     assert np.shape(data["patches"]["rgb"]) == (3, 24) and np.shape(data["patches"]["sigma"]) == (3, 24)
     for key in ("n_pixels", "clipped"):

@@ -67,7 +67,8 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
     Returns
     -------
     dict
-        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time`` and their sources, and
+        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time``, the row's measurements
+        of the water (``auxiliary``, :mod:`sca.auxiliary`'s form) and their sources, and
         ``range_m`` and ``range_map`` (what the photo is corrected along; None: not given).
 
     Raises
@@ -96,7 +97,9 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
             "depth_sd_m": row.get("depth_sd_m"), "distance_sd_m": row.get("distance_sd_m"),
             "corners": c if c is None or isinstance(c, str) else np.asarray(c, float).tolist(),
             "corners_source": c_src, "time": exif.get("time"),
-            "range_m": row.get("range_m"), "range_map": row.get("range_map")}
+            "range_m": row.get("range_m"), "range_map": row.get("range_map"),
+            "auxiliary": row.get("auxiliary") or {},
+            "auxiliary_source": f"metadata line {row['line']}" if row.get("line") else ""}
 
 
 def photo_key(photo: Path, row, inputs, run_digest: str) -> str:

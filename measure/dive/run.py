@@ -175,7 +175,10 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     **measure_options
         Passed to :func:`measure.measure`: ``camera``, ``quantal``, ``profile``,
         ``illuminant``, ``layout``, ``water``, ``black_level``, ``white_level``,
-        ``light_field``, ``uncertain``.
+        ``light_field``, ``uncertain``, ``chart_reflectance``, and ``auxiliary``: the default
+        of every photo whose metadata row gives no reading of its own (kind by kind, band by
+        band); the joint fit gets every reading of the dive once
+        (:func:`measure.auxiliary.dive_auxiliary`).
 
     Returns
     -------
@@ -348,7 +351,7 @@ def _finish(rows, records, root, interrupted, joint, options, version, command, 
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     ds = survey_dataset(photo_rows, records, {
         "history": f"{now} {command or 'uw3p measure_dive'}", "uw3p_version": version,
-        "command": command, "interrupted": int(interrupted)})
+        "command": command, "interrupted": int(interrupted)}, joint=joint_data)
     res.survey = write_survey(ds, root / "survey.nc")
     if records and figure:
         res.figure = plot_survey(ds, root / "survey.png", joint_data)
@@ -366,15 +369,18 @@ def _remove(path: Path) -> None:
 
 
 def _run_setup(options):
-    """The run's camera set-up (camera, profile balance, illuminant)."""
-    from ..camera import camera_setup, load_profile
+    """The run's camera set-up (camera, profile balance, illuminant, the chart's measured
+    reflectance if given)."""
+    from ..camera import camera_setup, load_profile, read_chart_reflectance
 
     prof = options.get("profile")
     prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    chart = options.get("chart_reflectance")
     return camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
                         quantal=options.get("quantal", False),
                         illuminant=options.get("illuminant"),
-                        gains=None if prof is None else (prof.gains or None))
+                        gains=None if prof is None else (prof.gains or None),
+                        reflectances=None if chart is None else read_chart_reflectance(chart))
 
 
 def _joint(rows, records, root, options):
@@ -387,13 +393,18 @@ def _joint(rows, records, root, options):
             if r["status"] in MEASURED and r["image"] in records]
     if not good:
         return None, None, "not fitted: no photo was measured"
+    from ..auxiliary import auxiliary_record, dive_auxiliary
+
     setup = _run_setup(options)
+    aux = dive_auxiliary(good)  # every measurement of the dive's water, each reading once
     try:
         # each photo's own budget, as it was measured: the run's, its own depth and distance sds
-        fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"))
+        fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"), auxiliary=aux)
     except ValueError as exc:
         return None, None, f"not fitted: {exc}"
-    data = strict_json(fit.to_dict())
+    data = strict_json(fit.to_dict() | {"auxiliary": auxiliary_record(
+        aux, dict.fromkeys(["cdom", "secchi"] + [f"kd {float(b):g}" for b in aux.get("kd", {})],
+                           "the dive's readings combined"))})
     path = root / "joint.json"
     with atomic(path) as tmp:
         tmp.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n", encoding="utf-8")
