@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty bench clean
+.PHONY: install test test-fast test-adversarial reproduce-figures real-data dive honesty bench clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -14,13 +14,19 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded)
+# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded);
+# pyproject's addopts deselect the tests marked adversarial (make test-adversarial)
 test: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2
 
 # the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not adversarial"
+
+# the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
+# runs interrupted and killed, clusters started; about 10 min on 2 cores)
+test-adversarial: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m adversarial tests/test_adversarial_dive.py
 
 reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md

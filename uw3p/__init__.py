@@ -10,11 +10,40 @@ module per subcommand (``simulate``, ``estimate``, ``calibrate``, ``measure``, `
 options and output helpers) and ``patchfile`` (the patch-value CSV format).
 """
 
-from importlib import metadata as _metadata
+__all__ = ["__version__", "console"]
 
-try:
-    __version__ = _metadata.version("uw3p")
-except _metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "unknown"
 
-__all__ = ["__version__"]
+def __getattr__(name):
+    """``__version__``, looked up when first asked for (importing this package stays instant:
+    the console script's Ctrl-C handling starts at once)."""
+    if name != "__version__":
+        raise AttributeError(f"module 'uw3p' has no attribute {name!r}")
+    from importlib import metadata
+
+    try:
+        version = metadata.version("uw3p")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+        version = "unknown"
+    globals()["__version__"] = version
+    return version
+
+
+def console() -> int:
+    """The ``uw3p`` console script: :func:`uw3p.cli.main`, with a Ctrl-C while Python imports
+    the command's modules or parses its arguments ending as one during the command does
+    (``uw3p: interrupted``, exit status 130), not in a traceback.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
+    import sys
+
+    try:
+        from .cli import main
+
+        return main()
+    except KeyboardInterrupt:
+        sys.stderr.write("uw3p: interrupted\n")
+        return 130
