@@ -362,8 +362,9 @@ def test_an_edited_profile_with_the_same_size_and_time_is_refused(measured):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("option", [["--tiff", "compressed"], ["--path-model", "absorption"],
-                                    ["--depth-sd", "0.3"],
+@pytest.mark.parametrize("option", [["--tiff", "compressed"], ["--depth-sd", "0.3"],
+                                    pytest.param(["--path-model", "absorption"],
+                                                 marks=adversarial),
                                     pytest.param(["--illuminant", "D50"], marks=adversarial),
                                     pytest.param(["--quantal"], marks=adversarial),
                                     pytest.param(["--black-level", "10"], marks=adversarial),
@@ -712,8 +713,9 @@ def test_a_killed_runs_lock_and_temporary_files_do_not_block_or_stay(tmp_path, s
 
 
 # =========================================================================== file systems
-@pytest.mark.parametrize("where", ["a-file", "under-a-file", "lock-is-a-folder",
-                                   "summary-is-a-folder"])
+@pytest.mark.parametrize("where", [pytest.param("a-file", marks=adversarial),
+                                   pytest.param("under-a-file", marks=adversarial),
+                                   "lock-is-a-folder", "summary-is-a-folder"])
 def test_an_out_that_cannot_be_written_is_a_one_line_error(tmp_path, src, where):
     d = dive(tmp_path, src, {"a.dng": "a"}, rows=["a.dng,5,1.5"])
     f = tmp_path / "file"
@@ -974,9 +976,12 @@ def test_a_misspelled_option_is_a_one_line_error(tmp_path, src):
     assert errors == [lines[-1]] and lines[-1].startswith("uw3p measure: error: "), p.stderr
 
 
-@pytest.mark.parametrize("bad", [["--depth", "-1"], ["--camera", "nonexistent"],
-                                 ["--illuminant", "nonexistent"], ["--corners", "garbage"]],
-                         ids=["depth", "camera", "illuminant", "corners"])
+@pytest.mark.parametrize("bad", [pytest.param(["--depth", "-1"], id="depth"),
+                                 pytest.param(["--camera", "nonexistent"], id="camera"),
+                                 pytest.param(["--illuminant", "nonexistent"], id="illuminant",
+                                              marks=adversarial),
+                                 pytest.param(["--corners", "garbage"], id="corners",
+                                              marks=adversarial)])
 def test_a_bad_option_with_a_folder_is_a_one_line_error(tmp_path, src, bad):
     d = dive(tmp_path, src, {"a.dng": "a"})
     out = tmp_path / "out"
