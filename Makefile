@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty bench clean
+.PHONY: install test test-fast reproduce-figures real-data dive honesty bench docs clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -53,3 +53,14 @@ bench: $(STAMP)
 
 clean:
 	rm -rf figures cache .pytest_cache
+
+# the documentation site -> docs/_build/html (warnings are errors): the gallery's figures made
+# on the reduced grid first (a minute), unless UW3P_FIGURES names a folder of figures
+DOCS_STAMP := $(VENV)/.docs-stamp
+$(DOCS_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test,docs]"
+	@touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	@if [ -z "$(UW3P_FIGURES)" ]; then OPENBLAS_NUM_THREADS=1 $(VENV)/bin/uw3p figures --grid reduced --setting default --out docs/_build/figures --cache docs/_build/cache; fi
+	UW3P_FIGURES=$${UW3P_FIGURES:-docs/_build/figures} $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html

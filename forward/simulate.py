@@ -203,6 +203,16 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     ----------
     Blasinski & Farrell, eqs 1-15 (k and the water of eqs 3-14, the chart model of eq 15, the
     veiling light of eq 2 as in DECISIONS.md); the sensor after ISET (Farrell et al. 2012).
+
+    Examples
+    --------
+    >>> import forward
+    >>> sim = forward.simulate_chart(2.0, 0.1, depth=5, distance=1, seed=0)
+    >>> sim.rgb.shape                      # 3 channels x 24 patches
+    (3, 24)
+    >>> i490 = int(abs(sim.wavelengths - 490).argmin())
+    >>> print(f"{sim.attenuation_coefficient[i490]:.3f}")   # the path's c(490), m^-1
+    0.130
     """
     chl = validate.scalar("chl", chl)
     cdom = validate.scalar("cdom", cdom)

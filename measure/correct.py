@@ -396,6 +396,22 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     --------
     >>> out = correct_image("DIVE_03.dng", "results/DIVE_01/measurement.json",
     ...                     "DIVE_03_range.tif")  # doctest: +SKIP
+    Examples
+    --------
+    A photo measured, then corrected along a range map that runs from 1 m to 6 m across it:
+
+    >>> import tempfile, pathlib, numpy as np, measure
+    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> corners = default_corners(360, 240)
+    >>> photo = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,
+    ...                                       gain=30000, width=360, height=240, seed=2), corners),
+    ...                   folder / "reef.dng")
+    >>> m = measure.measure(photo, corners=corners, depth=5.0, distance=1.5)
+    >>> ranges = np.tile(np.linspace(1.0, 6.0, 360, dtype=np.float32), (240, 1))
+    >>> out = measure.correct_image(m.photo, m, ranges)
+    >>> out.srgb.shape, out.srgb.dtype
+    ((240, 360, 3), dtype('uint16'))
     """
     for name, v in (("white", white), ("white_linear", white_linear)):
         if not (math.isfinite(v) and 0 < v <= 1):

@@ -192,6 +192,13 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     References
     ----------
     S. M. Kay, Fundamentals of Statistical Signal Processing: Estimation Theory (1993), ch. 3.
+
+    Examples
+    --------
+    >>> import sca
+    >>> p = sca.precision(2.0, 0.1, depth=5, distance=1)
+    >>> print(f"C: sd {p.chl_sd:.1f} mg m^-3; limited by {p.limiting!r}")
+    C: sd 1.7 mg m^-3; limited by 'patch'
     """
     scalar = all(np.ndim(v) == 0 for v in (chl, cdom, depth, distance))
     if gain not in GAINS:

@@ -836,6 +836,17 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     Optimization, 2nd ed., Springer (2006), Algorithm 4.1 (the trust region of
     ``mode='safeguarded'``); D. J. Venzon & S. H. Moolgavkar, "A method for computing
     profile-likelihood-based confidence intervals", Applied Statistics 37 (1988) 87-94.
+
+    Examples
+    --------
+    >>> import forward, sca
+    >>> sim = forward.simulate_chart(2.0, 0.1, depth=5, distance=1, seed=0)
+    >>> est = sca.estimate(sim.rgb, depth=5, distance=1, sigma=sim.rgb_sigma)
+    >>> est.verdicts["c_490"], est.verdicts["chl"]
+    ('measured', 'upper bound')
+    >>> lo, hi = est.quantity_intervals["c_490"]
+    >>> print(f"c(490) = {est.quantities['c_490']:.2f} m^-1, 95 % [{lo:.2f}, {hi:.2f}]")
+    c(490) = 0.13 m^-1, 95 % [0.12, 0.15]
     """
     kw = dict(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
               reflectances=reflectances, wavelengths=wavelengths, basis=basis, fix=fix,
