@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty bench docs clean
+.PHONY: install test test-fast reproduce-figures real-data dive honesty bench docs test-release clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -16,11 +16,16 @@ install: $(STAMP)
 
 # the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release"
+
+# the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
+# (its kernels compiled afresh: a minute)
+test-release: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m release
 
 # the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not release"
 
 reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
