@@ -58,6 +58,10 @@ def _wheel_alone(dist, tmp_path):
         ["git", "ls-files", "data"], cwd=ROOT, capture_output=True, text=True,
         check=True).stdout.split() if p.endswith((".csv", ".md"))}
     assert tracked and tracked <= data, sorted(tracked - data)
+    packages = {str(p.parent.relative_to(ROOT)) for top in ("forward", "sca", "measure",
+                "experiments", "uw3p") for p in (ROOT / top).rglob("__init__.py")}
+    in_wheel = {str(Path(n).parent) for n in names if n.endswith("/__init__.py")}
+    assert packages <= in_wheel, sorted(packages - in_wheel)
     code = ("import forward, sca, measure, uw3p, uw3p_data, experiments, pathlib, sys;"
             "root = pathlib.Path(sys.argv[1]).resolve();"
             "assert all(root in pathlib.Path(m.__file__).resolve().parents "
