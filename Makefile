@@ -27,6 +27,7 @@ reproduce-figures: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.design_check
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.correct_range
 	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
 
