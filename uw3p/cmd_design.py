@@ -3,14 +3,17 @@
     uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%]
                 [--target a_CDOM=10%] [--target c=5%] [--lux 20000] [--camera ...]
                 [--sample-sd 0.0025] [--secchi-sd M] [--no-auxiliary] [--max-photos 12]
-                [--camera-only]
+                [--camera-only] [--plan dive.csv]
 
 A thin wrapper of :func:`sca.design` (:mod:`sca.protocols`): for a guessed water and the depths
 and distances a dive can use, the cheapest protocol (photos x depths x distances, with or
 without a water sample's a_CDOM(440) or a Secchi depth) whose predicted 95 % half-widths meet
 every target, what one photo gives, and where none does, the best protocol and what limits it.
 Predictions use the default uncertainty budget; ``--camera-only`` gives the camera's own limit
-(photon and read noise only), labelled as such.
+(photon and read noise only), labelled as such. The advice ends with how to follow it: what to
+photograph and measure on the dive and the ``uw3p measure`` command that fits it (a dive: its
+folder, the metadata CSV ``--plan`` writes, ``--joint``; the auxiliary measurement as
+``--cdom-sample`` or ``--secchi``).
 
 Exit status: 0 when a protocol meets every target, 1 when none does, 2 for bad input (the
 message names the option).
@@ -24,8 +27,8 @@ from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_o
                      budget_text, camera_note, check_spectra_args, uncertain_from_args,
                      water_from_args, wavelengths_from_args)
 
-__all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "SAY_MAX", "TARGET_NAMES", "add_parser",
-           "parse_target", "run"]
+__all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TARGET_NAMES",
+           "add_parser", "follow", "parse_target", "run", "write_plan"]
 
 #: The subcommand's name.
 NAME = "design"
@@ -40,6 +43,8 @@ SAY_MAX = 10.0
 TARGET_NAMES = {"c": "c", "chl": "chl", "a_cdom": "cdom", "cdom": "cdom",
                 "c443": "c_443", "c490": "c_490", "c555": "c_555", "c670": "c_670",
                 "a_nw440": "a_nw_440", "a_nw": "a_nw_440", "kd490": "kd_490", "kd": "kd_490"}
+#: Columns of the metadata CSV ``--plan`` writes (:data:`measure.dive.metadata.METADATA_COLUMNS`).
+PLAN_COLUMNS = ("image", "depth_m", "distance_m")
 #: How each target is named in the output.
 LABELS = {"chl": "C", "cdom": "a_CDOM(440)", "c": "c (443-670 nm)", "c_443": "c(443)",
           "c_490": "c(490)", "c_555": "c(555)", "c_670": "c(670)", "a_nw_440": "a_nw(440)",
@@ -95,13 +100,18 @@ def add_parser(sub):
                    help="a single photo's exposure: unknown (default: a photograph), known, or "
                         "unknown per channel (uncalibrated camera); a dive's photos each have "
                         "their own unknown exposure")
+    p.add_argument("--plan", default=None, metavar="CSV",
+                   help="write the protocol's photos as a dive's metadata CSV (image, depth_m, "
+                        "distance_m; the image names are placeholders to replace with the "
+                        "photos' file names) for uw3p measure --metadata")
     add_setup_options(p)
     add_budget_options(p)
     p.set_defaults(func=run, option_names={"chl": "--chl", "cdom": "--cdom",
                                            "depth": "--depth", "distance": "--distance",
                                            "max_photos": "--max-photos",
                                            "sample_sd": "--sample-sd",
-                                           "secchi_sd": "--secchi-sd", "targets": "--target"})
+                                           "secchi_sd": "--secchi-sd", "targets": "--target",
+                                           "plan": "--plan"})
     return p
 
 
@@ -170,6 +180,81 @@ def _aux_text(d) -> str:
             f"a Secchi depth sd {d.auxiliary_sd['secchi']:.2g} m")
 
 
+def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
+    """How to follow a protocol: what to do on the dive and the ``uw3p measure`` command that
+    measures it as the design predicted (the joint fit of a dive with the auxiliary
+    measurement fused).
+
+    Parameters
+    ----------
+    protocol : sca.protocols.Protocol
+        The protocol to follow.
+    auxiliary_sd : dict
+        'sample' (m^-1) and 'secchi' (m): the sds the design assumed (:class:`sca.Design`).
+    plan : str, optional
+        The metadata CSV's name in the command (default ``dive.csv``).
+
+    Returns
+    -------
+    list of str
+        Output lines ('follow it ...'); the command's placeholders (DIVE/, PHOTO.dng, A, Z)
+        are explained on the last line.
+    """
+    photos = ", ".join(f"{d:g} m from {r:g} m" for d, r in protocol.photos)
+    todo = [f"photograph the chart at {photos}"]
+    opts, said = "", []
+    if "sample" in protocol.auxiliary:
+        sd = auxiliary_sd["sample"]
+        todo.append(f"measure a water sample's a_CDOM(440) (sd {sd:.2g} m^-1 or better)")
+        opts += f" --cdom-sample A:{sd:.2g}"
+        said.append("A the sample's a_CDOM(440) in m^-1")
+    if "secchi" in protocol.auxiliary:
+        sd = auxiliary_sd["secchi"]
+        todo.append(f"read a Secchi depth (sd {sd:.2g} m or better)")
+        opts += f" --secchi Z:{sd:.2g}"
+        said.append("Z the Secchi depth in m")
+    if protocol.n_photos == 1:
+        (d, r), = protocol.photos
+        cmd = (f"uw3p measure PHOTO.dng --profile profile.json --depth {d:g} --distance {r:g}"
+               f"{opts} --out results/")
+        said.insert(0, "PHOTO.dng the photo")
+    else:
+        cmd = (f"uw3p measure DIVE/ --metadata {plan or 'dive.csv'} --profile profile.json "
+               f"--joint{opts} --out results/")
+        said.insert(0, f"DIVE/ the photos' folder, {plan or 'dive.csv'} one row per photo: "
+                       f"{','.join(PLAN_COLUMNS)}" + ("" if plan else " (--plan writes it)"))
+    return [f"follow it        on the dive: {'; '.join(todo)}",
+            f"  then           {cmd}",
+            f"  where          {'; '.join(said)}; profile.json from uw3p calibrate"]
+
+
+def write_plan(path: str, protocol) -> None:
+    """Write ``protocol``'s photos as a dive's metadata CSV (:data:`PLAN_COLUMNS`; the image
+    names PHOTO_01.dng, ... are placeholders for the photos' file names).
+
+    Parameters
+    ----------
+    path : str
+        The CSV file to write.
+    protocol : sca.protocols.Protocol
+
+    Raises
+    ------
+    ValueError
+        Naming ``--plan`` when the file cannot be written.
+    """
+    import csv
+
+    try:
+        with open(path, "w", encoding="utf-8", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(PLAN_COLUMNS)
+            for i, (d, r) in enumerate(protocol.photos, 1):
+                w.writerow([f"PHOTO_{i:02d}.dng", f"{d:g}", f"{r:g}"])
+    except OSError as exc:
+        raise ValueError(f"--plan: cannot write {path}: {exc.strerror or exc}") from None
+
+
 def run(args, out, err) -> int:
     """Say which protocol reaches the targets, what one photo gives, and what limits it.
 
@@ -178,11 +263,12 @@ def run(args, out, err) -> int:
     args : argparse.Namespace
         Parsed options: ``chl`` (mg m^-3), ``cdom`` (m^-1), ``depth`` and ``distance`` (one or
         two values, m), ``target`` (``NAME=PCT`` strings), ``max_photos``, ``sample_sd``,
-        ``secchi_sd``, ``no_auxiliary``, ``camera_only``, ``lux``, ``exposure``, ``gain`` and
-        the setup and budget options.
+        ``secchi_sd``, ``no_auxiliary``, ``camera_only``, ``plan`` (a CSV path or None),
+        ``lux``, ``exposure``, ``gain`` and the setup and budget options.
     out : text stream
         The budget, the targets, what one photo gives, the protocol (or the best one and its
-        limit), the camera's own limit for contrast, and a verdict.
+        limit), the camera's own limit for contrast, a verdict and, where a protocol meets the
+        targets, how to follow it (:func:`follow`).
     err : text stream
         A note when the camera's curves stop inside the grid.
 
@@ -272,6 +358,10 @@ def run(args, out, err) -> int:
             + ", ".join(f"{LABELS[k]} {_pm(p.rel95[k])}" for k in targets)
             + " at 95 %: a reliable measurement is possible; the cheapest protocol of those "
             f"searched ({searched})."))
+        lines += follow(p.protocol, d.auxiliary_sd, args.plan)
+        if d.camera_only:
+            lines.append("  note           a camera-only design: uw3p measure fits with the "
+                         "default budget, whose intervals are wider than predicted here")
     else:
         b = d.best
         lines += [f"best protocol    {b.protocol.describe()}",
@@ -293,6 +383,12 @@ def run(args, out, err) -> int:
                      f"±{100 * targets[worst]:g} % here: no protocol searched ({searched}) "
                      f"meets every target; the best gives {LABELS[worst]} {_pm(b.rel95[worst])}, "
                      f"{why}.")
+    shown = d.protocol if d.meets else d.best
+    if args.plan:
+        write_plan(args.plan, shown.protocol)
+        lines.append(f"plan             {args.plan}: the {'' if d.meets else 'best '}protocol's "
+                     f"{shown.protocol.n_photos} photo(s) as the metadata CSV (replace the "
+                     "placeholder image names)")
     out.write("\n".join(lines) + "\n")
     return EXIT_OK if d.meets else EXIT_NOT_RELIABLE
 
