@@ -3,7 +3,7 @@
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
     uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--gain free]
     uw3p estimate --batch charts.csv --distance 5 [--json] [--attenuation k.csv]
-    uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%] [--camera-only]
+    uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%] [--plan dive.csv]
     uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
     uw3p correct PHOTO.dng --water DIR/measurement.json --range map.tif --out CORRECTED

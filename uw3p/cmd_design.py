@@ -200,6 +200,8 @@ def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
         Output lines ('follow it ...'); the command's placeholders (DIVE/, PHOTO.dng, A, Z)
         are explained on the last line.
     """
+    import shlex
+
     photos = ", ".join(f"{d:g} m from {r:g} m" for d, r in protocol.photos)
     todo = [f"photograph the chart at {photos}"]
     opts, said = "", []
@@ -219,8 +221,8 @@ def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
                f"{opts} --out results/")
         said.insert(0, "PHOTO.dng the photo")
     else:
-        cmd = (f"uw3p measure DIVE/ --metadata {plan or 'dive.csv'} --profile profile.json "
-               f"--joint{opts} --out results/")
+        cmd = (f"uw3p measure DIVE/ --metadata {shlex.quote(plan or 'dive.csv')} "
+               f"--profile profile.json --joint{opts} --out results/")
         said.insert(0, f"DIVE/ the photos' folder, {plan or 'dive.csv'} one row per photo: "
                        f"{','.join(PLAN_COLUMNS)}" + ("" if plan else " (--plan writes it)"))
     return [f"follow it        on the dive: {'; '.join(todo)}",
