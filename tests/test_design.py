@@ -279,6 +279,13 @@ def test_design_check_draws_a_dive_of_the_protocol_with_the_samples_reading():
     told = np.concatenate([x["depth_told"] - x["depth"] for x in dives])
     assert abs(told.std() / sca.DEFAULT_UNCERTAIN["depth"] - 1) < 0.1
     assert dc.draw_dive(rng, spec, Protocol((5.0,), (1.0,)), 0.0025)["auxiliary"] is None
+    # a water the design did not guess: the dives and the sample are of the truth, the design
+    # (its command) of the guess, and the row has no criterion
+    wrong = next(x for x in dc.DESIGNS if x.get("truth") == (1.5, 0.15))
+    d = dc.draw_dive(rng, wrong, proto, 0.0025)
+    assert d["chl"] == 1.5 and np.all(d["chl_photo"] == 1.5)
+    assert abs(d["auxiliary"]["cdom"][0] - 0.15) < 0.0125
+    assert dc.command(wrong) == dc.command(spec)
     assert dc.command(dc.DESIGNS[1]) == ("uw3p design --chl 0.1 --cdom 0.01 --depth 2 15 "
                                          "--distance 1 3 --target C=30% --sample-sd 0.001")
 
@@ -297,6 +304,7 @@ def test_design_check_criteria_and_report_on_numbers():
          **{f"p_{k}": dc._binom_two_sided(6, 40) for k in ("chl", "cdom") + dc.C_BANDS}}
     c = dc.check(s)
     assert [v[0] for v in c.values()] == [False, True, True]  # 1.4 > 1.33; p = 0.014 > 0.01
+    assert dc.check({**s, "informational": True}) == {}
     s["miss_chl"], s["p_chl"] = 7, dc._binom_two_sided(7, 40)
     assert not dc.check(s)["C covered at the nominal rate (two-sided binomial p >= 0.01)"][0]
     # over-coverage fails too where the test can see it: 0 misses in 400
