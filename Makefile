@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty bench docs test-release clean
+.PHONY: install test test-fast reproduce-figures real-data dive honesty design-check bench docs test-release clean
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -31,6 +31,7 @@ reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.design_check
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.correct_range
 	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
@@ -45,6 +46,11 @@ real-data: $(STAMP)
 # Ctrl-C); exit 1 when a criterion fails
 dive: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty --strict
+
+# DESIGN.md alone: the designs of `uw3p design` (C to +-30 %, coastal and clear water) rendered
+# by the independent renderer and fitted jointly; exit 1 when a criterion fails
+design-check: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.design_check --strict
 
 # HONESTY.md alone: the estimator on worlds an independent renderer made (exit 1 when an
 # acceptance criterion fails; the report says which)

@@ -18,6 +18,7 @@ _HOME = {
     "BatchEstimate": "batch", "estimate_batch": "batch",
     "Precision": "bound", "precision": "bound",
     "DEFAULT_UNCERTAIN": "budget_defaults",
+    "Design": "protocols", "design": "protocols",
     "PATH_MODEL_DELTA": "pathmodels",
     "FIXABLE": "fitspec", "FREEABLE": "fitspec",
     "MODES": "loop", "Estimator": "loop", "estimate": "loop",
