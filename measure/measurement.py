@@ -22,6 +22,7 @@ from forward import validate
 from forward.spectra import WHITE_PATCH
 from forward.water import resolve_water
 from sca.assess import BLOCKING
+from sca.budget_defaults import PATCH_FLOOR
 
 from .camera import Profile, camera_setup, load_profile
 from .chart import (
@@ -196,11 +197,11 @@ def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
                         water=water, uncertain=uncertain, mode=mode)
 
 
-def budget_for(uncertain, profile) -> dict:
+def budget_for(uncertain, profile, patch_floor: float = PATCH_FLOOR) -> dict:
     """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
     (:data:`sca.budget.DEFAULT_UNCERTAIN`) with the profile's own numbers where it has them:
-    its per-patch systematic error (``patch``) and the largest standard error of its channel
-    gains (``balance``).
+    its per-patch systematic error (``patch``), never below ``patch_floor``, and the largest
+    standard error of its channel gains (``balance``).
 
     Parameters
     ----------
@@ -208,6 +209,12 @@ def budget_for(uncertain, profile) -> dict:
         The budget asked for (None: the default).
     profile : measure.Profile or None
         The camera's calibration.
+    patch_floor : float, optional
+        The per-patch term underwater is at least this (default
+        :data:`sca.budget_defaults.PATCH_FLOOR`, the budget's own 1 %): the calibration in air
+        measures the chart's and the camera's part under the light in air, not what only the
+        light's path through water shows (DECISIONS.md, "The per-patch term underwater"); 0:
+        the calibration's value as it is (the rule before issue 37).
 
     Returns
     -------
@@ -219,7 +226,7 @@ def budget_for(uncertain, profile) -> dict:
     out = dict(sca.budget.DEFAULT_UNCERTAIN)
     if profile is not None:
         if profile.patch_sd is not None and np.isfinite(profile.patch_sd):
-            out["patch"] = float(profile.patch_sd)
+            out["patch"] = max(float(profile.patch_sd), float(patch_floor))
         se = np.asarray(profile.gains_se, float)
         if se.size and np.all(np.isfinite(se)):
             out["balance"] = float(np.max(se))

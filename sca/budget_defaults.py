@@ -4,7 +4,8 @@ They live apart from :mod:`sca.budget` (which re-exports them) so that the comma
 state them in its help without importing numpy or the physics (DECISIONS.md "Start-up").
 """
 
-__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "REAL_WATER_UNCERTAIN"]
+__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "CHART_PATCH", "PATCH_FLOOR",
+           "REAL_WATER_UNCERTAIN"]
 
 #: Real water's chlorophyll-specific absorption about eqs 10 and 8 (NASA NOMAD v2 a_phi(443)/C
 #: and a_d(443)/C: ln sd 0.49 and 1.07 on the even stations, i.e. 49 % and 107 % of 0.0378 and
@@ -48,3 +49,14 @@ BUDGET_SOURCES = {
                 "beyond 10 000 K, 5700 K typical: Hernandez-Andres et al., JOSA A 18 (2001) 1325)",
     "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
 }
+#: The chart's own part of the default per-patch term, relative: its reflectance tolerance
+#: (0.1-0.7 %, the upper end). It is the same error in every photo of a dive; the rest of
+#: ``patch`` (the camera curves' error and the daylight's spectrum beyond its colour, which act
+#: through the spectrum of the light at the chart and so change with each photo's path) is each
+#: photo's own: the joint fit's default ``patch_correlation`` is (CHART_PATCH / patch)^2
+#: (DECISIONS.md, "The per-patch term underwater").
+CHART_PATCH = 0.007
+#: The per-patch term underwater is never below this (``measure.budget_for``): a calibration in
+#: air measures the chart's and the camera's part under the light in air, not what only the
+#: light's path through water shows (DECISIONS.md, "The per-patch term underwater").
+PATCH_FLOOR = DEFAULT_UNCERTAIN["patch"]
