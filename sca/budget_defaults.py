@@ -4,7 +4,7 @@ They live apart from :mod:`sca.budget` (which re-exports them) so that the comma
 state them in its help without importing numpy or the physics (DECISIONS.md "Start-up").
 """
 
-__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "CHART_PATCH", "PATCH_FLOOR",
+__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "CHART_PATCH", "MEASURED_CHART_PATCH",
            "REAL_WATER_UNCERTAIN"]
 
 #: Real water's chlorophyll-specific absorption about eqs 10 and 8 (NASA NOMAD v2 a_phi(443)/C
@@ -56,7 +56,13 @@ BUDGET_SOURCES = {
 #: photo's own: the joint fit's default ``patch_correlation`` is (CHART_PATCH / patch)^2
 #: (DECISIONS.md, "The per-patch term underwater").
 CHART_PATCH = 0.007
-#: The per-patch term underwater is never below this (``measure.budget_for``): a calibration in
-#: air measures the chart's and the camera's part under the light in air, not what only the
-#: light's path through water shows (DECISIONS.md, "The per-patch term underwater").
-PATCH_FLOOR = DEFAULT_UNCERTAIN["patch"]
+#: The per-patch term of the default budget when the chart's own spectra were measured with a
+#: spectrometer (``measure.measure(chart_reflectance=...)``, ``--chart-reflectance``): 0.7 %,
+#: the default's 1 % with the chart's reflectance tolerance at its upper end (0.7 %) taken out
+#: in quadrature (sqrt(1.0^2 - 0.7^2) = 0.71 %); what stays is the camera curves' error beyond
+#: their shift, the daylight's spectral variation beyond its colour and the spectrometer's own
+#: reading. Between the 0.5 % at which the independent renderer's clean world (the chart known
+#: exactly) is covered at the nominal rate and the 1 % kept for a chart known only nominally
+#: (DECISIONS.md, "A measured chart"). A camera profile's measured ``patch_sd`` raises it, never
+#: lowers it (``measure.budget_for``; DECISIONS.md, "The per-patch term underwater").
+MEASURED_CHART_PATCH = 0.007
