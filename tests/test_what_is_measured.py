@@ -394,7 +394,11 @@ def test_a_measured_chart_replaces_the_nominal_in_calibrate_and_measure(tmp_path
     rec = json.loads((res / "measurement.json").read_text())
     assert rec["inputs"]["chart_reflectance"]["sha256"] == measured.chart
     assert rec["inputs"]["auxiliary"][0]["source"] == "--cdom-sample"
-    assert rec["inputs"]["uncertain"]["patch"] == pytest.approx(measured.patch_sd)
+    # the calibration's in-air term, never below what a measured chart leaves underwater
+    from sca.budget_defaults import MEASURED_CHART_PATCH
+
+    assert rec["inputs"]["uncertain"]["patch"] == pytest.approx(
+        max(measured.patch_sd, MEASURED_CHART_PATCH))
     worn = measure.measure(shots["worn_uw"], corners=shots["corners"], depth=UW["depth"],
                            distance=UW["distance"], profile=nominal,
                            auxiliary={"cdom": (0.1, 0.005)}).estimate
