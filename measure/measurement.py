@@ -24,6 +24,7 @@ from forward.water import resolve_water
 from sca.assess import BLOCKING
 from sca.auxiliary import auxiliary_observations
 from sca.budget import parse_sd
+from sca.budget_defaults import MEASURED_CHART_PATCH
 
 from .auxiliary import auxiliary_record
 from .camera import Profile, camera_setup, chart_digest, load_profile, read_chart_reflectance
@@ -246,12 +247,13 @@ def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
                         water=water, uncertain=uncertain, mode=mode, auxiliary=auxiliary or None)
 
 
-def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
+def budget_for(uncertain, profile, measured_chart: bool = False,
+               patch_floor: float | None = None) -> dict:
     """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
     (:data:`sca.budget.DEFAULT_UNCERTAIN`; with a measured chart its per-patch term is
     :data:`sca.budget_defaults.MEASURED_CHART_PATCH`) with the profile's own numbers where it
-    has them: its per-patch systematic error (``patch``) and the largest standard error of its
-    channel gains (``balance``).
+    has them: its per-patch systematic error (``patch``), never below ``patch_floor``, and the
+    largest standard error of its channel gains (``balance``).
 
     Parameters
     ----------
@@ -262,6 +264,12 @@ def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
     measured_chart : bool, optional
         The chart's own spectra were measured (``chart_reflectance``): the default per-patch
         term is what such a chart still leaves.
+    patch_floor : float, optional
+        The per-patch term underwater is at least this (default None: the default budget's
+        own, 1 % or :data:`sca.budget_defaults.MEASURED_CHART_PATCH` with a measured chart):
+        the calibration in air measures the chart's and the camera's part under the light in
+        air, not what only the light's path through water shows (DECISIONS.md, "The per-patch
+        term underwater"); 0: the calibration's value as it is (the rule before issue 37).
 
     Returns
     -------
@@ -272,12 +280,11 @@ def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
         return dict(uncertain)
     out = dict(sca.budget.DEFAULT_UNCERTAIN)
     if measured_chart:
-        from sca.budget_defaults import MEASURED_CHART_PATCH
-
         out["patch"] = MEASURED_CHART_PATCH
+    floor = out["patch"] if patch_floor is None else float(patch_floor)
     if profile is not None:
         if profile.patch_sd is not None and np.isfinite(profile.patch_sd):
-            out["patch"] = float(profile.patch_sd)
+            out["patch"] = max(float(profile.patch_sd), floor)
         se = np.asarray(profile.gains_se, float)
         if se.size and np.all(np.isfinite(se)):
             out["balance"] = float(np.max(se))

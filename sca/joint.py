@@ -39,6 +39,7 @@ from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
 from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
+from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .derived import derived_from_fit, verdict
 from .diveproblem import PATCH, DiveProblem
@@ -62,9 +63,12 @@ __all__ = [
 #: Level of the heterogeneity test (one water or not) and of each photo's test against the rest
 #: (Bonferroni over the photos).
 HETEROGENEITY_ALPHA = 0.01
-#: Default correlation of the per-patch systematic error between photos: 1, the same chart
-#: (reflectance tolerance and ageing) and the same camera in every photo (DECISIONS.md).
-PATCH_CORRELATION = 1.0
+#: Default correlation of the per-patch systematic error between photos: the chart's share of
+#: the default per-patch variance, (CHART_PATCH / patch)^2 = 0.49. The chart's reflectance
+#: tolerance is the same in every photo; the camera curves' error and the daylight's spectrum
+#: act through the light at the chart, which changes with each photo's path, and are each
+#: photo's own (DECISIONS.md, "The per-patch term underwater"; 1 before issue 37).
+PATCH_CORRELATION = (CHART_PATCH / DEFAULT_UNCERTAIN["patch"]) ** 2
 #: Levenberg-Marquardt iterations of a joint fit (its tolerance is the package's LM_TOL).
 JOINT_MAX_ITER = 300
 #: Levenberg-Marquardt iterations of another path model's fit to a design's noise-free photos
@@ -421,8 +425,9 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     path_models : sequence of str, optional
         Path models to compare (default: every candidate where a budget applies).
     patch_correlation : float, optional
-        Correlation of the per-patch systematic error between photos (default 1: the same
-        chart and camera).
+        Correlation of the per-patch systematic error between photos (default
+        :data:`PATCH_CORRELATION`: the chart's part shared, the light's part each photo's own;
+        1: all of it shared, the rule before issue 37).
     start : dict, optional
         Per-photo starting values 'chl', 'cdom', 'gain', 'backscatter' ((N,), (N, m); data
         units); default: each photo's own fit.
