@@ -248,11 +248,11 @@ def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
 
 
 def budget_for(uncertain, profile, measured_chart: bool = False,
-               patch_floor: float | None = None) -> dict:
+               patch_floor: float | None = 0.0) -> dict:
     """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
     (:data:`sca.budget.DEFAULT_UNCERTAIN`; with a measured chart its per-patch term is
     :data:`sca.budget_defaults.MEASURED_CHART_PATCH`) with the profile's own numbers where it
-    has them: its per-patch systematic error (``patch``), never below ``patch_floor``, and the
+    has them: its per-patch systematic error (``patch``, never below ``patch_floor``) and the
     largest standard error of its channel gains (``balance``).
 
     Parameters
@@ -264,12 +264,13 @@ def budget_for(uncertain, profile, measured_chart: bool = False,
     measured_chart : bool, optional
         The chart's own spectra were measured (``chart_reflectance``): the default per-patch
         term is what such a chart still leaves.
-    patch_floor : float, optional
-        The per-patch term underwater is at least this (default None: the default budget's
-        own, 1 % or :data:`sca.budget_defaults.MEASURED_CHART_PATCH` with a measured chart):
-        the calibration in air measures the chart's and the camera's part under the light in
-        air, not what only the light's path through water shows (DECISIONS.md, "The per-patch
-        term underwater"); 0: the calibration's value as it is (the rule before issue 37).
+    patch_floor : float or None, optional
+        The per-patch term underwater is at least this. Default 0: the calibration's value as it
+        is. None: the default budget's own (1 %, or
+        :data:`sca.budget_defaults.MEASURED_CHART_PATCH` with a measured chart), since the
+        calibration in air measures the chart's and the camera's part under the light in air,
+        not what only the light's path through water shows; not the default, for want of
+        evidence (DECISIONS.md, "The per-patch term underwater").
 
     Returns
     -------

@@ -129,7 +129,7 @@ def test_ladders_are_nested_and_within_the_range():
 def designs():
     return {
         "one photo": sca.design(**COASTAL, targets={"c": 0.30}),
-        "dive": sca.design(**COASTAL, targets={"chl": 0.60}, auxiliary=("none",)),
+        "dive": sca.design(**COASTAL, targets={"chl": 0.90}, auxiliary=("none",)),
         "photos only, C 30 %": sca.design(**COASTAL, targets={"chl": 0.30},
                                           auxiliary=("none",)),
         "auxiliary": sca.design(**COASTAL, targets={"chl": 0.30}),
@@ -155,15 +155,17 @@ def test_a_target_one_photo_meets(designs):
 
 @pytest.mark.slow
 def test_a_target_that_needs_a_dive(designs):
+    """With the default budget (the per-patch error shared between photos in the chart's part
+    only, sca.joint.PATCH_CORRELATION), photos alone reach C to about +-80 % in coastal water."""
     d = designs["dive"]
     p = d.protocol
     assert d.meets and p.protocol.n_photos > 1 and p.protocol.auxiliary == "none"
-    assert not d.one_photo.meets and d.one_photo.rel95["chl"] > 0.60 >= p.rel95["chl"]
+    assert not d.one_photo.meets and d.one_photo.rel95["chl"] > 0.90 >= p.rel95["chl"]
     _consistent(p, d.targets)
     # the fewest photos: none of the protocols with fewer meets the target
-    fewer = sca.design(**COASTAL, targets={"chl": 0.60}, auxiliary=("none",),
+    fewer = sca.design(**COASTAL, targets={"chl": 0.90}, auxiliary=("none",),
                        max_photos=p.protocol.n_photos - 1)
-    assert not fewer.meets and fewer.best.rel95["chl"] > 0.60
+    assert not fewer.meets and fewer.best.rel95["chl"] > 0.90
 
 
 @pytest.mark.slow

