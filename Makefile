@@ -29,6 +29,7 @@ reproduce-figures: $(STAMP)
 	$(STOPWATCH) "reproduce-figures: figures" -- $(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
 	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: honesty" -- $(PY) -m experiments.honesty
 	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: dive_honesty" -- $(PY) -m experiments.dive_honesty
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: correct_range" -- $(PY) -m experiments.correct_range
 	@if [ -d ../shared/realdata ]; then $(STOPWATCH) "reproduce-figures: real-data" -- $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
 

@@ -64,6 +64,7 @@ __all__ = [
     "BEAM_TERMS",
     "DIFFUSE_TERMS",
     "ABSORPTION_TERMS",
+    "NONWATER_ABSORPTION_TERMS",
     "PARTICLE_TERMS",
     "SCATTERING_TERMS",
     "PURE_WATER_TABLE",
@@ -1267,6 +1268,8 @@ def _sum_pieces(pieces, lead, q):
 #: its value and its derivatives by name; the path coefficient is a + b ('beam', eqs 3-4) or
 #: a ('absorption', eq 13 as printed).
 ABSORPTION_TERMS = (_water_absorption_term, _cdom_term, _phytoplankton_term, _nap_term)
+#: The absorption of everything but water: CDOM, phytoplankton and NAP (a - a_w, eq 5).
+NONWATER_ABSORPTION_TERMS = ABSORPTION_TERMS[1:]
 PARTICLE_TERMS = (_background_term, _particle_term)
 SCATTERING_TERMS = (_water_scattering_term,) + PARTICLE_TERMS
 BEAM_TERMS = ABSORPTION_TERMS + SCATTERING_TERMS

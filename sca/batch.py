@@ -40,6 +40,7 @@ from .assess import (
     input_flag_table,
     profile_delta,
 )
+from .auxiliary import auxiliary_observations
 from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
@@ -57,6 +58,7 @@ from .model import (
 )
 from .pathmodels import candidates, combine_batch
 from .projection import grid_best
+from .derived import derived_from_fit, quantity_names, verdict
 from .quadrature import CERTIFY_SIGMA, reduction_error
 
 __all__ = [
@@ -72,6 +74,7 @@ __all__ = [
     "estimate_batch",
     "scale_test",
     "start_grid",
+    "verdicts_of",
 ]
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).
@@ -197,6 +200,20 @@ class BatchEstimate:
     path_models: list = field(default_factory=list)
     #: path model -> (N,) objective of each chart under it
     path_objective: dict = field(default_factory=dict)
+    #: what the photos measure (:mod:`sca.derived`): name -> (N,) value of every derived
+    #: quantity (the path's attenuation coefficient c at 443, 490, 555, 670 nm, a_nw(440),
+    #: K_d(490); m^-1)
+    quantities: dict = field(default_factory=dict)
+    #: name -> (N, 2) their 95 % intervals (spanning the supported path models)
+    quantity_intervals: dict = field(default_factory=dict)
+    #: (N, q) the attenuation coefficient of the light's path, tau / (depth + distance), on
+    #: ``wavelengths``, m^-1 (the beam attenuation c = a + b for the paper's path model)
+    beam_attenuation: np.ndarray | None = None
+    #: (N, q, 2) its 95 % interval at every wavelength
+    beam_attenuation_ci: np.ndarray | None = None
+    #: name -> (N,) verdict of 'chl', 'cdom' and every quantity: 'measured', 'upper bound' or
+    #: 'not constrained' (:func:`sca.derived.verdict`)
+    verdicts: dict = field(default_factory=dict)
 
     def __len__(self):
         return self.chl.size
@@ -260,7 +277,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
                    max_iter: int = 100, tol: float = LM_TOL, setup: ChartSetup | None = None,
                    engine: str = DEFAULT_ENGINE, gain: str = "known",
                    uncertain=None, path_models=None,
-                   quadrature: str = DEFAULT_QUADRATURE) -> BatchEstimate:
+                   quadrature: str = DEFAULT_QUADRATURE, auxiliary=None) -> BatchEstimate:
     """Estimate the water of a stack of charts ``rgb_stack`` (N, m, n).
 
     Parameters
@@ -311,6 +328,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         (:mod:`sca.quadrature`) where the grid is fine, every chart's optimum checked against
         the full grid and refitted on it where they differ by more than
         :data:`sca.quadrature.CERTIFY_SIGMA` of a value's noise; 'full': the grid as given.
+    auxiliary : dict, optional
+        What was measured besides the photos (:func:`sca.auxiliary.auxiliary_observations`:
+        'cdom' (value, sd) m^-1, 'secchi' (depth, sd) m, 'kd' {nm: (value, sd)} m^-1; values
+        and sds scalars or (N,), NaN where a chart has none), fused in every fit (needs
+        ``sigma``).
 
     Returns
     -------
@@ -334,7 +356,10 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
           "camera": camera, "illuminant": illuminant, "reflectances": reflectances,
           "wavelengths": wavelengths, "basis": basis, "fix": fix, "free": free,
           "intervals": intervals, "max_iter": max_iter, "tol": tol, "setup": setup,
-          "engine": engine, "gain": gain, "uncertain": uncertain, "quadrature": quadrature}
+          "engine": engine, "gain": gain, "uncertain": uncertain, "quadrature": quadrature,
+          "auxiliary": auxiliary}
+    if auxiliary and sigma is None:
+        raise ValueError("auxiliary: needs the photos' noise (sigma) to weigh against")
     if quadrature not in QUADRATURES:
         raise ValueError(f"quadrature: must be one of {QUADRATURES}, got {quadrature!r}")
     if len(models) == 1:
@@ -348,7 +373,7 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
 
 def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, illuminant,
                     reflectances, wavelengths, basis, water, fix, free, intervals, max_iter, tol,
-                    setup, engine, gain, uncertain, quadrature) -> BatchEstimate:
+                    setup, engine, gain, uncertain, quadrature, auxiliary) -> BatchEstimate:
     """:func:`estimate_batch` under one path model (``water``'s)."""
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
@@ -397,11 +422,15 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
 
     def rows(a, i):
         return None if a is None else a[i:i + CHUNK]
+    obs = [o.rows(np.arange(N)) for o in auxiliary_observations(auxiliary, spec.water)]
+    for o in obs:
+        o.value, o.sd = np.broadcast_to(o.value, (N,)), np.broadcast_to(o.sd, (N,))
     parts = [_solve_certified(mdl, spec, M[i:i + CHUNK], rows(sig, i),
                               {k: v[i:i + CHUNK] for k, v in geometry.items()},
                               scale[i:i + CHUNK], int(max_iter), tol, bool(intervals),
                               None if budget is None else budget.rows(slice(i, i + CHUNK)),
-                              quadrature == "reduced")
+                              quadrature == "reduced",
+                              [o.rows(slice(i, i + CHUNK)) for o in obs])
              for i in range(0, N, CHUNK)] or [_empty(mdl, spec)]
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]
            if key not in ("values", "intervals", "budget")}
@@ -429,6 +458,8 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
     if spec.free_gain:
         values["gain"] = out["gain"]
         ints["gain"] = out["gain_ci"]
+    quantities = {k[2:]: out[k] for k in out if k.startswith("q:")}
+    quantity_intervals = {k[4:]: out[k] for k in out if k.startswith("qci:")}
     return BatchEstimate(
         chl=chl, cdom=cdom, chl_ci=chl_ci, cdom_ci=cdom_ci, reliable=reliable,
         flags=flags, fit_rms=out["fit_rms"], chi2_dof=out["chi2_dof"], chi2_p=out["chi2_p"],
@@ -440,8 +471,19 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         elapsed_s=time.perf_counter() - t0, values=values, intervals=ints,
         uncertain={} if budget is None else dict(budget.sd), budget=shares,
         path_model=np.full(N, water.path_model), path_models=[(water.path_model,)] * N,
-        path_objective={water.path_model: objective},
+        path_objective={water.path_model: objective}, quantities=quantities,
+        quantity_intervals=quantity_intervals, beam_attenuation=out["c"],
+        beam_attenuation_ci=out["c_ci"],
+        verdicts=verdicts_of(chl_ci, cdom_ci, quantity_intervals),
     )
+
+
+def verdicts_of(chl_ci, cdom_ci, quantity_intervals) -> dict:
+    """name -> (N,) verdict (:func:`sca.derived.verdict`) of C, a_CDOM and every quantity."""
+    out = {"chl": verdict(chl_ci[:, 0], chl_ci[:, 1]),
+           "cdom": verdict(cdom_ci[:, 0], cdom_ci[:, 1])}
+    out.update({k: verdict(v[:, 0], v[:, 1]) for k, v in quantity_intervals.items()})
+    return out
 
 
 def _concatenate_budgets(parts):
@@ -464,10 +506,15 @@ def _empty(mdl, spec):
             "fit_rms": z, "dof": np.zeros(0, int), "chi2_dof": z, "chi2_p": z,
             "gain_ci": np.zeros((0, 2)), "ci_codes": np.zeros((0, 4), int),
             "values": {n: z for n in names}, "intervals": {n: np.zeros((0, 2)) for n in names},
-            "budget": {}, "quadrature": z, "ssr": z, "scale_p": z}
+            "budget": {}, "quadrature": z, "ssr": z, "scale_p": z,
+            "c": np.zeros((0, mdl.full.wavelengths.size)),
+            "c_ci": np.zeros((0, mdl.full.wavelengths.size, 2)),
+            **{f"q:{k}": z for k in quantity_names()},
+            **{f"qci:{k}": np.zeros((0, 2)) for k in quantity_names()}}
 
 
-def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> ChartProblem:
+def make_problem(mdl, spec, M, sig, geometry, scale, budget=None,
+                 observations=()) -> ChartProblem:
     """The scaled :class:`sca.charts.ChartProblem` of charts ``M`` (N, m, n) (data units); with a
     ``budget`` (:class:`sca.budget.Budget` of these charts) its nuisance parameters follow the
     free names, with their Gaussian priors, and ``sig`` includes the per-patch term."""
@@ -494,7 +541,7 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None) -> ChartProble
     fs = None if spec.free_s else np.ascontiguousarray(
         spec.fixed["backscatter"][None, :] / scale[:, None])
     return ChartProblem(mdl, Ms, W2, np.ascontiguousarray(scale), names, fixed,
-                        spec.free_gain, fs, mean, weight)
+                        spec.free_gain, fs, mean, weight, observations)
 
 
 def start_values(prob: ChartProblem, geometry) -> np.ndarray:
@@ -564,7 +611,7 @@ def start_grid(prob: ChartProblem, geometry):
 
 
 def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
-                     reduce: bool):
+                     reduce: bool, observations=()):
     """:func:`_solve_chunk` on the model's certified quadrature (``reduce``, where its grid is
     reduced), each optimum checked against the full grid (:func:`sca.quadrature.reduction_error`
     in units of the sensor's noise) and the charts where they differ by more than
@@ -572,7 +619,8 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
     every chart on the full grid. Adds 'quadrature' (N,): the largest reduction error at the
     optimum (0 where the full grid was used)."""
     small = mdl.reduced() if reduce else mdl
-    res = _solve_chunk(small, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget)
+    res = _solve_chunk(small, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
+                       observations)
     N = M.shape[0]
     params = _solution_params(res, geometry, spec, scale)
     res["quadrature"] = np.zeros(N)
@@ -587,7 +635,8 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
         if bad.size:
             redo = _solve_chunk(mdl, spec, M[bad], None if sig is None else sig[bad],
                                 {k: v[bad] for k, v in geometry.items()}, scale[bad], max_iter,
-                                tol, intervals, None if budget is None else budget.rows(bad))
+                                tol, intervals, None if budget is None else budget.rows(bad),
+                                [o.rows(bad) for o in observations])
             _replace_rows(res, redo, bad)
             res["quadrature"][bad] = 0.0
             params = _solution_params(res, geometry, spec, scale)
@@ -623,14 +672,15 @@ def _replace_rows(res, redo, rows) -> None:
             res[key][rows] = val
 
 
-def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget=None):
+def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget=None,
+                 observations=()):
     """Levenberg-Marquardt (and the intervals) on one chunk of charts: a dict of results, s
     and f in the chunk's scaled units."""
     N = M.shape[0]
     sig_photon = sig
     if budget is not None:
         sig = budget.noise_sd(M, sig)
-    prob = make_problem(mdl, spec, M, sig, geometry, scale, budget)
+    prob = make_problem(mdl, spec, M, sig, geometry, scale, budget, observations)
     theta0 = start_values(prob, geometry)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M)
     if prob.prior_mean is not None:
@@ -688,6 +738,12 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     res["values"] = {n: np.asarray(values[n], float) for n in prob.free}
     res["intervals"] = {n: ends[:, j] for j, n in enumerate(spec.names)}
     res["ci_codes"] = _chl_cdom_codes(spec.names, codes)
+    # what the photos measure: the water's optical properties with their own intervals
+    sigma2 = 1.0 if noise_known else f / np.maximum(dof, 1)
+    derived = derived_from_fit(prob, theta, H, mdl.water, mdl.full.wavelengths, sigma2)
+    for name, (value, ci) in derived["quantities"].items():
+        res[f"q:{name}"], res[f"qci:{name}"] = value, ci
+    res["c"], res["c_ci"] = derived["c"], derived["c_ci"]
     return res
 
 
@@ -788,7 +844,7 @@ def scale_test(prob: ChartProblem, theta, f, geometry):
     hypotheses", Ann. Math. Statist. 9 (1938) 60-62.
     """
     free = ChartProblem(prob.model, prob.M, prob.W2, prob.scale, prob.names, prob.fixed, True,
-                        prob.fixed_s, prob.prior_mean, prob.prior_weight)
+                        prob.fixed_s, prob.prior_mean, prob.prior_weight, prob.observations)
     N = prob.size
     th, f_free, _, _ = levenberg_marquardt(free, np.asarray(theta, float),
                                            max_iter=SCALE_MAX_ITER, tol=LM_TOL,

@@ -39,7 +39,8 @@ from .assess import flag_tuples, input_flag_table
 from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
-from .model import CHL_DERIVATIVE_FLOOR, ChartModel, profiled_covariance
+from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
+                    profiled_information)
 
 __all__ = ["GAINS", "Z95", "Precision", "precision"]
 
@@ -131,7 +132,8 @@ class Precision:
 def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=None,
               reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
               water: Water | None = None, gain: str = "known", fix=None, free=(),
-              setup: ChartSetup | None = None, uncertain=None, dive: bool = False) -> Precision:
+              setup: ChartSetup | None = None, uncertain=None, dive: bool = False,
+              auxiliary=None) -> Precision:
     """The Cramér-Rao bound of C, a_CDOM(440) and any free parameter for every condition.
 
     Parameters
@@ -170,6 +172,10 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         joint estimate (:func:`sca.joint.dive_precision`), whose budget's water, camera and
         per-patch terms are shared by the photos. ``chl_sd``, ``cdom_sd`` and ``correlation``
         are then floats (the dive's), ``depth`` and ``distance`` the photos'. Default False.
+    auxiliary : dict, optional
+        Auxiliary measurements planned (:func:`sca.auxiliary.auxiliary_observations`: 'cdom',
+        'secchi', 'kd'; their values are the condition's, their sds as given): their
+        information is added (for a dive, once).
 
     Returns
     -------
@@ -242,7 +248,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     sigma_photon, saturation, _, _ = noise_model(M0, setup, sensor)
     if dive:
         return _dive(chl, cdom, depth, distance, setup, spec.water, uncertain, sigma_photon, s,
-                     gain, fix)
+                     gain, fix, auxiliary)
     sigma = budget.noise_sd(M0, sigma_photon)
     J = pred.jacobian.reshape(N, m, n, -1)
     if gain == "channels":  # one gain per channel: d M0 / d g_c = M0 in channel c
@@ -255,8 +261,11 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         extra_cols += 1
     prior_all = np.concatenate([prior, np.zeros((N, extra_cols))], axis=1)
     active = np.full((N, m), spec.free_s)
-    cov = profiled_covariance(J, 1.0 / sigma ** 2, active,
-                              gain_column=M0 if gain == "free" else None, prior_weight=prior_all)
+    F = profiled_information(J, 1.0 / sigma ** 2, active,
+                             gain_column=M0 if gain == "free" else None, prior_weight=prior_all)
+    for dh in _observed(auxiliary, spec.water, params, columns):  # (N, p) whitened rows
+        F[:, :dh.shape[1], :dh.shape[1]] += dh[:, :, None] * dh[:, None, :]
+    cov = covariance_from_information(F)
     sd_all = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     sd = {nm: sd_all[:, j] for j, nm in enumerate(names)}
     if gain == "free":
@@ -303,7 +312,22 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     return out
 
 
-def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, gain, fix):
+def _observed(auxiliary, water, params, columns) -> list:
+    """The whitened rows d h / d theta / sd (N, p) of each auxiliary measurement planned at the
+    conditions (its value the condition's own: :func:`sca.auxiliary.planned`)."""
+    from .auxiliary import auxiliary_observations, planned
+
+    out = []
+    for obs in auxiliary_observations(planned(auxiliary, water, params), water):
+        h, dh = obs.function(params, tuple(dict.fromkeys(columns)))
+        sd = np.broadcast_to(np.asarray(obs.sd, float), np.shape(h))
+        out.append(np.stack([np.asarray(dh.get(c, np.zeros(np.shape(h))), float)
+                             * np.ones(np.shape(h)) / sd for c in columns], axis=-1))
+    return out
+
+
+def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, gain, fix,
+          auxiliary=None):
     """The joint bound of one water from the N photos (:func:`sca.joint.dive_precision`)."""
     from .joint import dive_precision
 
@@ -314,7 +338,7 @@ def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, 
         raise ValueError("dive: one water: chl and cdom must be the same for every photo")
     d = dive_precision(float(chl[0]), float(cdom[0]), depth=depth, distance=distance,
                        sigma=sigma_photon, setup=setup, water=water, uncertain=uncertain,
-                       backscatter=s)
+                       backscatter=s, auxiliary=auxiliary)
     flags = ("near-bound-chl",) * bool(Z95 * d["chl_sd"] >= chl[0]) + \
         ("near-bound-cdom",) * bool(Z95 * d["cdom_sd"] >= cdom[0])
     return Precision(chl=float(chl[0]), cdom=float(cdom[0]), depth=depth, distance=distance,

@@ -54,6 +54,8 @@ class ChartProblem(Problem):
         Backscatter held (scaled units); None (default): s free, s >= 0.
     prior_mean, prior_weight : ndarray, (N, p), optional
         The budget's Gaussian priors (:class:`sca.problem.Problem`).
+    observations : sequence of sca.problem.Observation, optional
+        Auxiliary measurements (:mod:`sca.auxiliary`).
 
     Attributes
     ----------
@@ -64,7 +66,7 @@ class ChartProblem(Problem):
     """
 
     def __init__(self, model: ChartModel, M, W2, scale, names, fixed, free_gain: bool = False,
-                 fixed_s=None, prior_mean=None, prior_weight=None):
+                 fixed_s=None, prior_mean=None, prior_weight=None, observations=()):
         self.model = model
         self.M = np.ascontiguousarray(M, float)
         self.W2 = np.ascontiguousarray(W2, float)
@@ -72,7 +74,7 @@ class ChartProblem(Problem):
         self.free_gain = bool(free_gain)
         self.fixed_s = None if fixed_s is None else np.ascontiguousarray(fixed_s, float)
         self.inv_scale = 1.0 / self.scale
-        super().__init__(names, fixed, prior_mean, prior_weight)
+        super().__init__(names, fixed, prior_mean, prior_weight, observations)
         self.chl_col = self.names.index("chl") if "chl" in self.names else -1
 
     # ------------------------------------------------------------------ the layout's choices

@@ -65,6 +65,8 @@ class DiveProblem(Problem):
         The shared per-patch error e is a parameter.
     prior_mean, prior_weight : ndarray, (1, p)
         The Gaussian priors of every column (0 weight: none).
+    observations : sequence of sca.problem.Observation, optional
+        Auxiliary measurements of the dive's water (:mod:`sca.auxiliary`).
 
     Attributes
     ----------
@@ -74,7 +76,7 @@ class DiveProblem(Problem):
     """
 
     def __init__(self, models, M, W2, scale, groups, shared, depth, distance, free_depth,
-                 free_distance, patch: bool, prior_mean, prior_weight):
+                 free_distance, patch: bool, prior_mean, prior_weight, observations=()):
         self.models = list(models)
         self.M, self.W2 = np.asarray(M, float), np.asarray(W2, float)
         self.scale = np.asarray(scale, float)
@@ -98,7 +100,7 @@ class DiveProblem(Problem):
         self.depth, self.distance = np.asarray(depth, float), np.asarray(distance, float)
         if patch:
             names += [PATCH] * (m * n)
-        super().__init__(names, {}, prior_mean, prior_weight)
+        super().__init__(names, {}, prior_mean, prior_weight, observations)
         self.layout = {"chl": np.arange(G), "cdom": np.arange(G, 2 * G), **geo,
                        PATCH: np.array(self.columns(PATCH), int)}
         for name in shared:

@@ -39,12 +39,15 @@ from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
 from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
+from .auxiliary import auxiliary_observations, planned
+from .derived import derived_from_fit, verdict
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
 from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
 from .problem import chl_from_u, du_chain, u_from_chl
+from .quadrature import CERTIFY_SIGMA, reduction_error
 
 __all__ = [
     "HETEROGENEITY_ALPHA",
@@ -125,6 +128,18 @@ class JointEstimate:
     photo_scatter: float = 0.0
     #: photos left out of the fit: name -> reason (:func:`measure.joint.fit_joint`)
     excluded: dict = field(default_factory=dict)
+    #: what the dive measures (:mod:`sca.derived`, at the photos' median depth and distance):
+    #: name -> value of every derived quantity (m^-1)
+    quantities: dict = field(default_factory=dict)
+    #: name -> (lo, hi) their 95 % intervals (spanning the supported path models)
+    quantity_intervals: dict = field(default_factory=dict)
+    #: the spectrum of the path's attenuation coefficient (m^-1) on ``wavelengths`` (nm) and its
+    #: 95 % interval [[lo, hi], ...]
+    beam_attenuation: list = field(default_factory=list)
+    beam_attenuation_ci: list = field(default_factory=list)
+    wavelengths: list = field(default_factory=list)
+    #: name -> verdict of 'chl', 'cdom' and every quantity (:func:`sca.derived.verdict`)
+    verdicts: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """joint.json's content (plain numbers; ``inf`` for open interval ends)."""
@@ -153,15 +168,17 @@ class _Dive:
     priors: dict  # shared nuisance -> (mean, sd)
     geo_sd: dict  # 'depth', 'distance' -> (N,) sd (0: held)
     patch_shared: float  # sd of the chart's per-patch error shared by the photos (relative)
+    auxiliary: dict | None = None  # the user's auxiliary measurements (sca.auxiliary)
 
 
 def _problem(d: _Dive, groups) -> DiveProblem:
-    """The dive as an inference problem (:class:`sca.diveproblem.DiveProblem`) with its priors."""
+    """The dive as an inference problem (:class:`sca.diveproblem.DiveProblem`) with its priors
+    and auxiliary measurements."""
     N = d.M.shape[0]
     free_geo = {g: d.geo_sd[g] > 0 for g in ("depth", "distance")}
     prob = DiveProblem(d.models, d.M, d.W2, d.scale, groups, tuple(d.priors), d.depth,
                        d.distance, free_geo["depth"], free_geo["distance"], d.patch_shared > 0,
-                       None, None)
+                       None, None, auxiliary_observations(d.auxiliary, d.models[0].water))
     p = len(prob.names)
     mean, weight = np.zeros((1, p)), np.zeros((1, p))
     for name, (mu, sd) in d.priors.items():
@@ -186,6 +203,28 @@ def _solve(prob: DiveProblem, theta0, hold=None):
         prob, np.asarray(theta0, float)[None], max_iter=JOINT_MAX_ITER, tol=LM_TOL,
         f_exact=np.array([f_exact]), hold=None if hold is None else np.asarray(hold)[None])
     return theta[0], float(f[0]), bool(code[0] <= 2)
+
+
+def _certified(prob: DiveProblem, theta, M, sigma, f) -> bool:
+    """The reduced quadrature's certificate at the optimum (:mod:`sca.quadrature`): every
+    photo's reduced prediction within CERTIFY_SIGMA of the full grid's, in units of its noise
+    (or of the residual the fit shows, where smaller). True where the models are full."""
+    if prob.models[0].full is prob.models[0]:
+        return True
+    extras = evaluate(prob, np.zeros(1, np.int64), theta[None], False).extras
+    N = prob.M.shape[0]
+    shown = np.sqrt(max(f, 0.0) / max(np.count_nonzero(prob.W2), 1))  # whitened RMS
+    for i in range(N):
+        params = prob.photo_params(theta, i)
+        params.update(gain=extras["gain"][0, i:i + 1],
+                      backscatter=extras["s"][0, i:i + 1] * prob.scale[i])
+        sig = np.asarray(sigma[i], float).reshape(-1)
+        noise = np.where(np.isfinite(sig) & (sig > 0), sig, np.inf)
+        noise = np.minimum(noise, shown * noise)  # a fit far better than its noise
+        model = prob.models[i]
+        if not reduction_error(model.full, model, params, noise[None])[0] <= CERTIFY_SIGMA:
+            return False
+    return True
 
 
 def _dof(prob: DiveProblem, theta) -> int:
@@ -224,6 +263,16 @@ def _intervals(prob: DiveProblem, theta, f_min):
 
 
 # --------------------------------------------------------------------------- set-up
+def _derived(prob: DiveProblem, theta, depth, distance) -> dict:
+    """What the dive measures (:func:`sca.derived.derived_from_fit`) at one depth and distance
+    (the photos' median), on the full grid."""
+    H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H
+    full = prob.models[0].full
+    return derived_from_fit(prob, theta[None], H, prob.water, full.wavelengths,
+                            geometry={"depth": np.array([depth]),
+                                      "distance": np.array([distance])})
+
+
 def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_correlation):
     """(shared priors, geometry sds, shared patch sd, independent patch sd, budget dict)."""
     if uncertain is None:
@@ -261,12 +310,16 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     return priors, geo, np.sqrt(rho) * patch, np.sqrt(1.0 - rho) * patch, dict(uncertain)
 
 
-def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, patch_indep):
+def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, patch_indep,
+          reduce: bool = True, auxiliary=None):
     """The photos in scaled units with their weights: each value's own noise and the
-    independent per-patch term in the weights (0 where a value is left out)."""
+    independent per-patch term in the weights (0 where a value is left out); each photo's
+    model on the certified quadrature (``reduce``) or its full grid."""
     N = M.shape[0]
     built = {}
     models = [built.setdefault(id(s), ChartModel(s, water=water)) for s in setups]
+    if reduce:
+        models = [m.reduced() for m in models]
     Mv = M.reshape(N, -1)
     sig = sigma.reshape(N, -1)
     scale = np.nanmax(np.where(np.isfinite(Mv), Mv, 0.0), axis=1)
@@ -276,7 +329,8 @@ def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, p
     Ms = np.where(ok, Mv, 0.0) / scale[:, None]
     total = np.sqrt((np.where(ok, sig, 1.0) / scale[:, None]) ** 2 + (patch_indep * Ms) ** 2)
     W2 = np.where(ok, 1.0 / total ** 2, 0.0)
-    return _Dive(models, Ms, W2, scale, depth, distance, priors, geo, float(patch_shared))
+    return _Dive(models, Ms, W2, scale, depth, distance, priors, geo, float(patch_shared),
+                 auxiliary)
 
 
 def _starts(d: _Dive, prob: DiveProblem, start) -> np.ndarray:
@@ -333,7 +387,7 @@ def _check(M, sigma, depth, distance, setups):
 def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = None,
                    uncertain=None, depth_sd=None, distance_sd=None, names=None,
                    path_models=None, patch_correlation: float = PATCH_CORRELATION,
-                   start=None) -> JointEstimate:
+                   start=None, auxiliary=None) -> JointEstimate:
     """Estimate one water (C, a_CDOM(440)) from N photographs of the chart.
 
     Parameters
@@ -366,6 +420,9 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     start : dict, optional
         Per-photo starting values 'chl', 'cdom', 'gain', 'backscatter' ((N,), (N, m); data
         units); default: each photo's own fit.
+    auxiliary : dict, optional
+        What was measured of this water besides the photos (:func:`sca.auxiliary.
+        auxiliary_observations`: 'cdom', 'secchi', 'kd'), fused in the fit.
 
     Returns
     -------
@@ -393,9 +450,16 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
 
     def fit(pm, indep, groups=None, theta0=None):
         w = dataclasses.replace(water, path_model=pm)
-        d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep)
-        prob = _problem(d, np.zeros(N, int) if groups is None else groups)
+        groups = np.zeros(N, int) if groups is None else groups
+        d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
+                  auxiliary=auxiliary)
+        prob = _problem(d, groups)
         theta, f, ok = _solve(prob, _starts(d, prob, start) if theta0 is None else theta0)
+        if not _certified(prob, theta, M, sigma, f):  # the full grid, from this optimum
+            d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
+                      reduce=False, auxiliary=auxiliary)
+            prob = _problem(d, groups)
+            theta, f, ok = _solve(prob, theta)
         return prob, theta, f, ok
 
     scatter = 0.0
@@ -409,6 +473,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     prob, theta, f, converged = fits[best]
     flags, notes = [], []
     cis = {"chl": [np.inf, -np.inf], "cdom": [np.inf, -np.inf]}
+    derived = {}
     for j, pm in enumerate(models):
         if not ok_mask[0, j]:
             continue
@@ -416,6 +481,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         flags += fl
         for k in cis:
             cis[k] = [min(cis[k][0], ints[k][0]), max(cis[k][1], ints[k][1])]
+        derived[pm] = _derived(fits[pm][0], fits[pm][1], np.median(depth), np.median(distance))
     if ok_mask.sum() > 1:
         flags.append(SPAN_FLAG)
         notes.append("the intervals span the path models the data cannot tell apart: "
@@ -453,7 +519,19 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
                       "depth": float(p_i["depth"][0]), "distance": float(p_i["distance"][0])}
     nuisance = {k: (theta[prob.layout[k]].tolist() if k in CAMERA
                     else float(theta[prob.layout[k][0]])) for k in prob.shared}
+    best_d = derived[best]
+    qi = {k: (min(d["quantities"][k][1][0, 0] for d in derived.values()),
+              max(d["quantities"][k][1][0, 1] for d in derived.values()))
+          for k in best_d["quantities"]}
+    c_ci = np.stack([np.min([d["c_ci"][0, :, 0] for d in derived.values()], axis=0),
+                     np.max([d["c_ci"][0, :, 1] for d in derived.values()], axis=0)], axis=-1)
+    verdicts = {"chl": verdict(*cis["chl"]), "cdom": verdict(*cis["cdom"]),
+                **{k: verdict(*v) for k, v in qi.items()}}
     return JointEstimate(
+        quantities={k: float(v[0][0]) for k, v in best_d["quantities"].items()},
+        quantity_intervals={k: (float(a), float(b)) for k, (a, b) in qi.items()},
+        beam_attenuation=best_d["c"][0].tolist(), beam_attenuation_ci=c_ci.tolist(),
+        wavelengths=best_d["wavelengths"].tolist(), verdicts=verdicts,
         chl=float(chl_from_u(theta[prob.layout["chl"][0]], e0)),
         cdom=float(theta[prob.layout["cdom"][0]]),
         chl_ci=tuple(float(v) for v in cis["chl"]), cdom_ci=tuple(float(v) for v in cis["cdom"]),
@@ -547,7 +625,7 @@ def _heterogeneity(fit, prob, theta, f_joint, names) -> dict:
 # --------------------------------------------------------------------------- the bound
 def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | None = None,
                    uncertain=None, patch_correlation: float = PATCH_CORRELATION,
-                   gain=None, backscatter=None) -> dict:
+                   gain=None, backscatter=None, auxiliary=None) -> dict:
     """The Cramér-Rao bound of C and a_CDOM(440) from N photographs of one water.
 
     Parameters
@@ -567,6 +645,9 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
         Each photo's exposure gain (default 1).
     backscatter : array_like, (N, m), optional
         Each photo's veiling light (default 0).
+    auxiliary : dict, optional
+        Auxiliary measurements planned (:func:`sca.auxiliary.auxiliary_observations`; their
+        values do not matter, their sds do).
 
     Returns
     -------
@@ -590,7 +671,9 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
         {"chl": chl, "cdom": cdom, "depth": depth[i], "distance": distance[i], "gain": gain[i],
          "backscatter": s[i]}, jacobian=False).values.reshape(m, n) for i in range(N)])
     sigma = np.broadcast_to(np.asarray(sigma, float), M0.shape)
-    d = _dive(M0, sigma, setups, water, depth, distance, priors, geo, p_shared, p_indep)
+    d = _dive(M0, sigma, setups, water, depth, distance, priors, geo, p_shared, p_indep,
+              reduce=False, auxiliary=planned(auxiliary, water, {"chl": np.array([chl]),
+                                                                 "cdom": np.array([cdom])}))
     prob = _problem(d, np.zeros(N, int))
     theta = _starts(d, prob, {"chl": np.full(N, float(chl)), "cdom": np.full(N, float(cdom))})
     H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H[0]

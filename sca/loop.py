@@ -44,6 +44,7 @@ from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
+from .auxiliary import auxiliary_observations
 from .budget import resolve_budget
 from .pathmodels import candidates, combine_single
 from .fitspec import GAINS, fit_spec
@@ -165,7 +166,7 @@ class Estimator:
                  reflectances=None, wavelengths=None, basis=None, water: Water | None = None,
                  path_model: str | None = None, cdom_slope: float | None = None, fix=None,
                  free=(), setup: ChartSetup | None = None, gain: str = "known",
-                 uncertain=None, quadrature: str = "reduced"):
+                 uncertain=None, quadrature: str = "reduced", auxiliary=None):
         if quadrature not in ("reduced", "full"):
             raise ValueError(f"quadrature: must be 'reduced' or 'full', got {quadrature!r}")
         #: the inference layer's model: the certified quadrature or the full grid
@@ -185,6 +186,9 @@ class Estimator:
         self.budget = resolve_budget(uncertain, depth=self.depth, distance=self.distance,
                                      water=spec.water, free=spec.names, fixed=tuple(fix or {}))
         self.extras = tuple(n for n in spec.names if n not in ("chl", "cdom"))
+        #: the user's auxiliary measurements (:mod:`sca.auxiliary`), fused from the budget's
+        #: refinement on (the convex loops fit the photo alone)
+        self.observations = auxiliary_observations(auxiliary, spec.water)
         tied = set(self.extras) & {"phyto_scale", "phyto_exponent"}
         if tied:
             raise ValueError(f"free: {sorted(tied)} enter eq 17, which this loop linearises with "
@@ -742,7 +746,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
              tol: float = 1e-10, fix=None, free=(), x0=None, water: Water | None = None,
              path_model: str | None = None, cdom_slope: float | None = None,
              setup: ChartSetup | None = None, gain: str = "known", uncertain=None,
-             path_models=None, quadrature: str = "reduced") -> Estimate:
+             path_models=None, quadrature: str = "reduced", auxiliary=None) -> Estimate:
     """Estimate C, a_CDOM(440), w and backscatter s from a chart's patch values (eqs 15-18).
 
     Parameters
@@ -812,6 +816,10 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         where they differ by more than :data:`sca.quadrature.CERTIFY_SIGMA` of a value's
         noise), 'full' the grid as given. The convex loops ('safeguarded', 'paper') always
         run on the grid as given.
+    auxiliary : dict, optional
+        What was measured besides the photo (:func:`sca.auxiliary.auxiliary_observations`:
+        'cdom' (value, sd) m^-1, 'secchi' (depth, sd) m, 'kd' {nm: (value, sd)} m^-1), fused
+        in the fit from the budget's refinement on, and in the intervals (needs ``sigma``).
 
     Returns
     -------
@@ -831,7 +839,10 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     """
     kw = dict(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
               reflectances=reflectances, wavelengths=wavelengths, basis=basis, fix=fix,
-              free=free, setup=setup, gain=gain, uncertain=uncertain, quadrature=quadrature)
+              free=free, setup=setup, gain=gain, uncertain=uncertain, quadrature=quadrature,
+              auxiliary=auxiliary)
+    if auxiliary and sigma is None:
+        raise ValueError("auxiliary: needs the photo's noise (sigma) to weigh against")
     est = Estimator(water=water, path_model=path_model, cdom_slope=cdom_slope, **kw)
     fit = dict(sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
     return over_path_models(est, path_models, sigma, lambda e: e.fit(rgb, **fit), kw)

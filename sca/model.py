@@ -34,7 +34,7 @@ from .projection import linear_part_stats
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "chl_from_u", "u_from_chl",
+           "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
            "du_chain"]
 
 #: Geometry of the path (eqs 3, 14), m.
@@ -737,6 +737,8 @@ def covariance_from_information(F, sigma2=1.0, *, cond_max: float = COND_MAX):
         or has a zero column.
     """
     F = np.asarray(F, float)
+    if F.shape[-1] == 0:  # nothing free: nothing uncertain
+        return np.zeros(F.shape)
     out = np.full(F.shape, np.inf)
     flat_F, flat_out = F.reshape(-1, *F.shape[-2:]), out.reshape(-1, *F.shape[-2:])
     if F.shape[-1]:
@@ -784,6 +786,25 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None, prior_we
     L. Kaufman, "A variable projection method for solving separable nonlinear least squares
     problems", BIT 15 (1975) 49-57 (the linear unknowns projected out).
     """
+    F = profiled_information(J, w2, active, gain_column=gain_column, prior_weight=prior_weight)
+    if F.shape[-1] == 0:
+        return F
+    return covariance_from_information(F, sigma2)
+
+
+def profiled_information(J, w2, active, *, gain_column=None, prior_weight=None):
+    """The information matrix whose inverse is :func:`profiled_covariance`: J^T W J of the
+    columns with the active channels' backscatter projected out, plus the priors' weights.
+
+    Parameters
+    ----------
+    J, w2, active, gain_column, prior_weight :
+        As :func:`profiled_covariance`.
+
+    Returns
+    -------
+    ndarray, (N, p [+ 1], p [+ 1])
+    """
     cols = J if gain_column is None else np.concatenate([J, gain_column[..., None]], axis=-1)
     if cols.shape[-1] == 0:
         return np.zeros(cols.shape[:1] + (0, 0))
@@ -791,5 +812,8 @@ def profiled_covariance(J, w2, active, sigma2=1.0, *, gain_column=None, prior_we
     a = np.asarray(active, bool)[..., None, None]
     cols = cols - a * (w2 * cols).sum(2, keepdims=True) / w2.sum(2, keepdims=True)
     N = cols.shape[0]
-    return covariance((np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1]), sigma2,
-                      prior_weight=prior_weight)
+    Jw = (np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1])
+    F = np.swapaxes(Jw, -1, -2) @ Jw
+    if prior_weight is not None:
+        F = F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
+    return F

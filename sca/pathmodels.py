@@ -130,6 +130,19 @@ def combine_batch(results: dict):
         flags.append(tuple(dict.fromkeys(f)))
     fields["flags"] = flags
     fields["reliable"] = np.array([not any(x in BLOCKING for x in f) for f in flags], bool)
+    qi = {k: _union(np.stack([e.quantity_intervals[k] for e in ests]), ok)
+          for k in ests[0].quantity_intervals}
+    fields["quantity_intervals"] = qi
+    fields["quantities"] = {k: pick([e.quantities[k] for e in ests]) for k in ests[0].quantities}
+    if ests[0].beam_attenuation_ci is not None:
+        cis = np.stack([e.beam_attenuation_ci for e in ests])  # (K, N, q, 2)
+        okq = ok.T[:, :, None]
+        fields["beam_attenuation_ci"] = np.stack(
+            [np.where(okq, cis[..., 0], np.inf).min(axis=0),
+             np.where(okq, cis[..., 1], -np.inf).max(axis=0)], axis=-1)
+    from .batch import verdicts_of
+
+    fields["verdicts"] = verdicts_of(fields["chl_ci"], fields["cdom_ci"], qi)
     fields["budget"] = {k: {"sd": pick([e.budget[k]["sd"] for e in ests]),
                             "shares": {s: pick([e.budget[k]["shares"].get(s, np.full(N, np.nan))
                                                 for e in ests])
@@ -163,9 +176,20 @@ def combine_single(results: dict):
     if len(sup) > 1:
         flags.append(SPAN_FLAG)
     flags = tuple(dict.fromkeys(flags))
+    qi = {k: span(lambda e, k=k: e.quantity_intervals[k]) for k in b.quantity_intervals
+          if all(k in e.quantity_intervals for e in sup)}
+    cci = b.beam_attenuation_ci
+    if cci is not None and all(e.beam_attenuation_ci is not None for e in sup):
+        cci = np.stack([np.min([e.beam_attenuation_ci[:, 0] for e in sup], axis=0),
+                        np.max([e.beam_attenuation_ci[:, 1] for e in sup], axis=0)], axis=-1)
+    from .derived import verdict
+
+    chl_ci, cdom_ci = ints.get("chl", b.chl_ci), ints.get("cdom", b.cdom_ci)
+    verdicts = {"chl": verdict(*chl_ci), "cdom": verdict(*cdom_ci),
+                **{k: verdict(*v) for k, v in qi.items()}}
     return dataclasses.replace(
-        b, chl_ci=ints.get("chl", b.chl_ci), cdom_ci=ints.get("cdom", b.cdom_ci),
-        intervals={**b.intervals, **ints}, flags=flags,
+        b, chl_ci=chl_ci, cdom_ci=cdom_ci, quantity_intervals=qi, beam_attenuation_ci=cci,
+        verdicts=verdicts, intervals={**b.intervals, **ints}, flags=flags,
         reliable=not any(x in BLOCKING for x in flags),
         path_models=tuple(names[j] for j in np.flatnonzero(ok[0])),
         path_objective={n: float(e.objective) for n, e in zip(names, ests)})

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Evaluation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
+__all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
 
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
@@ -90,6 +90,40 @@ def du_chain(chl, e0):
 
 
 @dataclass
+class Observation:
+    """An auxiliary measurement of a quantity derived from the parameters: y +- sd.
+
+    It adds ((h(theta) - y) / sd)^2 to the objective of its unit, as the priors do (a prior is
+    the observation of a parameter itself): a water sample's a_CDOM(440), a Secchi depth, a
+    radiometer's K_d (:mod:`sca.auxiliary` builds them from the one physics).
+
+    Attributes
+    ----------
+    name : str
+        What was measured (for reports).
+    value : ndarray, (N,)
+        The measurement of every unit (NaN: none for that unit).
+    sd : ndarray, (N,)
+        Its standard deviation, in its units (> 0).
+    function : callable
+        ``function(params, wrt) -> (h (k,), {name: d h / d name (k,)})``: the quantity at the
+        model's parameters of k units (their own units) and its derivatives by the names
+        ``wrt``.
+    """
+
+    name: str
+    value: np.ndarray
+    sd: np.ndarray
+    function: object
+
+    def rows(self, idx) -> "Observation":
+        """The observation of units ``idx`` (a value or sd given once for all units stays one)."""
+        value, sd = np.asarray(self.value), np.asarray(self.sd)
+        return Observation(self.name, value[idx] if value.ndim else value,
+                           sd[idx] if sd.ndim else sd, self.function)
+
+
+@dataclass
 class Evaluation:
     """What :meth:`Problem.evaluate` returns for units ``idx``.
 
@@ -125,6 +159,8 @@ class Problem:
         Centre of each column's Gaussian prior, in theta's coordinates (None: no priors).
     prior_weight : ndarray, (N, p), optional
         1 / sd^2 of each column's prior (0: none on that column).
+    observations : sequence of Observation, optional
+        Auxiliary measurements of derived quantities (added to the objective as the priors).
 
     Attributes
     ----------
@@ -142,10 +178,17 @@ class Problem:
     :attr:`size` read) before calling ``Problem.__init__``.
     """
 
-    def __init__(self, names, fixed, prior_mean=None, prior_weight=None):
+    def __init__(self, names, fixed, prior_mean=None, prior_weight=None, observations=()):
         self.names = tuple(names)
         self.fixed = dict(fixed)
         self.prior_mean, self.prior_weight = prior_mean, prior_weight
+        self.observations = [o if isinstance(o, Observation) else Observation(*o)
+                             for o in observations]
+        for o in self.observations:
+            o.value = np.broadcast_to(np.asarray(o.value, float), (self.size,))
+            o.sd = np.broadcast_to(np.asarray(o.sd, float), (self.size,))
+            if np.any(~(o.sd[np.isfinite(o.value)] > 0)):
+                raise ValueError(f"observations: {o.name}'s sd must be > 0")
         self.lower = np.array([self.lower_bound(n) for n in self.names], float)
         self.powers = np.array([self.power(n) for n in self.names], float)
         self.free = tuple(dict.fromkeys(self.names))
@@ -192,6 +235,7 @@ class Problem:
         for name in ("prior_mean", "prior_weight"):
             a = getattr(self, name)
             setattr(new, name, None if a is None else a[idx])
+        new.observations = [o.rows(idx) for o in self.observations]
         return new
 
     def params(self, idx, theta) -> dict:
@@ -240,7 +284,7 @@ class Problem:
         idx = np.asarray(idx, np.int64)
         theta = np.asarray(theta, float)
         params = self.params(idx, theta)
-        chain = self.chain(params) if grad else None
+        chain = self.chain(params) if grad or self.observations else None
         ev = self.data_terms(idx, theta, params, chain, grad)
         if self.prior_mean is not None:
             pw = self.prior_weight[idx]
@@ -249,6 +293,26 @@ class Problem:
             if grad:
                 ev.g = ev.g + pw * d
                 ev.H = ev.H + pw[:, :, None] * np.eye(theta.shape[1])
+        for obs in self.observations:
+            self._observe(obs, idx, params, chain, ev, grad)
         if not grad:
             ev.g = ev.H = None
         return ev
+
+    def _observe(self, obs: Observation, idx, params, chain, ev: Evaluation, grad: bool):
+        """An auxiliary measurement's term ((h - y) / sd)^2, its half gradient and
+        Gauss-Newton matrix, added to ``ev`` (units without a measurement add nothing)."""
+        y, sd = obs.value[idx], obs.sd[idx]
+        have = np.isfinite(y)
+        if not have.any():
+            return
+        h, dh = obs.function(params, self.free if grad else ())
+        r = np.where(have, (np.asarray(h, float) - y) / np.where(have, sd, 1.0), 0.0)
+        ev.f = ev.f + r * r
+        if grad:
+            J = np.zeros((len(idx), len(self.names)))
+            for j, n in enumerate(self.names):
+                if n in dh:
+                    J[:, j] = np.where(have, np.asarray(dh[n], float) * chain[:, j] / sd, 0.0)
+            ev.g = ev.g + J * r[:, None]
+            ev.H = ev.H + J[:, :, None] * J[:, None, :]

@@ -172,6 +172,20 @@ class Estimate:
     path_models: tuple = ()
     #: path model -> the objective of the fit under it
     path_objective: dict = field(default_factory=dict)
+    #: what the photo measures (:mod:`sca.derived`): name -> value of every derived quantity
+    #: (the path's attenuation coefficient c at 443, 490, 555, 670 nm, a_nw(440), K_d(490);
+    #: m^-1)
+    quantities: dict = field(default_factory=dict)
+    #: name -> (lo, hi) their 95 % intervals (spanning the supported path models)
+    quantity_intervals: dict = field(default_factory=dict)
+    #: (q,) the attenuation coefficient of the light's path, tau / (depth + distance), on
+    #: ``wavelengths``, m^-1 (the beam attenuation c = a + b for the paper's path model)
+    beam_attenuation: np.ndarray | None = None
+    #: (q, 2) its 95 % interval at every wavelength
+    beam_attenuation_ci: np.ndarray | None = None
+    #: name -> verdict of 'chl', 'cdom' and every quantity: 'measured', 'upper bound' or
+    #: 'not constrained' (:func:`sca.derived.verdict`)
+    verdicts: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Every field, JSON-ready (arrays as lists).
@@ -189,4 +203,7 @@ class Estimate:
         out["values"] = {k: float(v) for k, v in self.values.items()}
         out["intervals"] = {k: [float(a) for a in v] for k, v in self.intervals.items()}
         out["nuisance"] = {k: np.asarray(v, float).tolist() for k, v in self.nuisance.items()}
+        out["quantities"] = {k: float(v) for k, v in self.quantities.items()}
+        out["quantity_intervals"] = {k: [float(a) for a in v]
+                                     for k, v in self.quantity_intervals.items()}
         return out

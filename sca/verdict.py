@@ -20,6 +20,7 @@ from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
+from .derived import derived_from_fit, verdict
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .quadrature import CERTIFY_SIGMA, reduction_error
@@ -83,7 +84,9 @@ def _covariance(est, st, dof):
 def _problem(est, st, priors: bool = True) -> ChartProblem:
     """The fit as a one-chart :class:`sca.charts.ChartProblem` (the model already in the data's units),
     with the budget's nuisances after the free names and their Gaussian priors (``priors``
-    False: the paper's model, the free names alone)."""
+    False: the paper's model, the free names alone; the auxiliary measurements with the
+    priors)."""
+    observations = est.observations if priors and st.noise_known else ()
     priors = _priors(est, st) if priors else {}
     names = tuple(est.spec.names) + tuple(
         n for n in priors for _ in range(st.mdl.m if n in CAMERA else 1))
@@ -100,7 +103,7 @@ def _problem(est, st, priors: bool = True) -> ChartProblem:
     fixed = {k: v for k, v in fixed.items() if k not in names}
     return ChartProblem(st.fit_mdl, st.Mv[None], (st.wt ** 2)[None], np.ones(1), names, fixed,
                         est.free_gain, None if st.s_fixed is None else st.s_fixed[None], mean,
-                        weight)
+                        weight, observations)
 
 
 def _theta(est, st, prob) -> np.ndarray:
@@ -181,7 +184,7 @@ def _refine(est, st, always: bool = False):
     Levenberg-Marquardt engine; ``st`` is updated (x, f, nuisance, status). ``always``: also
     without priors (the optimum on another model of the same data)."""
     prob = _problem(est, st)
-    if prob.prior_mean is None and not always:
+    if prob.prior_mean is None and not prob.observations and not always:
         return
     theta, f, _, code = levenberg_marquardt(prob, _theta(est, st, prob), max_iter=REFINE_MAX_ITER,
                                             tol=REFINE_TOL, f_exact=np.array([st.f_exact]))
@@ -213,6 +216,25 @@ def _certify(est, st):
         st.fit_mdl = st.mdl
         st.quadrature_error = 0.0
         _refine(est, st, always=True)
+
+
+def _derived(est, st, dof, intervals) -> dict:
+    """What the photo measures (:func:`sca.derived.derived_from_fit`) and every verdict, as
+    :class:`sca.Estimate`'s fields (one basis function; none otherwise)."""
+    out = {"verdicts": {n: verdict(*intervals[n]) for n in ("chl", "cdom") if n in intervals}}
+    if st.mdl.z != 1:
+        return out
+    prob = _problem(est, st)
+    theta = _theta(est, st, prob)
+    H = evaluate(prob, np.arange(1), theta, True).H
+    sigma2 = 1.0 if st.noise_known else st.f / max(dof, 1)
+    d = derived_from_fit(prob, theta, H, est.water, st.mdl.wavelengths, sigma2)
+    out.update(quantities={k: float(v[0]) for k, (v, _) in d["quantities"].items()},
+               quantity_intervals={k: tuple(float(a) for a in ci[0])
+                                   for k, (_, ci) in d["quantities"].items()},
+               beam_attenuation=d["c"][0], beam_attenuation_ci=d["c_ci"][0])
+    out["verdicts"].update({k: verdict(*v) for k, v in out["quantity_intervals"].items()})
+    return out
 
 
 def _scale_p(est, st):
@@ -378,4 +400,5 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         gain=float(x["gain"]), gain_ci=gain_ci, values=values, intervals=ints,
         uncertain=dict(est.budget.sd) if st.noise_known and not est.budget.exact else {},
         budget=shares, nuisance=dict(st.nuisance),
+        **_derived(est, st, dof, intervals),
     )

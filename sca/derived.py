@@ -1,0 +1,329 @@
+"""What the photos measure: quantities derived from the fitted water, each with its own 95 %
+interval, and a verdict in words for every reported quantity.
+
+C and a_CDOM(440) are the model's parameters, but a camera measures their combination: the
+attenuation of the light along its path. The quantities reported beside them are functions
+h(theta) of the fitted parameters, computed by the one physics (:mod:`forward.water`):
+
+* ``c_443``, ``c_490``, ``c_555``, ``c_670``, and the spectrum on the model's grid: the
+  attenuation coefficient of the light's path, tau / (depth + distance) (eqs 3, 13, 14), m^-1.
+  For the paper's path model ('beam') it is the beam attenuation c = a + b (eq 4), for
+  'absorption' the absorption a, for 'split' the path-weighted mean of K_d (down) and c (along
+  the view). It is what the photo measures, whatever the path model: every supported model
+  fits the same transmittance;
+* ``a_nw_440``: the absorption by everything but water at 440 nm (a_phi + a_CDOM + a_NAP), m^-1;
+* ``kd_490``: the diffuse attenuation of downwelling light, K_d = (a + b_b) / mu_d, m^-1 (the
+  water's, by the model, whatever the path model).
+
+Intervals: the delta method on the logarithm (h > 0): sd(ln h) = sqrt(grad h^T Sigma grad h) / h,
+with Sigma the covariance of the fitted parameters (the uncertainty budget's nuisances included)
+from the one rule (:func:`sca.model.covariance_from_information`), the 95 % interval
+h exp(-/+ 1.96 sd(ln h)). For a well determined quantity (a few percent) this is the profile
+likelihood's interval to second order; its coverage is tested on worlds the estimator did not
+make (HONESTY.md). Where several path models are supported the intervals span them, as C's.
+
+Verdicts (:func:`verdict`): *measured* (a closed interval with hi / lo <= :data:`MEASURED_RATIO`),
+*an upper bound only* (finite upper end, the interval reaching 0 or spanning more than that
+factor) or *not constrained* (an open interval).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import special
+
+from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, NONWATER_ABSORPTION_TERMS
+
+__all__ = ["BANDS_NM", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF", "QUANTITIES", "SPECTRUM_BLOCK",
+           "VERDICTS", "delta_interval", "derived_from_fit", "describe", "quantity_names",
+           "quantity_values", "spectrum_values", "verdict"]
+
+#: The standard bands of the beam attenuation, nm (ocean-colour bands: SeaWiFS/MODIS 443, 490,
+#: 555, 670).
+BANDS_NM = (443.0, 490.0, 555.0, 670.0)
+#: Confidence level of every interval.
+CONFIDENCE = 0.95
+#: A closed interval whose ends differ by at most this factor is a measurement (about a
+#: factor 1.7 either side of its centre); a wider one, or one reaching 0, is an upper bound.
+MEASURED_RATIO = 3.0
+#: The verdicts, in order of knowledge.
+VERDICTS = ("measured", "upper bound", "not constrained")
+#: CF standard names of the path's attenuation coefficient, by path model
+PATH_CF = {"beam": "volume_beam_attenuation_coefficient_of_radiative_flux_in_sea_water",
+           "absorption": "volume_absorption_coefficient_of_radiative_flux_in_sea_water",
+           "split": ""}
+#: Each quantity: (its terms of c(x), or None for the path's coefficient; wavelength nm;
+#: description; units; CF standard name, "" where none or the path model's).
+QUANTITIES = {
+    **{f"c_{b:.0f}": (None, b, f"attenuation coefficient of the light's path at {b:.0f} nm",
+                      "m-1", "") for b in BANDS_NM},
+    "a_nw_440": (NONWATER_ABSORPTION_TERMS, 440.0,
+                 "absorption by everything but water at 440 nm", "m-1", ""),
+    "kd_490": (DIFFUSE_TERMS, 490.0, "diffuse attenuation of downwelling light K_d at 490 nm",
+               "m-1", "volume_attenuation_coefficient_of_downwelling_radiative_flux_in_sea_water"),
+}
+
+
+def quantity_names() -> tuple:
+    """The names of :data:`QUANTITIES`, in order."""
+    return tuple(QUANTITIES)
+
+
+def _consts(params):
+    return {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
+
+
+def _spectral(wrt) -> tuple:
+    return tuple(n for n in wrt if n in ("chl", "cdom") + COEFFICIENT_PARAMS)
+
+
+def _path_coefficient(water, wavelengths, params, wrt):
+    """tau / (depth + distance) on ``wavelengths`` and its derivatives (geometry included)."""
+    chl = np.atleast_1d(np.asarray(params["chl"], float))
+    cdom = np.atleast_1d(np.asarray(params.get("cdom", 0.0), float))
+    depth = np.atleast_1d(np.asarray(params["depth"], float))
+    distance = np.atleast_1d(np.asarray(params["distance"], float))
+    wrt = _spectral(wrt) + tuple(n for n in wrt if n in ("depth", "distance"))
+    tau, d = water.on_grid(wavelengths).optical_depth(chl, cdom, depth, distance,
+                                                      values=_consts(params), wrt=wrt,
+                                                      floor=1e-300)
+    L = np.maximum(depth + distance, 1e-300)[..., None]
+    out = {k: v / L for k, v in d.items()}
+    for g in ("depth", "distance"):
+        if g in out:
+            out[g] = out[g] - tau / L ** 2
+    return tau / L, out
+
+
+def quantity_values(water, params, wrt=()) -> dict:
+    """Every quantity of :data:`QUANTITIES` and its derivatives at the fitted parameters.
+
+    Parameters
+    ----------
+    water : forward.Water
+        The water model of the fit (its path model gives the path's coefficient).
+    params : dict
+        'chl' (mg m^-3), 'cdom' (m^-1), 'depth' and 'distance' (m) and any fitted coefficient
+        of the water, each (N,).
+    wrt : sequence of str
+        Names to differentiate by (among 'chl', 'cdom', 'depth', 'distance' and the water's
+        coefficients).
+
+    Returns
+    -------
+    dict
+        name -> (value (N,), {parameter: d value / d parameter (N,)}).
+    """
+    chl = np.atleast_1d(np.asarray(params["chl"], float))
+    cdom = np.atleast_1d(np.asarray(params.get("cdom", 0.0), float))
+    consts, spectral = _consts(params), _spectral(wrt)
+    bands = np.array(BANDS_NM)
+    grid = np.sort(np.concatenate([bands, bands + 1.0]))  # a grid of the bands (>= 3 points)
+    path, dpath = _path_coefficient(water, grid, params, wrt)
+    at = np.searchsorted(grid, bands)
+    out = {}
+    for name, (terms, band, *_) in QUANTITIES.items():
+        if terms is None:
+            j = at[BANDS_NM.index(band)]
+            out[name] = (path[..., j], {k: v[..., j] for k, v in dpath.items()})
+            continue
+        g = water.on_grid(np.array([band - 1.0, band, band + 1.0]))
+        c, d = g.path_coefficient(chl, cdom, values=consts, wrt=spectral, floor=1e-300,
+                                  terms=terms)
+        out[name] = (c[..., 1], {k: v[..., 1] for k, v in d.items()})
+    return out
+
+
+def spectrum_values(water, params, wavelengths, wrt=()):
+    """The path's attenuation coefficient tau / (depth + distance) on ``wavelengths`` and its
+    derivatives.
+
+    Parameters
+    ----------
+    water : forward.Water
+        The water model.
+    params : dict
+        As :func:`quantity_values`.
+    wavelengths : array_like, (q,)
+        nm.
+    wrt : sequence of str
+        Names to differentiate by.
+
+    Returns
+    -------
+    c : ndarray, (N, q)
+        m^-1.
+    derivatives : dict
+        name -> (N, q).
+    """
+    return _path_coefficient(water, wavelengths, params, wrt)
+
+
+def delta_interval(value, grad, cov, confidence: float = CONFIDENCE):
+    """The delta method's interval of a positive quantity, on its logarithm.
+
+    Parameters
+    ----------
+    value : array_like, S
+        The quantity at the fit (> 0; 0 or less gives a linear interval clipped at 0).
+    grad : array_like, S + (p,)
+        Its gradient by the fitted parameters (the covariance's coordinates).
+    cov : array_like, S[:1] + (p, p) or (p, p)
+        The parameters' covariance (``inf`` entries: undetermined).
+    confidence : float, optional
+        Default :data:`CONFIDENCE`.
+
+    Returns
+    -------
+    ndarray, S + (2,)
+        Lower and upper ends (``inf`` upper end where the covariance is infinite).
+    """
+    value = np.asarray(value, float)
+    grad = np.asarray(grad, float)
+    cov = np.asarray(cov, float)
+    z = special.ndtri(0.5 + confidence / 2)
+    with np.errstate(invalid="ignore", over="ignore"):
+        if cov.ndim == 2:
+            var = np.einsum("...p,pq,...q->...", grad, cov, grad)
+        else:
+            var = np.einsum("n...p,npq,n...q->n...", grad, cov, grad)
+        sd = np.sqrt(np.maximum(np.where(np.isfinite(var), var, np.inf), 0.0))
+        rel = np.where(value > 0, sd / np.where(value > 0, value, 1.0), np.inf)
+        lo = np.where(value > 0, value * np.exp(-z * rel), np.maximum(value - z * sd, 0.0))
+        hi = np.where(value > 0, value * np.exp(z * rel), value + z * sd)
+    hi = np.where(np.isfinite(hi), hi, np.inf)
+    lo = np.where(np.isfinite(hi), lo, 0.0)
+    return np.stack([lo, hi], axis=-1)
+
+
+def verdict(lo, hi) -> np.ndarray:
+    """What an interval says, in :data:`VERDICTS`' words (arrays allowed).
+
+    Parameters
+    ----------
+    lo, hi : float or array_like
+        The interval's ends (``inf``: open).
+
+    Returns
+    -------
+    ndarray of str (a str for scalars)
+        'measured', 'upper bound' or 'not constrained'.
+    """
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        measured = (lo > 0) & np.isfinite(hi) & (hi <= MEASURED_RATIO * lo)
+    out = np.where(~np.isfinite(hi), VERDICTS[2], np.where(measured, VERDICTS[0], VERDICTS[1]))
+    return str(out) if out.ndim == 0 else out
+
+
+def describe(label: str, value, lo, hi, units: str, *, where: str = "these data",
+             narrow: str = "") -> str:
+    """One plain sentence: what the data say of a quantity.
+
+    Parameters
+    ----------
+    label : str
+        The quantity's name for people ('C', 'a_CDOM(440)', 'c(490)').
+    value, lo, hi : float
+        The estimate and its 95 % interval (``inf``: open).
+    units : str
+        Its units.
+    where : str, optional
+        What was measured ('this photo', 'this dive').
+    narrow : str, optional
+        What would narrow it (appended to a bound or a non-constraint).
+
+    Returns
+    -------
+    str
+    """
+    v = verdict(lo, hi)
+    tail = f"; {narrow}" if narrow and v != "measured" else ""
+    if v == "measured":
+        return f"{label}: measured, {value:.3g} {units} (95 %: {lo:.3g}-{hi:.3g})"
+    if v == "upper bound":
+        return (f"{label}: only an upper bound from {where}: at most {hi:.3g} {units} "
+                f"(95 %: {lo:.3g}-{hi:.3g}){tail}")
+    return f"{label}: not constrained by {where} (at least {lo:.3g} {units}){tail}"
+
+
+#: Fits per block of the spectrum's intervals (their gradients are fits x wavelengths x
+#: parameters).
+SPECTRUM_BLOCK = 512
+
+
+def _gradient(prob, names, chain, derivs, shape):
+    """d h / d theta (shape + (p,)) from h's derivatives by name (natural units)."""
+    grad = np.zeros(shape + (len(names),))
+    for j, n in enumerate(names):
+        if n in derivs:
+            d = np.asarray(derivs[n], float)
+            grad[..., j] = d * chain[:, j].reshape((-1,) + (1,) * (d.ndim - 1))
+    return grad
+
+
+def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry=None) -> dict:
+    """Every derived quantity of the fits of ``prob`` at ``theta`` with its 95 % interval.
+
+    Parameters
+    ----------
+    prob : sca.problem.Problem
+        The fitted units (any layout whose parameters include 'chl' and 'cdom', or hold them
+        in ``fixed``).
+    theta : ndarray, (N, p)
+        The optima (theta's coordinates).
+    H : ndarray, (N, p, p)
+        The Gauss-Newton matrices there (:meth:`sca.problem.Problem.evaluate`: J^T J plus the
+        priors): their inverse is the parameters' covariance.
+    water : forward.Water
+        The water model of the fit (its path model gives the path's coefficient).
+    wavelengths : array_like, (q,)
+        The spectrum's grid, nm (the full grid of the fit's model).
+    sigma2 : float or array_like, (N,), optional
+        The noise variance in the objective's units (1 where the noise is known).
+    geometry : dict, optional
+        'depth' and 'distance' (N,) at which the path's coefficient is evaluated, held (a
+        dive's photos each have their own: its median); default the fits' own, free or not.
+
+    Returns
+    -------
+    dict
+        'quantities': name -> (value (N,), ci (N, 2)); 'c': (N, q) the path's attenuation
+        coefficient, 'c_ci': (N, q, 2); 'wavelengths': (q,).
+    """
+    from .model import covariance_from_information
+
+    N = theta.shape[0]
+    idx = np.arange(N)
+    params = prob.params(idx, theta)
+    names = prob.names
+    chain = prob.chain(params)
+    cov = covariance_from_information(H) * np.asarray(sigma2, float).reshape(-1, 1, 1)
+    water_params = {k: np.asarray(v, float).reshape(N) for k, v in params.items()
+                    if k in ("chl", "cdom") or k in COEFFICIENT_PARAMS}
+    wrt = prob.free
+    if geometry is None:
+        water_params.update({k: np.asarray(params[k], float).reshape(N)
+                             for k in ("depth", "distance")})
+    else:
+        water_params.update({k: np.broadcast_to(np.asarray(v, float), (N,))
+                             for k, v in geometry.items()})
+        wrt = tuple(n for n in wrt if n not in geometry)
+    out = {"quantities": {}, "wavelengths": np.asarray(wavelengths, float)}
+    for name, (value, derivs) in quantity_values(water, water_params, wrt).items():
+        value = np.broadcast_to(value, (N,)).astype(float)
+        grad = _gradient(prob, names, chain, derivs, (N,))
+        out["quantities"][name] = (value, delta_interval(value, grad, cov))
+    q = np.size(wavelengths)
+    c = np.empty((N, q))
+    ci = np.empty((N, q, 2))
+    for lo in range(0, N, SPECTRUM_BLOCK):
+        sl = slice(lo, min(N, lo + SPECTRUM_BLOCK))
+        block = {k: np.asarray(v)[sl] for k, v in water_params.items()}
+        val, derivs = spectrum_values(water, block, wavelengths, wrt)
+        n = val.shape[0]
+        grad = _gradient(prob, names, chain[sl], derivs, (n, q))
+        c[sl] = val
+        ci[sl] = delta_interval(val, grad, cov[sl])
+    out["c"], out["c_ci"] = c, ci
+    return out
