@@ -4,7 +4,10 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty design-check bench docs test-release clean
+.PHONY: install test test-fast reproduce-figures real-data dive honesty design-check bench bench-slow docs test-release clean
+
+# each step of reproduce-figures timed into benchmarks/make_times.json (BENCHMARKS.md reads it)
+STOPWATCH = $(PY) -m experiments.stopwatch --json benchmarks/make_times.json
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -28,12 +31,12 @@ test-fast: $(STAMP)
 	$(PY) -m pytest -q -m "not slow and not release"
 
 reproduce-figures: $(STAMP)
-	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.design_check
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.correct_range
-	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
+	$(STOPWATCH) "reproduce-figures: figures" -- $(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: honesty" -- $(PY) -m experiments.honesty
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: dive_honesty" -- $(PY) -m experiments.dive_honesty
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: design_check" -- $(PY) -m experiments.design_check
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: correct_range" -- $(PY) -m experiments.correct_range
+	@if [ -d ../shared/realdata ]; then $(STOPWATCH) "reproduce-figures: real-data" -- $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
 
 # REALWATER.md: the physics against real water (NOMAD, COPS casts, G7X photos); needs
@@ -61,6 +64,15 @@ honesty: $(STAMP)
 # matrix calls steal the second core from the batched solver's numba threads
 bench: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.benchmark
+
+# the slower studies BENCHMARKS.md reports from the JSON files they write (each names its
+# command): the default batch against commit ffa6454 side by side, the first `uw3p measure`
+# after a fresh install, the joint fit counted by step; then `make bench`
+bench-slow: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.compare_commits ffa6454 WORKTREE --workload default --batch 1000,120 --rounds 3 --json benchmarks/compare_default.json
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.cold_start --json benchmarks/cold_start.json
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.joint_bench --profile --json benchmarks/joint_profile.json
+	$(MAKE) bench
 
 clean:
 	rm -rf figures cache .pytest_cache
