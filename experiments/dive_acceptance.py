@@ -31,7 +31,7 @@ from measure.csvsafe import safe_writer
 
 from . import independent_world as iw
 from . import scene
-from .dive_honesty import draw_dive, photo_options
+from .dive_worlds import draw_dive, photo_options
 
 __all__ = ["WIDTHS", "render_dive_folder", "calibrate_camera", "run", "checks", "report", "main"]
 

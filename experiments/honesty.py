@@ -95,7 +95,6 @@ __all__ = [
     "WRONG_ILLUMINANT",
     "World",
     "acceptance",
-    "attenuation_criterion",
     "coverage_p",
     "draw_conditions",
     "fit_set",

@@ -32,7 +32,7 @@ import numpy as np
 import forward
 import sca
 
-from .common import figures_dir, save_figure, style, write_csv
+from .common import figures_dir, read_csv, save_figure, style, write_csv
 from .sweep import pearson
 
 
@@ -269,9 +269,8 @@ def paper_connection(figdir: Path, grid_name=None):
     observed = {}
     path = Path(figdir) / "paper-like" / "fig12_chlorophyll.csv"
     if path.exists():
-        from .report import _read
 
-        observed = {float(r["depth_m"]): float(r["r2"]) for r in _read(path)}
+        observed = {float(r["depth_m"]): float(r["r2"]) for r in read_csv(path)}
     cells = list(itertools.product(g["fig12_chl"], g["fig12_cdom"]))
     c = np.array([x[0] for x in cells])
     a = np.array([x[1] for x in cells])
