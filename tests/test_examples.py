@@ -7,7 +7,7 @@ import importlib
 import pytest
 
 #: The public functions a user starts from; each must carry an Examples section that runs.
-EXAMPLED = ["forward.simulate_chart", "sca.estimate", "sca.estimate_batch", "sca.precision",
+EXAMPLED = ["forward.InputError", "forward.simulate_chart", "sca.estimate", "sca.estimate_batch", "sca.precision",
             "measure.measure", "measure.measure_dive", "measure.correct_image"]
 SLOW = {"measure.measure", "measure.measure_dive", "measure.correct_image"}
 FLAGS = doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE

@@ -169,7 +169,7 @@ RENAMES = {"illuminance_lux": "--lux", "exposure_mode": "--exposure",
 def _message(args, exc) -> str:
     """The error message of ``exc`` in the command's terms (option names, the grid hint)."""
     options = getattr(args, "option_names", {})
-    msg = option_message(str(exc), options, RENAMES)
+    msg = option_message(exc, options, RENAMES)
     if "use a grid inside the data" in msg:
         msg += (" with --wl-min/--wl-max" if "wl_min" in options else
                 f" (uw3p {args.command} uses 400-700 nm: give curves that cover it, or that fall "
