@@ -104,8 +104,13 @@ def test_layers_import_only_downwards_and_no_private_modules():
 
 
 def test_console_script_is_above_forward():
-    text = (ROOT / "pyproject.toml").read_text()
-    assert 'uw3p = "uw3p.cli:main"' in text
+    import tomllib
+
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts == {"uw3p": "uw3p.cli:main"}
+    module, _, func = scripts["uw3p"].partition(":")
+    assert callable(getattr(importlib.import_module(module), func))
+    assert module.split(".")[0] not in ("forward", "sca", "measure")  # the top layer
     assert not (ROOT / "forward" / "cli.py").exists()
 
 
