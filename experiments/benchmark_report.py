@@ -183,7 +183,8 @@ def report(out) -> str:
         "as the other methods. `batch` computes the 95 % profile-likelihood intervals, "
         "`batch_no_intervals` does not (so it calls nothing reliable). Every row fits the "
         "paper's exact model (`uncertain={}`) except `sca_budget` and `batch_budget`: the "
-        "estimators' default uncertainty budget (DECISIONS.md), with its ten nuisance "
+        "estimators' default uncertainty budget (decision 0011-default-budget), with its ten "
+        "nuisance "
         "parameters profiled and every chart fitted under three path models; `batch_budget` "
         f"is timed on {sizes.get('budget_batch_n', '?')} charts, one run. The one-chart-at-a-time "
         "methods run at "
@@ -271,9 +272,11 @@ def report(out) -> str:
         "- Resolution (\"model only what a scene needs\"): the world is 1 nm; a coarser estimator",
         "  grid samples k = exp(-L c) too coarsely for long paths, so its fits miss the data by more",
         "  than the default sensor's noise (the misfit column) and its C is biased (the error",
-        "  columns). That is why the default grid is 1 nm (DECISIONS.md); 10 nm remains available",
+        "  columns). That is why the default grid is 1 nm (decision 0018-spectral-grid); 10 nm "
+        "remains available",
         "  (`wavelengths=`) where the noise is far above that bias.",
-        "- `sca_paper` fails (not converged) where a full Taylor step overshoots: see DECISIONS.md.",
+        "- `sca_paper` fails (not converged) where a full Taylor step overshoots: see decision "
+        "0026-loop-modes.",
         "- The coarse grids show why a goodness-of-fit test alone is not enough: half the charts",
         "  are noise-free, whose chi^2 measures only the model's own error, so at 10 nm many biased",
         "  fits pass it (reliable & outside). With real noise the same bias is a misfit. The",

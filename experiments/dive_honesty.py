@@ -24,8 +24,9 @@ photo alone by :func:`sca.estimate_batch` (the same budget). Two kinds of dive:
    the renderer's photo of the same chart in air (:func:`measure.calibrate`) and the dive
    fitted with the budget ``measure`` gives it (:func:`measure.budget_for`) -- once with the
    rule before issue 37 (the calibration's in-air per-patch term as the underwater one, all
-   of it shared by the photos) and once with the current one (DECISIONS.md, "The per-patch
-   term underwater"). Criterion: no dive reliable with the truth outside (must be 0).
+   of it shared by the photos) and once with the current one (decisions
+   0053-patch-floor and 0054-patch-correlation). Criterion: no dive reliable with the truth outside
+   (must be 0).
 
 The report gives, for each kind, the fraction reliable, each quantity's coverage (C,
 a_CDOM(440), the path's attenuation coefficient at 443-670 nm, a_nw(440), K_d(490)) with its
@@ -96,7 +97,7 @@ ISSUE_DEPTHS, ISSUE_DISTANCES = (2.0, 5.0, 10.0, 15.0), (1.0, 3.0)
 #: depths and distances), full and ``--quick``.
 CLEAN_DIVES_FULL, CLEAN_DIVES_QUICK = 6, 2
 #: The rules of the clean dives' budget: before issue 37 (the calibration's per-patch term,
-#: all of it shared by the photos) and now (measure's budget: DECISIONS.md).
+#: all of it shared by the photos) and now (measure's budget: decision 0053-patch-floor).
 RULES = ("before", "now")
 
 
@@ -491,7 +492,7 @@ def _clean_section(c: dict) -> list[str]:
         "calibration's in-air per-patch term taken as the underwater one, all of it shared by "
         "the photos) and **now** (the per-patch term underwater never below the budget's "
         f"{100 * DEFAULT_UNCERTAIN['patch']:g} %, its chart part shared by the photos and the "
-        "rest each photo's own: DECISIONS.md, \"The per-patch term underwater\"). Each photo "
+        "rest each photo's own: decision 0054-patch-correlation). Each photo "
         "alone by `sca.estimate_batch` (the rule now). Coverage is tested two-sided but is not "
         "the criterion: this world is cleaner than the budget, so over-coverage is expected. "
         f"Seed {c['seed']}, {c['workers']} worker processes, {c['seconds']:.0f} s.",

@@ -153,7 +153,7 @@ QUANTITIES = (("chl", "C"), ("cdom", "a_CDOM"), ("c_443", "c(443)"), ("c_490", "
 #: The quantities whose coverage the acceptance tests: all but K_d(490), which the renderer
 #: and the model define differently (the renderer's b_b = b_w / 2 + 0.0183 b_p, Petzold's
 #: ratio; the model's b_w / 2 + eq 12, eq 12 taken as the particles' backscattering after
-#: NOMAD: DECISIONS.md, "Eq 12 is a backscattering coefficient"), and which a photo on the
+#: NOMAD: decision 0015-eq12-backscattering), and which a photo on the
 #: paper's path does not see: reported, not tested.
 TESTED = ("chl", "cdom", "c_443", "c_490", "c_555", "c_670", "a_nw_440")
 #: Groups whose worlds are drawn from the budget's own priors: their coverage is tested on
@@ -1175,7 +1175,7 @@ def _tests_text() -> str:
         "of C and a_CDOM together are tested one-sided against 90 % (Bonferroni: their joint "
         "rate is only bounded). K_d(490) is reported and not tested: the renderer's K_d uses "
         "Petzold's b_bp / b_p = 0.0183 on eq 12 while the model takes eq 12 as the particles' "
-        "backscattering (DECISIONS.md, \"Eq 12 is a backscattering coefficient\"), and a photo "
+        "backscattering (decision 0015-eq12-backscattering), and a photo "
         "on the paper's path does not see K_d. A bold cell is a failed test.")
 
 

@@ -397,7 +397,8 @@ def _budget_section(brows) -> list:
          "real measurement also depends on inputs known only approximately; the default budget "
          "of the estimators (`sca.budget.DEFAULT_UNCERTAIN`: depth 0.2 m, distance 5 %, eq 6's "
          "and eq 7's slopes 0.0025 nm⁻¹, channel balance 1 %, camera curves 1 nm, daylight "
-         "colour 30 mired, 1 % per patch; DECISIONS.md) gives the honest 95 % half-widths below "
+         "colour 30 mired, 1 % per patch; decision 0011-default-budget) gives the honest 95 % "
+         "half-widths below "
          "(`sca.precision` with and without `uncertain={}`; c: the path's attenuation "
          "coefficient at its worst standard band), and the source with the largest share of C's "
          "variance.", "",
@@ -461,10 +462,12 @@ def doc(rows, val, conn, brows=(), drows=()) -> str:
          "path's attenuation coefficient c (443, 490, 555, 670 nm) from the sensor's noise model "
          "and the analytic Jacobian, **with the default uncertainty budget** "
          "(`sca.budget.DEFAULT_UNCERTAIN`: depth, distance, eq 6-7 slopes, camera balance and "
-         "curves, daylight colour, 1 % per patch; DECISIONS.md) unless a column says \"camera "
+         "curves, daylight colour, 1 % per patch; decision 0011-default-budget) unless a column "
+         "says \"camera "
          "alone\": photon and read noise only, every other input exact (`uncertain={}`, "
          "`uw3p design --camera-only`), the camera's own limit, shown for contrast. 95 % "
-         "half-widths in % of the value; the default sensor otherwise (DECISIONS.md); exposure "
+         "half-widths in % of the value; the default sensor otherwise (decision "
+         "0019-sensor-defaults); exposure "
          "unknown (gain free) unless said._", "",
          f"Cameras: {', '.join(cams)} (6-band: Gaussian bands at "
          f"{', '.join(f'{b:g}' for b in BANDS_NM)} nm, {FWHM_NM:g} nm FWHM, peak 1). Water types: "
@@ -515,7 +518,7 @@ def doc(rows, val, conn, brows=(), drows=()) -> str:
           "(errors fixed within a photo, drawn between dives) is checked on dives in DESIGN.md "
           "and on single photos in HONESTY.md. Where the bound is attained (no flag) the ratio "
           "should be near 1; at 200 lx the sensor model's sigma is conservative for the darkest "
-          "patches (DECISIONS.md), so ratios below 1 are expected.",
+          "patches (decision 0008-trust-noise-fit-flags), so ratios below 1 are expected.",
           "", "| water | depth | light | sd C, bound | sd C, estimator | ratio C | ratio a_CDOM | "
           "flags |", "|---|---|---|---|---|---|---|---|"]
     for v in val:

@@ -420,7 +420,8 @@ def honest_widths() -> list:
     return ["Every figure here fits the paper's exact model: photon and read noise are the only "
             "uncertainty (`uncertain={}`). With the estimators' default uncertainty budget "
             "(depth, distance, eq 6-7 slopes, camera balance and curves, 1 % per patch; "
-            "DECISIONS.md) the honest 95 % half-width of C is far wider; in coastal water "
+            "decision 0010-uncertainty-budget) the honest 95 % half-width of C is far wider; in "
+            "coastal water "
             "(C 1 mg m⁻³, a_CDOM 0.1 m⁻¹, distance 1 m, daylight, exposure unknown), photon "
             f"noise alone against the budget (its largest source): {parts}. INSTRUMENT.md has "
             "every water type; HONESTY.md checks that the wider intervals cover the truth."]

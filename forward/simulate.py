@@ -184,7 +184,7 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     backscatter : bool, optional
         Include the veiling light of eq 2 (default True).
     sensor : forward.SensorSettings, optional
-        The sensor (defaults in DECISIONS.md).
+        The sensor (defaults: decision 0019-sensor-defaults).
     setup : forward.ChartSetup, optional
         Prebuilt P, i, R (:func:`forward.chart_setup`); replaces ``camera``, ``illuminant``,
         ``reflectances`` (``wavelengths``, if given, must be its grid).
@@ -202,7 +202,8 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     References
     ----------
     Blasinski & Farrell, eqs 1-15 (k and the water of eqs 3-14, the chart model of eq 15, the
-    veiling light of eq 2 as in DECISIONS.md); the sensor after ISET (Farrell et al. 2012).
+    veiling light of eq 2 as in decision 0016-veiling-light); the sensor after ISET (Farrell et al.
+    2012).
 
     Examples
     --------

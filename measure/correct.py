@@ -24,7 +24,7 @@ distance). Its shape in r is the simulator's single-scattering model
 (:func:`forward.veiling_light`, rho_b = i exp(-K depth) (b_b / c)(1 - exp(-c r))) projected on
 the camera's channels, V_c(r) = P^T rho_b(r), and anchored to the measurement:
 s_c(r) = s_c(r0) V_c(r) / V_c(r0). The model's b_b only enters as the spectral shape of the
-veil, not as its level (DECISIONS.md, "Per-pixel correction").
+veil, not as its level (decision 0047-per-pixel-correction).
 
 Far and unknown ranges: the correction along a range amplifies the direct signal (and its
 noise) by 1 / t_c(r). Ranges beyond ``max_range``, or beyond the range at which a channel's
@@ -66,8 +66,8 @@ __all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "SRGB_LUT_BITS", "TABLE_SIZE", "Correct
 #: turbid of the paper's waters (tests/test_correct.py)
 TABLE_SIZE = 512
 #: The largest factor by which the correction along the range may amplify a channel's direct
-#: signal, t_c(0) / t_c(r): beyond it the range is capped (DECISIONS.md, "Per-pixel
-#: correction": 16, 4 stops, held the far charts' ΔE00 of CORRECTION.md without amplifying
+#: signal, t_c(0) / t_c(r): beyond it the range is capped (decision
+#: 0048-correction-cap: 16, 4 stops, held the far charts' ΔE00 of CORRECTION.md without amplifying
 #: the open water's noise)
 MAX_GAIN = 16.0
 #: The cap is searched for up to this range, m (beyond it nothing of a photo is corrected)

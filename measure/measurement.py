@@ -270,7 +270,7 @@ def budget_for(uncertain, profile, measured_chart: bool = False,
         :data:`sca.budget_defaults.MEASURED_CHART_PATCH` with a measured chart), since the
         calibration in air measures the chart's and the camera's part under the light in air,
         not what only the light's path through water shows; not the default, for want of
-        evidence (DECISIONS.md, "The per-patch term underwater").
+        evidence (decision 0053-patch-floor).
 
     Returns
     -------

@@ -67,7 +67,7 @@ HETEROGENEITY_ALPHA = 0.01
 #: the default per-patch variance, (CHART_PATCH / patch)^2 = 0.49. The chart's reflectance
 #: tolerance is the same in every photo; the camera curves' error and the daylight's spectrum
 #: act through the light at the chart, which changes with each photo's path, and are each
-#: photo's own (DECISIONS.md, "The per-patch term underwater"; 1 before issue 37).
+#: photo's own (decision 0054-patch-correlation; 1 before issue 37).
 PATCH_CORRELATION = (CHART_PATCH / DEFAULT_UNCERTAIN["patch"]) ** 2
 #: Levenberg-Marquardt iterations of a joint fit (its tolerance is the package's LM_TOL).
 JOINT_MAX_ITER = 300

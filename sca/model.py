@@ -60,7 +60,7 @@ SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
 PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA + LIGHT
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
-#: cvxpy loop: both are infinite at C = 0 (DECISIONS.md).
+#: cvxpy loop: both are infinite at C = 0 (decision 0024-sca-loop).
 CHL_DERIVATIVE_FLOOR = 1e-6
 #: Profile upper ends beyond these are open (``inf``): C in mg m^-3, a_CDOM(440) in m^-1 (far
 #: beyond natural waters: Mobley 1994 lists C up to ~100, a_CDOM(440) up to ~10), lengths in m.

@@ -1,6 +1,6 @@
 """Every public name the documents and the code use exists (issue 35): the ``package.name``
-references in the Markdown documents' code (README.md, DECISIONS.md, the reports and the
-documentation site's pages), the
+references in the Markdown documents' code (README.md, CHANGELOG.md, the reports and the
+documentation site's pages, the decision records among them), the
 ``package.name`` attributes the code itself reads from a package it imported, and each
 package's ``__all__`` with its lazy exports (``_HOME``)."""
 

@@ -213,7 +213,7 @@ def test_results_do_not_depend_on_whether_numbas_cache_was_warm(tmp_path):
     them too would add half a minute to ``make test``. With
     reassociation among the kernels' fast-math flags they did not: the compiler ordered the
     sums differently when it compiled a kernel with its callees than in the code it cached
-    (DECISIONS.md, "The batched solver")."""
+    (decision 0029-deterministic-compiled-sums)."""
     import os
 
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), OPENBLAS_NUM_THREADS="1")

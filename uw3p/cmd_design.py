@@ -34,7 +34,7 @@ __all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TAR
 NAME = "design"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: The target without ``--target``: C to +-30 % at 95 % (DECISIONS.md "Measurable to +-30 %").
+#: The target without ``--target``: C to +-30 % at 95 % (decision 0012-precision-bound).
 DEFAULT_TARGET = "C=30%"
 #: Relative precisions above this are said as "more than" it (digits there mean nothing).
 SAY_MAX = 10.0

@@ -73,7 +73,7 @@ def phytoplankton_absorption_440(chl, *, derivative: bool = False, water: Water 
     derivative : numpy.ndarray, shape S
         d value / dC, m^-1 per mg m^-3 (only with ``derivative=True``; then a tuple is
         returned). Infinite at C = 0 (the estimator evaluates it at a small floor, see
-        DECISIONS.md).
+        decision 0024-sca-loop).
 
     Raises
     ------
@@ -397,7 +397,7 @@ def particle_scattering(wavelengths=None, chl=1.0, *, derivative: bool = False,
     """Particle scattering b_p(lambda) in m^-1, eq 12 with the Table 1 constants (lambda_0 = 470 nm).
 
     The Table 1 constants come from Brewin et al. (2012), who fit particle *back*scattering;
-    the paper (and this function) use them as b_p (DECISIONS.md).
+    the paper (and this function) use them as b_p (decision 0015-eq12-backscattering).
 
     Parameters
     ----------
@@ -468,7 +468,8 @@ def backscattering(wavelengths=None, chl=1.0, *, water: Water | None = None) -> 
     """Backscattering coefficient b_b = 0.5 b_w + b_bp in m^-1, used by the veiling light (eq 2).
 
     Pure water scatters symmetrically (half backwards). For particles we take eq 12 itself as
-    b_bp, which is what Brewin et al. (2012), the source of Table 1, fitted (DECISIONS.md).
+    b_bp, which is what Brewin et al. (2012), the source of Table 1, fitted (decision
+    0015-eq12-backscattering).
     The fractions 0.5 and 1 are ``water.water_backscatter_fraction`` and
     ``water.particle_backscatter_fraction``.
 

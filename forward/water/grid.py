@@ -447,7 +447,7 @@ class WaterTerms:
         """Backscattering b_b = f_w b_w + f_p b_p, m^-1 (the veiling light's scattering).
 
         f_w and f_p are ``water.water_backscatter_fraction`` (0.5) and
-        ``water.particle_backscatter_fraction`` (1); DECISIONS.md.
+        ``water.particle_backscatter_fraction`` (1); decision 0015-eq12-backscattering.
 
         Parameters
         ----------

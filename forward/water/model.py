@@ -149,7 +149,7 @@ class Water:
         'beam' (k = exp(-L c), c = a + b, eqs 3-4; default), 'absorption' (k = exp(-L a),
         eq 13 as printed) or 'split' (k = exp(-depth K_d - distance c): the daylight's way
         down with the diffuse attenuation K_d = (a + b_b) / mu_d, the camera's horizontal ray
-        with the beam attenuation c). DECISIONS.md.
+        with the beam attenuation c). Decision 0013-geometry-path-length.
     reference_nm : float
         lambda_0 of eqs 6-8, 10 and 17, nm (440).
     cdom_slope : float
@@ -183,7 +183,7 @@ class Water:
         b_bw / b_w for the veiling light (0.5: pure water scatters symmetrically).
     particle_backscatter_fraction : float
         b_bp / b_p for the veiling light (1: eq 12 *is* a backscattering model in its source,
-        Brewin et al. 2012; DECISIONS.md).
+        Brewin et al. 2012; decision 0015-eq12-backscattering).
     downwelling_cosine : float
         mu_d, the mean cosine of the downwelling light of the 'split' path model, dimensionless
         (0.75: K_d ~ (a + b_b) / mu_d, Gordon 1989; mu_d ~ 0.7-0.9 in the upper ocean, Kirk
