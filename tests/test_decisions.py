@@ -30,12 +30,18 @@ def records() -> dict[str, Path]:
     return out
 
 
+#: Folders of docs/ that the site's build writes (gitignored): not sources.
+GENERATED_DOCS = ("_build", "gallery", "reports", "generated")
+
+
 def sources():
     """Every text file that may cite a decision (the records themselves included)."""
     for name in CODE_DIRS:
         for path in sorted((ROOT / name).rglob("*")):
+            rel = path.relative_to(ROOT).parts
+            generated = rel[0] == "docs" and len(rel) > 2 and rel[1] in GENERATED_DOCS
             if path.is_file() and path.suffix in (".py", ".md", ".csv", ".txt", ".toml") \
-                    and "_build" not in path.parts and "reports" not in path.parts[-2:-1]:
+                    and not generated:
                 yield path
     for path in sorted(ROOT.glob("*.md")):
         yield path
