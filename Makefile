@@ -26,6 +26,7 @@ reproduce-figures: $(STAMP)
 	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.correct_range
 	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
 

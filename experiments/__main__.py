@@ -32,7 +32,7 @@ FIGURES = [
 #: The appearance figures (Figs 5-8): noise-free ``forward`` charts and the sensor's light, the
 #: same at the default and same-code settings, so not made again at a machinery check (the
 #: report reads the default setting's)
-APPEARANCE = FIGURES[:4]
+APPEARANCE = ["fig05_06_appearance_sites", "fig07_depth_distance", "fig08_chlorophyll"]
 #: Made once (into DIR itself), after the figures (instrument reads Fig 12's CSV): Figs 3-4
 #: (the constituents' spectra, the same at every setting), the paper-like search, the
 #: instrument study and the real camera (``DIR/realcamera/``: the G7X charts, issue 39).

@@ -208,8 +208,8 @@ def checks(out: dict) -> dict:
             len(reliable) - len(held) <= max(1, int(0.1 * len(reliable) + 0.5)),
             f"{len(held)} / {len(reliable)} reliable photos hold both C and a_CDOM "
             "(two 95 % intervals: about 90 % expected)"),
-        "the chartless frame is a 'no chart' row with its inputs, not bad input": (
-            chartless["status"] == "no chart" and "no chart" in chartless["error"]
+        "the chartless frame is corrected with the dive's water, not bad input": (
+            chartless["status"] == "corrected with the dive's water"
             and chartless.get("depth_m") not in (None, "")
             and chartless.get("distance_m") not in (None, "") and out["first_code"] != 2,
             f"status {chartless['status']!r}: {chartless['error']}; depth "
@@ -229,11 +229,13 @@ def checks(out: dict) -> dict:
                                                         ", ".join(sorted(cf & set(out["standard_names"])))),
         "a second run rewrites nothing complete": (
             not out["rewritten"] and all(r["status"] in ("done earlier", "no chart",
+                                                         "corrected with the dive's water",
                                                          "not an image") for r in out["second"]),
             f"{len(out['rewritten'])} files rewritten"),
         "Ctrl-C, then a rerun completes without redoing finished photos": (
             out["interrupted_code"] == 130 and bool(out["done_before"]) and not redone
-            and all(r["status"] in ("measured", "done earlier", "no chart", "not an image")
+            and all(r["status"] in ("measured", "done earlier", "no chart", "not an image",
+                                    "corrected with the dive's water")
                     for r in out["resumed"]),
             f"exit {out['interrupted_code']}; {len(out['done_before'])} done before the "
             f"interrupt, {len(redone)} of them redone"),

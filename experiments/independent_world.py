@@ -56,6 +56,7 @@ __all__ = [
     "PHYTO_440_EXPONENT",
     "PHYTO_440_SCALE",
     "REFERENCE_NM",
+    "SAND_REFLECTANCE",
     "WATER_BACKSCATTER_RATIO",
     "WATER_SCATTERING_500",
     "WATER_SCATTERING_EXPONENT",
@@ -69,6 +70,7 @@ __all__ = [
     "read_spectral_table",
     "render_calibration",
     "render_chart",
+    "render_range_scene",
     "resample",
     "trapezoid_weights",
     "water_optics",
@@ -849,3 +851,141 @@ def render_calibration(*, rng=None, **options) -> dict:
     opts = WorldOptions(**options)
     q = wavelength_grid(opts.step_nm).size
     return _render(np.ones(q), np.zeros(q), np.zeros(q), opts, rng, {"in_air": True})
+
+
+# --------------------------------------------------------------------------- whole frames
+#: Spectrally flat-ish sand for the seafloor of :func:`render_range_scene`: reflectance 0.25
+#: rising 20 % from 400 to 700 nm (carbonate sand is bright and slightly redder, Hochberg et al.
+#: 2003, Remote Sens. Environ. 85:174)
+SAND_REFLECTANCE = (0.25, 0.20)
+
+
+def _smooth_field(rng, shape, scale_px):
+    """Zero-mean, unit-sd noise smooth on ``scale_px`` pixels (scipy's zoom of a coarse draw)."""
+    from scipy import ndimage
+
+    H, W = shape
+    small = rng.standard_normal((max(2, int(H / scale_px) + 2), max(2, int(W / scale_px) + 2)))
+    big = ndimage.zoom(small, (H / small.shape[0], W / small.shape[1]), order=3)[:H, :W]
+    return (big - big.mean()) / (big.std() + 1e-12)
+
+
+def render_range_scene(chl: float, cdom: float, depth: float, *, size=(300, 480),
+                       near: float = 0.8, far: float = 9.0, charts=(), chart_px: int = 72,
+                       open_water: float = 0.12, exposure: float = 0.7, rng=None,
+                       **options) -> dict:
+    """A whole frame of a seafloor receding from ``near`` to ``far`` m, with charts on it.
+
+    Every pixel is rendered at its own range r with this module's water: the direct light
+    i k(r) R (``k`` of the ``path`` option: exp(-c (depth + r)) or exp(-K_d depth - c r)) and
+    the single-scattering veiling light along its ray (``backscatter='single_scatter'`` is
+    the default here), through the camera's curves (eq 1, trapezoid rule). The floor's range
+    grows geometrically from the bottom row to the top of the floor (a plane seen obliquely);
+    the rows above it are open water (range unknown: NaN in the map; the veil of an infinite
+    ray). The floor is sand with smooth brightness texture and patches of the chart's colours
+    (a reef's variety); each chart of ``charts`` stands upright facing the camera at its range
+    (its pixels share that range), ``chart_px`` pixels wide whatever the range (a bigger board
+    farther away: its colours, not its size, are what is tested). Photon and read noise and
+    clipping as :func:`render_chart`'s options say.
+
+    Parameters
+    ----------
+    chl, cdom, depth : float
+        The water (mg m^-3, m^-1 at 440 nm) and the camera's and scene's depth (m).
+    size : tuple of int
+        (height, width), pixels.
+    near, far : float
+        The floor's range at the bottom row and at the top of the floor, m.
+    charts : sequence of (range_m, x_fraction, width_px or None)
+        Each chart's range, the horizontal position of its centre (fraction of the width) and
+        its width in pixels (None: ``chart_px``).
+    chart_px : int
+        Default chart width, pixels (6 patch columns).
+    open_water : float
+        Fraction of the rows at the top that are open water.
+    exposure : float
+        The brightest noise-free value is this fraction of full scale.
+    rng : numpy.random.Generator or int, optional
+    **options
+        :class:`WorldOptions` fields (``path``, ``backscatter_scale``, ``camera``, ``noise``,
+        ``electrons_full_scale``, ...).
+
+    Returns
+    -------
+    dict
+        ``image`` (H, W, 3) float32 linear 0-1 (clipped); ``expected`` the noise-free values;
+        ``range`` (H, W) float32 m (NaN: open water); ``charts`` a list of dicts (``range``,
+        ``grid`` corners (4, 2) next to patch 1, 6, 24, 19, ``boxes`` (24, 4) x0, y0, x1, y1 of
+        each patch's central half, ``air`` (3, 24) the patches' values in air in model units);
+        ``white_air`` (3,) a white reflector in air; ``scale`` the model units per image unit;
+        ``optics``; ``truth``.
+    """
+    opts = WorldOptions(**{"backscatter": "single_scatter"} | options)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    H, W = (int(v) for v in size)
+    wl = wavelength_grid(opts.step_nm)
+    w = trapezoid_weights(wl)
+    i = illuminant_spd(opts.illuminant, wl, interpolation=opts.interpolation)
+    nominal = camera_curves(opts.camera, wl, interpolation=opts.interpolation) * w
+    P = nominal / float((nominal @ i).max())  # model units: white in air = 1
+    R = chart_reflectances(opts.chart, wl, interpolation=opts.interpolation)
+    optics = water_optics(wl, chl, cdom, cdom_slope=opts.cdom_slope, nap_slope=opts.nap_slope,
+                          interpolation=opts.interpolation)
+    sand = SAND_REFLECTANCE[0] * (1 + SAND_REFLECTANCE[1] * (wl - wl[0]) / (wl[-1] - wl[0]))
+    palette = np.column_stack([sand, R])  # 0: sand, 1..24: the chart's colours
+    top = int(round(open_water * H))
+    t = (H - 1 - np.arange(H)) / max(H - 1 - top, 1)
+    row_range = near * (far / near) ** np.clip(t, 0, 1)
+    rng_map = np.broadcast_to(row_range[:, None], (H, W)).astype(np.float32).copy()
+    rng_map[:top] = np.nan
+    index = np.zeros((H, W), int)
+    blobs = _smooth_field(gen, (H, W), W / 10)
+    pick = gen.integers(1, 25, size=8)
+    for k, level in enumerate(np.linspace(1.2, 2.2, 8)):
+        index[(blobs > level - 0.12) & (blobs <= level)] = pick[k]
+    bright = np.exp(0.25 * _smooth_field(gen, (H, W), W / 30)).astype(float)
+    out_charts = []
+    for spec in charts:
+        r_c, xf = float(spec[0]), float(spec[1])
+        wpx = int(spec[2] if len(spec) > 2 and spec[2] else chart_px)
+        pitch = wpx / CHART_COLUMNS
+        y_row = int(np.argmin(np.abs(np.where(np.isnan(row_range), np.inf, row_range) - r_c)))
+        x0 = int(round(xf * W - wpx / 2))
+        y0 = int(round(min(max(y_row - CHART_ROWS * pitch / 2, top), H - CHART_ROWS * pitch - 1)))
+        y1, x1 = int(round(y0 + CHART_ROWS * pitch)), x0 + wpx
+        rng_map[y0:y1, x0:x1] = r_c
+        bright[y0:y1, x0:x1] = 1.0
+        boxes = []
+        for j in range(CHART_ROWS * CHART_COLUMNS):
+            rr, cc = divmod(j, CHART_COLUMNS)
+            a0, b0 = x0 + cc * pitch, y0 + rr * pitch
+            index[int(round(b0)):int(round(b0 + pitch)), int(round(a0)):int(round(a0 + pitch))] = j + 1
+            boxes.append([a0 + pitch / 4, b0 + pitch / 4, a0 + 3 * pitch / 4, b0 + 3 * pitch / 4])
+        out_charts.append({"range": r_c, "grid": np.array([[x0 - 0.5, y0 - 0.5], [x1 - 0.5, y0 - 0.5],
+                                                          [x1 - 0.5, y1 - 0.5], [x0 - 0.5, y1 - 0.5]]),
+                           "boxes": np.array(boxes), "air": P @ (i[:, None] * R)})
+    # the direct light of every palette colour at every row's range, then per pixel
+    known = np.where(np.isfinite(rng_map), rng_map, 0.0)
+    flat = known.ravel()
+    uniq, inv = np.unique(flat, return_inverse=True)
+    k = np.exp(-optics["c"] * (depth + uniq[:, None])) if opts.path == "paper" else \
+        np.exp(-optics["K_d"] * depth - optics["c"] * uniq[:, None])
+    direct = np.einsum("cq,uq,qk->uck", P, i * k, palette)  # (ranges, 3, colours)
+    lit = i * np.exp(-optics["K_d"] * depth) * optics["b_b"] / optics["c"] * opts.backscatter_scale
+    veil = (lit * -np.expm1(-optics["c"] * uniq[:, None])) @ P.T  # (ranges, 3)
+    veil_inf = P @ lit
+    pix = direct[inv, :, index.ravel()] * bright.ravel()[:, None] + veil[inv]
+    pix = pix.reshape(H, W, 3)
+    pix[:top] = veil_inf
+    scale = exposure / float(pix.max())
+    expected = (pix * scale).astype(np.float32)
+    if opts.noise:
+        e = opts.electrons_full_scale
+        img = (gen.poisson(np.clip(expected, 0, None) * e) + gen.normal(0, opts.read_noise_e,
+                                                                         expected.shape)) / e
+    else:
+        img = expected.copy()
+    img = np.clip(img, 0, 1 if opts.clip is None else opts.clip).astype(np.float32)
+    return {"image": img, "expected": expected, "range": rng_map, "charts": out_charts,
+            "white_air": P @ i, "scale": scale, "optics": optics,
+            "truth": {"chl": chl, "cdom": cdom, "depth": depth, "options": dataclasses.asdict(opts)}}

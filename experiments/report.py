@@ -780,21 +780,19 @@ def realcamera_sentence(r) -> str:
     cv, gm, gh = r["cv_systematic"], r["greys_measure"], r["greys_held_out"]
     v = realcamera_verdicts(r)
     adopted = [k for k, b in r["beats_affine"].items() if b and k not in ("model", "model + light field")]
+    physics = ("no optional physics (in-water reflectance, forward scattering, tilted chart) "
+               "beats the affine baseline" if not adopted else
+               f"beating the affine baseline: {', '.join(adopted)}")
     return (f"**The real camera** (the authors' {r['n']} G7X charts, cross-validated): the model "
             f"leaves {cv['model + light field']['median']:.1%} per patch beyond photon noise on "
             f"patches it did not see, against the affine baseline's {cv['affine']['median']:.1%} "
-            f"({v['fit']}); no optional physics (in-water reflectance, forward scattering, tilted "
-            "chart) beats the affine baseline" if not adopted else
-            f"**The real camera** (the authors' {r['n']} G7X charts, cross-validated): the model "
-            f"leaves {cv['model + light field']['median']:.1%} per patch beyond photon noise on "
-            f"patches it did not see, against the affine baseline's {cv['affine']['median']:.1%} "
-            f"({v['fit']}); beating the affine baseline: {', '.join(adopted)}") + (
-        f". Its grey correction on held-out greys: {gh['model']['median']:.2f}° from neutral "
-        f"against grey-world's {gh['grey-world']['median']:.2f}° and white-patch's "
-        f"{gh['white-patch']['median']:.2f}° ({v['held']}); through `uw3p measure` on the charts "
-        f"as DNGs, {gm['uw3p measure']['median']:.2f}° against {gm['grey-world']['median']:.2f}° "
-        f"and {gm['white-patch']['median']:.2f}° ({v['measure']}), reliable "
-        f"{r['measure_reliable']} of {r['n']}.")
+            f"({v['fit']}); {physics}"
+            f". Its grey correction on held-out greys: {gh['model']['median']:.2f}° from neutral "
+            f"against grey-world's {gh['grey-world']['median']:.2f}° and white-patch's "
+            f"{gh['white-patch']['median']:.2f}° ({v['held']}); through `uw3p measure` on the charts "
+            f"as DNGs, {gm['uw3p measure']['median']:.2f}° against {gm['grey-world']['median']:.2f}° "
+            f"and {gm['white-patch']['median']:.2f}° ({v['measure']}), reliable "
+            f"{r['measure_reliable']} of {r['n']}.")
 
 
 def main(argv=None):

@@ -26,6 +26,11 @@ _HOME = {
     "MEASURE_BLOCKING": "measurement", "Measurement": "measurement", "budget_for": "measurement",
     "correction": "measurement", "measure": "measurement",
     "corrected_image": "output", "srgb_preview": "output", "write_outputs": "output",
+    "Corrected": "correct", "CorrectionTable": "correct", "correct_image": "correct",
+    "correction_table": "correct", "seathru_coefficients": "correct",
+    "CorrectionWater": "correctwater", "correction_water": "correctwater",
+    "correction_spread": "correct_uncertainty", "read_range": "rangemap",
+    "write_corrected": "correct_output",
 }
 #: The public names: every name of :data:`_HOME`.
 __all__ = list(_HOME)

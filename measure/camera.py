@@ -27,14 +27,17 @@ import forward
 from forward.imaging import ChartSetup
 
 __all__ = [
+    "CHART_PATCHES",
     "MIN_CALIBRATION_PATCHES",
     "PATCH_SD_MAX",
     "Profile",
     "calibrate",
     "camera_setup",
+    "chart_digest",
     "load_profile",
     "own_balance",
     "patch_systematic",
+    "read_chart_reflectance",
 ]
 
 #: A calibration whose per-patch systematic error (beyond photon noise, relative) exceeds this
@@ -45,6 +48,83 @@ PATCH_SD_MAX = 0.03
 #: Fewest unclipped patches a channel needs for its gain (half the chart): fewer, and the
 #: channel is flagged ``few-patches-<R|G|B>``.
 MIN_CALIBRATION_PATCHES = 12
+#: Patches of a ColorChecker Classic: the columns of a measured chart's file
+#: (:func:`read_chart_reflectance`).
+CHART_PATCHES = 24
+#: A reflectance factor above this is refused as not a 0-1 factor; above 1.5 the message
+#: suggests the file is in percent (a ColorChecker's white is about 0.9).
+_REFLECTANCE_MAX = 1.0
+
+
+def read_chart_reflectance(path, wavelengths=None, *, name: str = "chart_reflectance"):
+    """A chart's reflectance spectra measured with a spectrometer, on the grid.
+
+    The file: a CSV (comma or semicolon; '#' comments and a header line allowed,
+    :func:`forward.spectra.read_spectral_csv`) with the wavelength in nm, then
+    :data:`CHART_PATCHES` columns of reflectance factor (0-1) in ColorChecker order (patch 1,
+    dark skin, to patch 24, black: row by row), covering the grid (400-700 nm by default;
+    resampled linearly).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV file.
+    wavelengths : array_like, optional
+        The grid in nm (default 400-700 nm at 1 nm).
+    name : str, optional
+        The argument named in errors (``--chart-reflectance`` from the command line).
+
+    Returns
+    -------
+    numpy.ndarray, (q, 24)
+        Reflectance factors on the grid, one column per patch.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``: a missing or malformed file, not 24 value columns, a value outside
+        0-1 (a file in percent is recognised and said so), a table that does not cover the
+        grid, or a grey row (patches 19-24) that does not fall from white to black (columns
+        not in ColorChecker order).
+    """
+    from forward.spectra import read_spectral_csv, resample
+
+    wl_src, values = read_spectral_csv(path, name=name)
+    if values.shape[1] != CHART_PATCHES:
+        raise ValueError(f"{name}: {path} has {values.shape[1]} reflectance columns; expected "
+                         f"{CHART_PATCHES} (wavelength nm, then patch 1 dark skin ... patch 24 "
+                         "black, in ColorChecker order)")
+    top, bottom = float(values.max()), float(values.min())
+    if top > _REFLECTANCE_MAX or bottom < 0:
+        hint = " (the file looks like percent: divide by 100)" if top > 1.5 else ""
+        raise ValueError(f"{name}: {path}: reflectance factors must lie in 0-1, found "
+                         f"{bottom:.4g}-{top:.4g}{hint}")
+    wl = forward.wavelength_grid(wavelengths)
+    refl = resample(wl_src, values, wl, name=name)
+    grey = refl[:, 18:24].mean(axis=0)
+    if not np.all(np.diff(grey) < 0):
+        raise ValueError(f"{name}: {path}: the grey row (patches 19-24) does not fall from "
+                         "white to black (mean reflectance "
+                         + ", ".join(f"{g:.3g}" for g in grey)
+                         + "): the columns are not in ColorChecker order")
+    return refl
+
+
+def chart_digest(path) -> str:
+    """The SHA-256 of a measured chart's file (what a profile and a measurement record).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+        Hex digest.
+    """
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 @dataclass
@@ -82,6 +162,9 @@ class Profile:
     patch_sd : float or None
         The per-patch systematic error beyond photon noise, relative (the uncertainty budget's
         ``patch``, :func:`patch_systematic`); None in profiles written before it was estimated.
+    chart : str
+        The chart the calibration used: '' for the nominal chart, else the SHA-256 of the
+        measured chart's file (:func:`read_chart_reflectance`, :func:`chart_digest`).
     """
 
     camera: str
@@ -97,6 +180,7 @@ class Profile:
     image: str = ""
     version: str = ""
     patch_sd: float | None = None
+    chart: str = ""
 
     def to_json(self) -> str:
         """The profile as indented JSON text (what ``uw3p calibrate`` writes)."""
@@ -138,7 +222,7 @@ def load_profile(path) -> Profile:
 
 
 def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=None,
-                 illuminant=None, wavelengths=None) -> ChartSetup:
+                 illuminant=None, wavelengths=None, reflectances=None) -> ChartSetup:
     """The chart set-up (camera, illuminant, chart on a grid) of a camera with a known balance.
 
     Parameters
@@ -157,6 +241,9 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
         The surface illuminant (default D65).
     wavelengths : array_like, optional
         The grid in nm (default 400-700 nm at 1 nm).
+    reflectances : optional
+        The chart: as :func:`forward.chart_reflectances` (default the nominal ColorChecker;
+        a measured chart's spectra on the grid, :func:`read_chart_reflectance`).
 
     Returns
     -------
@@ -182,7 +269,7 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
     total = balance if gains is None else balance * gains
     if gains is None and np.all(balance == 1.0):
         total = None  # peak-normalised curves (colour-science's NPL cameras): the cached set-up
-    return forward.chart_setup(camera, illuminant, None, wl, channel_gains=total)
+    return forward.chart_setup(camera, illuminant, reflectances, wl, channel_gains=total)
 
 
 def own_balance(sensitivities) -> np.ndarray:
@@ -247,7 +334,7 @@ def patch_systematic(residuals, sigma, values, dof: int) -> float:
 
 
 def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, illuminant=None,
-              image: str = "") -> Profile:
+              image: str = "", chart_reflectance=None) -> Profile:
     """Fit the per-channel gains of ``camera`` from a chart photographed in air.
 
     Per channel, weighted least squares through the origin (in air there is no veiling light):
@@ -268,6 +355,9 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
         The illuminant of the photo in air (default D65).
     image : str, optional
         Path of the photo, recorded in the profile.
+    chart_reflectance : str or os.PathLike, optional
+        The chart's spectra measured with a spectrometer (:func:`read_chart_reflectance`),
+        replacing the nominal chart; the profile records its file's SHA-256 (``chart``).
 
     Returns
     -------
@@ -281,7 +371,8 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
         reduced chi^2 of each channel (photon noise only) is recorded; with thousands of
         pixels per patch it is above 1 for any real chart, and it no longer decides.
     """
-    setup = camera_setup(camera, quantal=quantal, illuminant=illuminant)
+    refl = None if chart_reflectance is None else read_chart_reflectance(chart_reflectance)
+    setup = camera_setup(camera, quantal=quantal, illuminant=illuminant, reflectances=refl)
     G = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)  # (3, 24)
     M, sig = np.asarray(sample.rgb, float), np.asarray(sample.sigma, float)
     use = (np.asarray(sample.clipped) == 0) & np.isfinite(sig) & (sig > 0)
@@ -323,7 +414,8 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
                    gains=(gains / top).tolist(), gains_se=(se / top).tolist(),
                    gains_raw=gains.tolist(), chi2_dof=chi2.tolist(), fit_rms=rms.tolist(),
                    reliable=not flags, flags=flags, image=str(image), version=_version(),
-                   patch_sd=float(patch_sd))
+                   patch_sd=float(patch_sd),
+                   chart="" if chart_reflectance is None else chart_digest(chart_reflectance))
 
 
 def _version() -> str:

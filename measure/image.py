@@ -16,7 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sca.compiled import KERNEL_LOCK, njit, prange
+from sca.compiled import KERNEL_LOCK
+
+from .pixels import bilinear_all, unpack
 
 # numba's fork-safe threading layer and the kernel lock: one place (sca.compiled)
 _KERNEL_LOCK = KERNEL_LOCK
@@ -177,24 +179,10 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
     channel = np.empty(mosaic.shape, np.int8)
     clipped = np.empty(mosaic.shape, bool)
     with _KERNEL_LOCK:
-        _unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
+        unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
     black3 = np.array([blacks[[i for i in used if lut[i] == c]].mean()
                        if any(lut[i] == c for i in used) else np.nan for c in range(3)])
     return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, _exif(p))
-
-
-@njit(parallel=True, cache=True)
-def _unpack(mosaic, colors, lut, blacks, white, data, channel, clipped):  # pragma: no cover
-    """One pass over the mosaic (parallel over rows): data = mosaic - blacks[colour] (float32,
-    as numpy's float32 subtraction), channel = lut[colour], clipped = mosaic >= white."""
-    H, W = mosaic.shape
-    for y in prange(H):
-        for x in range(W):
-            c = colors[y, x]
-            v = mosaic[y, x]
-            data[y, x] = np.float32(v) - blacks[c]
-            channel[y, x] = lut[c]
-            clipped[y, x] = v >= white
 
 
 def _read_tiff(p: Path, black_level, white_level) -> Photo:
@@ -254,49 +242,8 @@ def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> 
     H, W = photo.data.shape
     out = np.empty((H, W, 3), np.uint16 if uint16 else np.float32)
     with _KERNEL_LOCK:
-        _bilinear(photo.data, photo.channel, gains.astype(np.float32),
+        bilinear_all(photo.data, photo.channel, gains.astype(np.float32),
                   offset.astype(np.float32), out, uint16)
     return out
 
 
-@njit(parallel=True, cache=True)
-def _bilinear(data, channel, gains, offset, out, to_uint16):  # pragma: no cover - compiled
-    H, W = data.shape
-    for y in prange(H):
-        for x in range(W):
-            num0 = num1 = num2 = 0.0
-            den0 = den1 = den2 = 0.0
-            for dy in range(-1, 2):
-                yy = y + dy
-                if yy < 0:
-                    yy = -yy
-                elif yy >= H:
-                    yy = 2 * H - 2 - yy
-                wy = 2.0 if dy == 0 else 1.0
-                for dx in range(-1, 2):
-                    xx = x + dx
-                    if xx < 0:
-                        xx = -xx
-                    elif xx >= W:
-                        xx = 2 * W - 2 - xx
-                    w = wy * (2.0 if dx == 0 else 1.0)
-                    c = channel[yy, xx]
-                    v = (data[yy, xx] - offset[c]) * gains[c] * w
-                    if c == 0:
-                        num0 += v
-                        den0 += w
-                    elif c == 1:
-                        num1 += v
-                        den1 += w
-                    else:
-                        num2 += v
-                        den2 += w
-            vals = (num0 / den0 if den0 > 0 else 0.0, num1 / den1 if den1 > 0 else 0.0,
-                    num2 / den2 if den2 > 0 else 0.0)
-            for c in range(3):
-                v = vals[c]
-                if to_uint16:
-                    v = min(max(v + 0.5, 0.0), 65535.0)
-                    out[y, x, c] = int(v)
-                else:
-                    out[y, x, c] = v

@@ -18,6 +18,7 @@ import sca.joint
 from forward.water import resolve_water
 from sca.budget import parse_sd
 
+from .auxiliary import dive_auxiliary
 from .measurement import CLIPPED_SIGMA
 
 __all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "PER_PHOTO_TERMS", "fit_joint"]
@@ -68,7 +69,8 @@ def _name(rec, i):
 
 
 def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
-              patch_correlation: float = sca.joint.PATCH_CORRELATION) -> sca.joint.JointEstimate:
+              patch_correlation: float = sca.joint.PATCH_CORRELATION,
+              auxiliary=None) -> sca.joint.JointEstimate:
     """The water shared by a dive's photographs.
 
     Parameters
@@ -86,6 +88,12 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
         photo's own depth and distance sds).
     path_models, patch_correlation :
         As :func:`sca.joint.estimate_joint`.
+    auxiliary : dict, optional
+        What was measured of the dive's water besides the photos (:mod:`sca.auxiliary`'s form),
+        fused in the joint fit. Default: every reading the photos' fits used (their
+        ``inputs['auxiliary']``, photos left out of the fit included: a reading of the water is
+        not the photo's fit), each counted once and several readings of one quantity combined
+        (:func:`measure.auxiliary.dive_auxiliary`); ``{}``: none.
 
     Returns
     -------
@@ -146,7 +154,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
         depth_sd=None if given else np.array(dsd),
         distance_sd=None if given else np.array(rsd), names=names,
         path_models=path_models, patch_correlation=patch_correlation,
-        start={k: np.array(v, float) for k, v in start.items()})
+        start={k: np.array(v, float) for k, v in start.items()},
+        auxiliary=dive_auxiliary(recs) if auxiliary is None else auxiliary)
     carried = sorted({f for _, r in used for f in (r.get("estimate") or {}).get("flags", [])
                       if f in CARRIED_FLAGS})
     if carried:

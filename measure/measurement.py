@@ -22,8 +22,11 @@ from forward import validate
 from forward.spectra import WHITE_PATCH
 from forward.water import resolve_water
 from sca.assess import BLOCKING
+from sca.auxiliary import auxiliary_observations
+from sca.budget import parse_sd
 
-from .camera import Profile, camera_setup, load_profile
+from .auxiliary import auxiliary_record
+from .camera import Profile, camera_setup, chart_digest, load_profile, read_chart_reflectance
 from .chart import (
     LAYOUTS,
     ChartLayout,
@@ -81,9 +84,12 @@ class Measurement:
         The colour correction corrected = gains * (raw - offset) (:func:`correction`; offset in
         raw units).
     fitted : numpy.ndarray, (3, 24)
-        The model's patch values at the estimate, raw units.
-    attenuation_band : numpy.ndarray, (2, q)
-        k (dimensionless) at the corners of the C and a_CDOM intervals (NaN if unbounded).
+        The model's patch values at the estimate (the budget's nuisances at their fitted
+        values), raw units.
+    transmittance_band : numpy.ndarray, (2, q)
+        A 95 % band of the path's transmittance k = exp(-(depth + distance) c)
+        (dimensionless; lower, upper): from the attenuation coefficient's own interval and the
+        budget's sd of the path length (conservative where the geometry is uncertain).
     camera : dict
         The camera, its profile and the illuminant used.
     photo : Photo
@@ -108,7 +114,7 @@ class Measurement:
     gains: np.ndarray
     offset: np.ndarray
     fitted: np.ndarray
-    attenuation_band: np.ndarray
+    transmittance_band: np.ndarray
     camera: dict
     photo: Photo = field(repr=False)
     setup: forward.ChartSetup = field(repr=False)
@@ -120,26 +126,69 @@ class Measurement:
     #: every input used (the audit trail of measurement.json): depth and distance (m) with
     #: their sds, the uncertainty budget, the water model and path model, the options
     inputs: dict = field(default_factory=dict)
+    #: the correction's own uncertainty: the ΔE00 spread of the corrected chart and of a grey
+    #: at each range over the water's 95 % intervals (:func:`measure.correct_uncertainty.
+    #: correction_spread`)
+    correction_uncertainty: dict = field(default_factory=dict)
+
+    @property
+    def attenuation_band(self) -> np.ndarray:
+        """The former name of :attr:`transmittance_band` (the transmittance, not the
+        attenuation coefficient)."""
+        return self.transmittance_band
+
+    @property
+    def auxiliary_kinds(self) -> set:
+        """The kinds of auxiliary measurement fused in the fit ('cdom', 'secchi', 'kd')."""
+        return {r["kind"] for r in self.inputs.get("auxiliary") or []}
+
+    @property
+    def patch_term(self) -> float:
+        """The budget's per-patch term the fit used (relative sd; 0 without one)."""
+        return float(parse_sd("patch", self.estimate.uncertain.get("patch", 0.0)))
+
+    @property
+    def residual_sd(self) -> np.ndarray:
+        """(3, 24) the standard error of each patch value that chi^2 uses: the photon noise
+        with the budget's per-patch term, sqrt(sigma^2 + (patch M)^2), raw units (clipped
+        values: :data:`CLIPPED_SIGMA` x the largest value)."""
+        M, sig = _data(self.sample)
+        return np.sqrt(sig ** 2 + (self.patch_term * M) ** 2)
 
     def to_dict(self, version: str = "") -> dict:
         """measurement.json's content (numbers as Python lists; units in ``estimate.units``),
         ``version`` the writer's."""
+        from .statements import statements
+
         e = self.estimate
         return {
             "estimate": {
                 "chl": e.chl, "cdom": e.cdom, "chl_ci": list(e.chl_ci), "cdom_ci": list(e.cdom_ci),
                 "gain": e.gain, "gain_ci": list(e.gain_ci),
-                "attenuation": e.attenuation.tolist(),
-                "attenuation_band": self.attenuation_band.tolist(),
+                "quantities": {k: float(v) for k, v in e.quantities.items()},
+                "quantity_intervals": {k: [float(a) for a in v]
+                                       for k, v in e.quantity_intervals.items()},
+                "verdicts": {k: str(v) for k, v in e.verdicts.items()},
+                "statements": statements(e, "photo", self.auxiliary_kinds),
+                "beam_attenuation": np.asarray(e.beam_attenuation, float).tolist(),
+                "beam_attenuation_ci": np.asarray(e.beam_attenuation_ci, float).tolist(),
+                "path_model": e.path_model, "path_models": list(e.path_models),
+                "transmittance": e.attenuation.tolist(),
+                "transmittance_band": self.transmittance_band.tolist(),
                 "wavelengths": e.wavelengths.tolist(), "backscatter": e.backscatter.tolist(),
                 "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
                 "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
-                "converged": e.converged, "status": e.status,
+                "converged": e.converged, "status": e.status, "path_model": e.path_model,
                 "budget": e.budget, "nuisance": {k: np.asarray(v, float).tolist()
                                                  for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
                           "model unit", "backscatter": "raw units", "wavelengths": "nm",
-                          "attenuation": "dimensionless k = exp(-(depth + distance) c)"},
+                          "quantities": "m^-1 (sca.derived.QUANTITIES)",
+                          "beam_attenuation": "m^-1: the attenuation coefficient of the light's "
+                          "path, tau / (depth + distance) (path model 'beam': the beam "
+                          "attenuation c = a + b; 'absorption': a; 'split': the path-weighted "
+                          "mean of K_d and c)",
+                          "transmittance": "dimensionless k = exp(-(depth + distance) c)"},
             },
             "patches": {"rgb": self.sample.rgb.tolist(), "sigma": self.sample.sigma.tolist(),
                         "n_pixels": self.sample.n_pixels.tolist(),
@@ -150,7 +199,8 @@ class Measurement:
             "orientation": self.orientation,
             "corners": self.corners.tolist(),
             "light_field": self.light_field,
-            "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist()},
+            "correction": {"gains": self.gains.tolist(), "offset": self.offset.tolist(),
+                           "uncertainty": self.correction_uncertainty},
             "camera": self.camera,
             "image": {"path": self.photo.path, "size": list(self.photo.size),
                       "kind": self.photo.kind, "exposure": self.photo.exposure,
@@ -189,18 +239,19 @@ FIT_MODE = "lm"
 
 
 def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
-         mode=FIT_MODE):
-    """sca.estimate with a free gain on the sample."""
+         mode=FIT_MODE, auxiliary=None):
+    """sca.estimate with a free gain on the sample (and the auxiliary measurements)."""
     M, sig = _data(sample)
     return sca.estimate(M, depth=depth, distance=distance, sigma=sig, gain="free", setup=setup,
-                        water=water, uncertain=uncertain, mode=mode)
+                        water=water, uncertain=uncertain, mode=mode, auxiliary=auxiliary or None)
 
 
-def budget_for(uncertain, profile) -> dict:
+def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
     """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
-    (:data:`sca.budget.DEFAULT_UNCERTAIN`) with the profile's own numbers where it has them:
-    its per-patch systematic error (``patch``) and the largest standard error of its channel
-    gains (``balance``).
+    (:data:`sca.budget.DEFAULT_UNCERTAIN`; with a measured chart its per-patch term is
+    :data:`sca.budget_defaults.MEASURED_CHART_PATCH`) with the profile's own numbers where it
+    has them: its per-patch systematic error (``patch``) and the largest standard error of its
+    channel gains (``balance``).
 
     Parameters
     ----------
@@ -208,6 +259,9 @@ def budget_for(uncertain, profile) -> dict:
         The budget asked for (None: the default).
     profile : measure.Profile or None
         The camera's calibration.
+    measured_chart : bool, optional
+        The chart's own spectra were measured (``chart_reflectance``): the default per-patch
+        term is what such a chart still leaves.
 
     Returns
     -------
@@ -217,6 +271,10 @@ def budget_for(uncertain, profile) -> dict:
     if uncertain is not None:
         return dict(uncertain)
     out = dict(sca.budget.DEFAULT_UNCERTAIN)
+    if measured_chart:
+        from sca.budget_defaults import MEASURED_CHART_PATCH
+
+        out["patch"] = MEASURED_CHART_PATCH
     if profile is not None:
         if profile.patch_sd is not None and np.isfinite(profile.patch_sd):
             out["patch"] = float(profile.patch_sd)
@@ -227,7 +285,7 @@ def budget_for(uncertain, profile) -> dict:
 
 
 def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncertain=None,
-                        mode=FIT_MODE):
+                        mode=FIT_MODE, auxiliary=None):
     """(name, corners, sample, estimate, flags, notes) of the orientation to use."""
     passing = [name for name, (_, _, ok) in cands.items() if ok]
     full = {name: sample_patches(photo, cands[name][0], lay) for name in (passing or ["as given"])}
@@ -239,10 +297,11 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncert
             f"the corners were given in the wrong order; the chart was found {name} with respect "
             "to them and sampled in its true orientation"]
         flags = [] if name == "as given" else ["orientation-corrected"]
-        return name, c, s, _fit(s, setup, depth, distance, water, uncertain, mode), flags, notes
+        return name, c, s, _fit(s, setup, depth, distance, water, uncertain, mode,
+                                auxiliary), flags, notes
     pool = passing or list(cands)
-    fits = {name: _fit(cands[name][1], setup, depth, distance, water, uncertain, mode)
-            for name in pool}
+    fits = {name: _fit(cands[name][1], setup, depth, distance, water, uncertain, mode,
+                       auxiliary) for name in pool}
     order = sorted(fits, key=lambda k: fits[k].objective)
     best = order[0]
     c, s, _ = cands[best]
@@ -257,7 +316,7 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncert
            "to black in every channel" if not passing else
            "several orientations fit about equally well")
     return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water,
-                                                          uncertain, mode), \
+                                                          uncertain, mode, auxiliary), \
         ["orientation-unverified"], [f"orientation not verified: {why}; check --corners"]
 
 
@@ -311,7 +370,9 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     P_fit = P
     delta = nuisance.get("camera_shift")
     if delta is not None:
-        P_fit = P - np.asarray(delta, float)[None, :] * np.gradient(P, setup.wavelengths, axis=0)
+        from sca.model import curve_shift_derivative
+
+        P_fit = P + np.asarray(delta, float)[None, :] * curve_shift_derivative(P, setup.wavelengths)
     through = P_fit.T @ light
     balance = nuisance.get("balance")
     if balance is not None:
@@ -325,23 +386,48 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     return vk, offset
 
 
-def _band(estimate: sca.Estimate, mdl_water, depth, distance, wl):
-    """k at the corners of the (C, a_CDOM) intervals: k falls with both, so (k(hi, hi),
-    k(lo, lo)) bound it over the box of the two intervals (a conservative band)."""
-    lo_c, hi_c = estimate.chl_ci
-    lo_a, hi_a = estimate.cdom_ci
-    hi_c = min(hi_c, sca.assess.CHL_MAX)
-    hi_a = min(hi_a, sca.assess.CDOM_MAX)
-    k_low = forward.attenuation(wl, hi_c, hi_a, depth, distance, water=mdl_water)
-    k_high = forward.attenuation(wl, lo_c, lo_a, depth, distance, water=mdl_water)
-    return np.vstack([k_low, k_high])
+def _band(estimate: sca.Estimate, depth, distance) -> np.ndarray:
+    """(2, q) a 95 % band of the transmittance k = exp(-tau), tau = L c the path's optical
+    depth, lower end first: tau's ends are L c at the ends of the attenuation coefficient's own
+    interval (:mod:`sca.derived`: the correlation of C and a_CDOM included), L the fit's path
+    length, widened by 1.96 times the relative sd of L the budget gives its depth and distance
+    (c = tau / L: adding the two relative widths bounds tau's from above, so the band is
+    conservative where the geometry is uncertain and exact where it is held)."""
+    from sca.derived import CONFIDENCE
+    from scipy import special
+
+    ci = np.asarray(estimate.beam_attenuation_ci, float)
+    nuisance = estimate.nuisance or {}
+    L = float(nuisance.get("depth", depth)) + float(nuisance.get("distance", distance))
+    sd = [float(parse_sd(g, estimate.uncertain[g], ref)) if g in estimate.uncertain else 0.0
+          for g, ref in (("depth", depth), ("distance", distance))]
+    widen = np.exp(special.ndtri(0.5 + CONFIDENCE / 2) * np.hypot(*sd) / L)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.vstack([np.exp(-L * ci[:, 1] * widen), np.exp(-L * ci[:, 0] / widen)])
+
+
+def _fitted(est: sca.Estimate, setup, water, depth, distance) -> np.ndarray:
+    """(m, n) the fit's patch values, raw units: the model at the estimate with the budget's
+    nuisances (balance, camera shift, daylight, depth, distance, water constants) at their
+    fitted values, under the best path model."""
+    import dataclasses as dc
+
+    from sca.model import PARAMS
+
+    params = {"chl": est.chl, "cdom": est.cdom, "depth": depth, "distance": distance,
+              "gain": est.gain, "backscatter": np.asarray(est.backscatter, float)}
+    params.update({k: np.asarray(v, float) for k, v in (est.nuisance or {}).items()
+                   if k in PARAMS})
+    mdl = sca.ChartModel(setup, water=dc.replace(water, path_model=est.path_model))
+    return np.asarray(mdl.predict(params, jacobian=False).values, float).reshape(
+        mdl.m, mdl.n)
 
 
 def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
             white_level=None, light_field: str = "auto", uncertain=None,
-            mode: str = FIT_MODE) -> Measurement:
+            mode: str = FIT_MODE, auxiliary=None, chart_reflectance=None) -> Measurement:
     """Measure the water from a photograph of a ColorChecker Classic underwater.
 
     Samples the chart in every corner order and keeps the one whose grey row falls from white
@@ -384,20 +470,33 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     mode : {'lm', 'safeguarded', 'paper'}, optional
         The fits' engine (:func:`sca.estimate`'s ``mode``; default :data:`FIT_MODE`, 'lm': the
         batch's Levenberg-Marquardt on the chart, without cvxpy).
+    auxiliary : dict, optional
+        What was measured of the water besides the photo, each with its sd, fused in the fit
+        (:func:`sca.auxiliary.auxiliary_observations`): ``{'cdom': (value, sd)}`` a water
+        sample's a_CDOM(440) (m^-1), ``'secchi': (depth, sd)`` a Secchi-disk depth (m),
+        ``'kd': {nm: (value, sd)}`` a radiometer's K_d (m^-1).
+    chart_reflectance : str or os.PathLike, optional
+        The chart's own spectra measured with a spectrometer (a CSV,
+        :func:`measure.camera.read_chart_reflectance`), replacing the nominal chart; the default
+        budget's per-patch term is then :data:`sca.budget_defaults.MEASURED_CHART_PATCH`
+        (:func:`budget_for`).
 
     Returns
     -------
     Measurement
-        The estimate (C mg m^-3, a_CDOM(440) m^-1, gain, veiling light, k), its band, the
-        colour correction, flags, ``reliable`` and notes.
+        The estimate (C mg m^-3, a_CDOM(440) m^-1, the attenuation coefficient of the light's
+        path and the quantities of :mod:`sca.derived` in m^-1 with their intervals and
+        verdicts, gain, veiling light, the transmittance k and its band), the colour
+        correction, flags, ``reliable`` and notes.
 
     Raises
     ------
     ValueError
         Naming the argument (``image``, ``corners``, ``profile``, ``layout``,
-        ``light_field``, ``mode``, ...) when it is wrong (``image`` when ``corners`` is None and
-        the chart found lies partly outside the frame); :class:`measure.ChartNotFound` (``no
-        chart found``, with the reason) when ``corners`` is None and the photo shows no chart.
+        ``light_field``, ``mode``, ``auxiliary``, ``chart_reflectance``, ...) when it is wrong
+        (``image`` when ``corners`` is None and the chart found lies partly outside the
+        frame); :class:`measure.ChartNotFound` (``no chart found``, with the reason) when
+        ``corners`` is None and the photo shows no chart.
 
     References
     ----------
@@ -415,12 +514,14 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     depth = validate.scalar("depth", depth)
     distance = validate.scalar("distance", distance)
     water = resolve_water(water)
+    auxiliary_observations(auxiliary, water)  # refused here, before any work
     lay = _layout(layout)
+    refl = None if chart_reflectance is None else read_chart_reflectance(chart_reflectance)
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant,
-                         gains=None if profile is None else profile.gains)
+                         gains=None if profile is None else profile.gains, reflectances=refl)
     if light_field != "auto" and light_field not in FIELDS:
         raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
-    budget = budget_for(uncertain, profile)
+    budget = budget_for(uncertain, profile, measured_chart=refl is not None)
     if corners is None:
         found = find_chart(photo, lay)
         found.check_in_frame(photo.size)
@@ -429,7 +530,8 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         chart = {"corners": parse_corners(corners).tolist(), "detected": False}
     cands = orientations(photo, corners, lay)
     name, c, sample, est, flags, notes = _choose_orientation(photo, lay, cands, setup, depth,
-                                                             distance, water, budget, mode)
+                                                             distance, water, budget, mode,
+                                                             auxiliary)
     if chart["detected"]:  # how the chart lies, not how the detector's corners were used
         name = f"detected: {describe_pose(pose(c))}"
     fit_setup, field_report = setup, {"model": "none"}
@@ -445,7 +547,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
                         "mean)], chart coordinates in [-1, 1]"}
         if chosen != "none":
             fit_setup = lf["setup"]
-            est = _fit(sample, fit_setup, depth, distance, water, budget, mode)
+            est = _fit(sample, fit_setup, depth, distance, water, budget, mode, auxiliary)
             flags.append("light-field")
             notes.append(f"uneven light over the chart modelled ({chosen}: the field ranges "
                          f"{lf['field'].min():.3f}-{lf['field'].max():.3f}; likelihood-ratio "
@@ -468,14 +570,19 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         flags.append("unreliable-profile")
         notes.append(f"the camera profile is not reliable (flags: {', '.join(profile.flags)}): "
                      "recalibrate before trusting the water's colour")
+    chart_file = None if refl is None else {"path": str(chart_reflectance),
+                                            "sha256": chart_digest(chart_reflectance)}
+    if profile is not None and (profile.chart or "") != (chart_file or {}).get("sha256", ""):
+        used = "the nominal chart" if refl is None else "a measured chart"
+        had = "another measured chart" if profile.chart else "the nominal chart"
+        notes.append(f"the camera profile was calibrated with {had}, this photo is measured "
+                     f"with {used}: calibrate with the same --chart-reflectance for a "
+                     "consistent balance")
     all_flags = tuple(dict.fromkeys(list(est.flags) + flags))
     reliable = not any(f in BLOCKING or f in MEASURE_BLOCKING for f in all_flags)
-    G = forward.camera_response(fit_setup.sensitivities, fit_setup.illuminant, est.attenuation,
-                                fit_setup.reflectances)
-    fitted = est.gain * G + est.backscatter[:, None]
+    fitted = _fitted(est, fit_setup, water, depth, distance)
     gains, offset = correction(est, setup, sample.rgb[:, WHITE_PATCH])
-    band = _band(est, water, depth, distance, setup.wavelengths) if np.all(
-        np.isfinite(est.chl_ci)) else np.vstack([est.attenuation, est.attenuation]) * np.nan
+    band = _band(est, depth, distance)
     cam = {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),
            "profile": None if profile is None else {"gains": profile.gains,
                                                     "illuminant": profile.illuminant,
@@ -487,6 +594,13 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
               "water": {f.name: getattr(water, f.name) for f in dataclasses.fields(water)
                         if not f.name.endswith("_table")},
               "path_model": water.path_model, "light_field": light_field,
-              "layout": dataclasses.asdict(lay), "chart": chart}
-    return Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
+              "layout": dataclasses.asdict(lay), "chart": chart,
+              "auxiliary": auxiliary_record(auxiliary), "chart_reflectance": chart_file}
+    meas = Measurement(est, sample, name, c, gains, offset, fitted, band, cam, photo, setup,
                        all_flags, reliable, notes, field_report, inputs)
+    from .correct_uncertainty import correction_spread
+    from .correctwater import correction_water
+
+    meas.correction_uncertainty = correction_spread(correction_water(meas),
+                                                    chart_rgb=sample.rgb)
+    return meas

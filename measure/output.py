@@ -1,5 +1,5 @@
-"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected.png, report.png,
-complete.json.
+"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected_srgb.tif,
+corrected.jpg, corrected.png, report.png, complete.json.
 
 A photo's folder is written whole or not at all: the files go to a temporary folder beside it
 (its name starts with :data:`TEMP_PREFIX`), ``complete.json`` (:data:`MARKER`) is written last,
@@ -24,8 +24,8 @@ from forward.spectra import WHITE_PATCH, srgb_8bit
 from .image import demosaic
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
-           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "result_owner",
-           "srgb_preview", "strict_json", "write_outputs"]
+           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",
+           "result_owner", "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
@@ -202,9 +202,31 @@ def _quick_rgb(photo) -> np.ndarray:
     return out / count.astype(np.float32)
 
 
-def _report(meas, path, raw_preview):
+def report_figure(meas, raw_preview):
+    """report.png's figure: the photo with the sampled boxes; the residuals in units of the
+    standard error chi^2 uses; the attenuation coefficient of the light's path in m^-1 with its
+    own 95 % band; what the photo measures and what it does not, in words.
+
+    Parameters
+    ----------
+    meas : Measurement
+        A result of :func:`measure.measure`.
+    raw_preview : numpy.ndarray, (h, w, 3)
+        An 8-bit preview of the photo (:func:`srgb_preview`).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Four panels (axes in the order photo, residuals, coefficient, words).
+    """
     # matplotlib's object interface: no pyplot (its import, its global figures and backend)
+    import textwrap
+
     from matplotlib.figure import Figure
+
+    from sca.derived import BANDS_NM
+
+    from .statements import statements
 
     e = meas.estimate
     fig = Figure(figsize=(11, 8.5), dpi=90)
@@ -220,44 +242,68 @@ def _report(meas, path, raw_preview):
     a.set_title(f"photo (sampled boxes; orientation: {meas.orientation})", fontsize=9)
     a.axis("off")
     a = ax[0, 1]
-    # residuals in units of each value's standard error: a misfit shows even where measured
-    # and fitted values look equal on a log scale
+    # residuals in units of the standard error chi^2 uses (photon noise with the budget's
+    # per-patch term): the panel and chi^2/dof say the same thing
     patches = np.arange(1, meas.fitted.shape[1] + 1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        z = (meas.sample.rgb - meas.fitted) / meas.sample.sigma
+        z = (meas.sample.rgb - meas.fitted) / meas.residual_sd
     for c, col in enumerate("rgb"):
         a.plot(patches + (c - 1) * 0.2, z[c], "o", ms=3, color=col, label="RGB"[c])
     a.axhline(0, color="k", lw=0.8)
     for v in (-2, 2):
         a.axhline(v, color="k", lw=0.6, ls=":")
+    patch = meas.patch_term
+    se = ("SE: photon noise" + (f" with the budget's {100 * patch:.2g} % per patch"
+                                if patch else " only (no per-patch term)") + ", as in chi²")
     a.set_xlabel("patch")
     a.set_ylabel("(measured - fitted) / SE")
-    a.set_title(f"residuals: fit_rms {e.fit_rms:.3g}, chi²/dof {e.chi2_dof:.3g} (with the "
-                "budget's per-patch term)", fontsize=9)
+    a.set_title(f"residuals: chi²/dof {e.chi2_dof:.3g}, fit_rms {e.fit_rms:.3g}\n{se}",
+                fontsize=9)
     a.legend(fontsize=8)
     a = ax[1, 0]
     wl = e.wavelengths
-    if np.all(np.isfinite(meas.attenuation_band)):
-        a.fill_between(wl, meas.attenuation_band[0], meas.attenuation_band[1], color="C0",
-                       alpha=0.3, label="95 % band (C, a_CDOM intervals)")
-    a.plot(wl, e.attenuation, color="C0", label="estimated k")
+    c = np.asarray(e.beam_attenuation, float)
+    ci = np.asarray(e.beam_attenuation_ci, float)
+    finite = np.isfinite(ci[:, 1])
+    a.fill_between(wl[finite], ci[finite, 0], ci[finite, 1], color="C0", alpha=0.3,
+                   label="95 % interval (its own)")
+    a.plot(wl, c, color="C0", label="estimate")
+    at = [e.quantities.get(f"c_{b:.0f}") for b in BANDS_NM]
+    if all(v is not None for v in at):
+        lo = [e.quantity_intervals[f"c_{b:.0f}"][0] for b in BANDS_NM]
+        hi = [e.quantity_intervals[f"c_{b:.0f}"][1] for b in BANDS_NM]
+        a.errorbar(BANDS_NM, at, yerr=[np.subtract(at, lo), np.where(
+            np.isfinite(hi), np.subtract(hi, at), np.nan)], fmt="o", color="C3", ms=3,
+            capsize=3, label="443, 490, 555, 670 nm")
+    top = np.nanmax(np.where(finite, ci[:, 1], c))
+    a.set_ylim(0, 1.05 * top if np.isfinite(top) and top > 0 else None)
     a.set_xlabel("wavelength (nm)")
-    a.set_ylabel("attenuation k (dimensionless)")
+    a.set_ylabel("attenuation coefficient c (m⁻¹)")
     a.legend(fontsize=8)
-    a.set_title("path attenuation exp(-(depth + distance) c)", fontsize=9)
+    kind = {"beam": "beam attenuation c = a + b", "absorption": "absorption a",
+            "split": "path-weighted K_d and c"}.get(e.path_model, e.path_model)
+    span = ("; intervals span " + ", ".join(e.path_models)) if len(e.path_models) > 1 else ""
+    a.set_title(f"attenuation coefficient of the light's path, m⁻¹\n(path model "
+                f"{e.path_model}: {kind}{span})", fontsize=9)
     a = ax[1, 1]
     a.axis("off")
     hi = lambda v: "inf" if not np.isfinite(v) else f"{v:.4g}"  # noqa: E731
-    lines = [f"C = {e.chl:.4g} mg m⁻³  [{e.chl_ci[0]:.4g}, {hi(e.chl_ci[1])}]",
-             f"a_CDOM(440) = {e.cdom:.4g} m⁻¹  [{e.cdom_ci[0]:.4g}, {hi(e.cdom_ci[1])}]",
-             f"gain = {e.gain:.4g}  [{e.gain_ci[0]:.4g}, {hi(e.gain_ci[1])}] raw / model unit",
-             "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
-             f"reliable: {meas.reliable}",
-             "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
+    lines = statements(e, "photo", meas.auxiliary_kinds)
+    lines += [f"gain = {e.gain:.4g}  [{e.gain_ci[0]:.4g}, {hi(e.gain_ci[1])}] raw / model unit",
+              "veiling light = " + ", ".join(f"{v:.4g}" for v in e.backscatter) + " raw units",
+              f"reliable: {meas.reliable}",
+              "flags: " + (", ".join(meas.flags) if meas.flags else "none")]
     inp = meas.inputs
     if inp:
         lines.append(f"depth {inp.get('depth_m')} m (sd {inp.get('depth_sd', '-')}), distance "
                      f"{inp.get('distance_m')} m (sd {inp.get('distance_sd', '-')})")
+        for r in inp.get("auxiliary") or []:
+            band = f" at {r['band_nm']:g} nm" if "band_nm" in r else ""
+            lines.append(f"fused: {r['kind']}{band} {r['value']:.4g} ± {r['sd']:.2g} "
+                         f"{r['units']} ({r['source']})")
+        if inp.get("chart_reflectance"):
+            lines.append("chart: measured spectra (" + str(inp["chart_reflectance"]["path"])
+                         + ")")
     for name, label in (("chl", "C"), ("cdom", "a_CDOM")):
         shares = e.budget.get(name, {}).get("shares", {})
         if shares:
@@ -267,13 +313,15 @@ def _report(meas, path, raw_preview):
     if not e.budget:
         lines.append("budget: none (the paper's exact model)")
     lines += [f"note: {n}" for n in meas.notes]
-    import textwrap
+    text = "\n".join(textwrap.fill(x, 66, subsequent_indent="  ") for x in lines)
+    a.text(0, 1, text, va="top", fontsize=7.5, family="monospace")
+    a.set_title("what this photo measures (95 % intervals)", fontsize=9)
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.93, wspace=0.25, hspace=0.35)
+    return fig
 
-    text = "\n".join(textwrap.fill(x, 60) for x in lines)
-    a.text(0, 1, text, va="top", fontsize=9, family="monospace")
-    a.set_title("estimate (95 % intervals)", fontsize=9)
-    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.95, wspace=0.25, hspace=0.3)
-    fig.savefig(path, pil_kwargs=PNG_OPTIONS)
+
+def _report(meas, path, raw_preview):
+    report_figure(meas, raw_preview).savefig(path, pil_kwargs=PNG_OPTIONS)
 
 
 def read_marker(outdir) -> dict | None:
@@ -380,7 +428,7 @@ def _swap(tmp: Path, out: Path) -> None:
 
 def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
                   tiff: str = "compressed", overwrite: bool = False,
-                  marker: dict | None = None) -> dict:
+                  marker: dict | None = None, range=None) -> dict:  # noqa: A002
     """Write the files of ``uw3p measure``, whole or not at all.
 
     The files are written into a temporary folder beside ``outdir``, :data:`MARKER` last, and
@@ -405,12 +453,18 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
         Replace a folder that holds another photo's results.
     marker : dict, optional
         More entries of complete.json (a dive records the key of its inputs and options).
+    range : float, str or os.PathLike, optional
+        What corrected_srgb.tif and corrected.jpg are corrected along
+        (:func:`measure.correct_image`: a distance in m, a range map or a plane); default the
+        chart's distance.
 
     Returns
     -------
     dict
         {file name: path} of measurement.json, corrected.tiff (16-bit linear, corrected; unless
-        ``tiff='none'``), corrected.png (sRGB preview), report.png and complete.json.
+        ``tiff='none'``), corrected_srgb.tif (16-bit sRGB with its ICC profile, full
+        resolution; unless ``tiff='none'``), corrected.jpg (the same, 8-bit JPEG),
+        corrected.png (sRGB preview), report.png and complete.json.
 
     Raises
     ------
@@ -421,15 +475,45 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+    return write_folder(outdir, meas.photo.path, overwrite,
+                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range))
+
+
+def write_folder(outdir, image, overwrite: bool, write) -> dict:
+    """A result folder written whole or not at all: ``write(tmp)`` fills a temporary folder
+    beside ``outdir`` (:data:`MARKER` last) and returns the names written; the folder is then
+    swapped into place.
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        The folder.
+    image : str or os.PathLike
+        The photo whose results it holds (:func:`check_out`).
+    overwrite : bool
+        Another photo's results may be replaced.
+    write : callable
+        ``write(tmp) -> list of file names``.
+
+    Returns
+    -------
+    dict
+        file name -> path.
+
+    Raises
+    ------
+    ValueError
+        Naming ``out``: see :func:`check_out`; the folder cannot be created or written.
+    """
     out = Path(outdir)
-    check_out(out, meas.photo.path, overwrite)
+    check_out(out, image, overwrite)
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
     except OSError as exc:
         raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
     try:
-        names = _write_files(meas, tmp, version, report, tiff, marker)
+        names = write(tmp)
         _swap(tmp, out)
     except OSError as exc:
         raise ValueError(f"out: cannot write {out}: {exc.strerror}") from None
@@ -439,15 +523,21 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     return {k: str(out / k) for k in names}
 
 
-def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
+def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
     import tifffile
+
+    from .correct import correct_image
+    from .correct_output import write_jpeg, write_srgb_tiff
 
     names = ["measurement.json"]
     (folder / "measurement.json").write_text(
         json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
     img = corrected_image(meas)
+    # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
+    srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
+                         if rng is None else rng, linear=False).srgb
     # corrected.tiff is compressed by imagecodecs outside the GIL while this thread draws the
     # previews and the report; its error, if any, is raised before the marker is written
     with ThreadPoolExecutor(max_workers=1) as pool:
@@ -456,6 +546,9 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
             options = TIFF_COMPRESSION if tiff == "compressed" else {}
             pending = pool.submit(tifffile.imwrite, folder / "corrected.tiff", img,
                                   photometric="rgb", **options)
+            pending_srgb = pool.submit(write_srgb_tiff, folder / "corrected_srgb.tif", srgb,
+                                       compressed=tiff == "compressed")
+        write_jpeg(folder / "corrected.jpg", srgb)
         white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white
         _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
         if report:
@@ -463,8 +556,9 @@ def _write_files(meas, folder: Path, version, report, tiff, marker) -> list:
                                                               meas.sample.rgb[:, WHITE_PATCH]))
         if pending is not None:
             pending.result()
-            names.append("corrected.tiff")
-    names.append("corrected.png")
+            pending_srgb.result()
+            names += ["corrected.tiff", "corrected_srgb.tif"]
+    names += ["corrected.jpg", "corrected.png"]
     if report:
         names.append("report.png")
     names.append(MARKER)

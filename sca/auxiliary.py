@@ -13,7 +13,11 @@ and the covariance (and the Cramér-Rao bound of a design) include them.
   constant varies about 8.7 with the observer, the disk and the light);
 * ``kd``: a radiometer's K_d at one or more bands, m^-1, against the model's
   K_d = (a + b_b) / mu_d (Gordon 1989), with the model's own error :data:`KD_MODEL_REL`
-  (as :mod:`sca.spectral`'s) added in quadrature.
+  (as :mod:`sca.spectral`'s) added in quadrature;
+* ``case1``: not a measurement but a documented relation prior for Case-1-like water, a choice
+  the user makes (``True``, or a sequence of 'cdom', 'nap', 'phyto'): a_CDOM(440), a_NAP(440)
+  and a_phi(440) tied to C with the log-normal scatter measured on NASA NOMAD's even rows
+  (:mod:`sca.biooptical`; the particle relations act where the fit frees their scales).
 
 A measured chart (its reflectance spectra from a spectrometer) is not an observation: it replaces
 the nominal chart in the setup and the budget's per-patch term (``measure`` and the CLI's
@@ -33,6 +37,7 @@ import numpy as np
 
 from forward.water import BEAM_TERMS, COEFFICIENT_PARAMS, DIFFUSE_TERMS
 
+from .biooptical import case1_observations
 from .problem import Observation
 
 __all__ = ["AUXILIARY", "KD_MODEL_REL", "SECCHI_GAMMA", "SECCHI_GAMMA_REL", "SECCHI_NM",
@@ -40,7 +45,7 @@ __all__ = ["AUXILIARY", "KD_MODEL_REL", "SECCHI_GAMMA", "SECCHI_GAMMA_REL", "SEC
            "secchi_observation"]
 
 #: The names :func:`auxiliary_observations` takes.
-AUXILIARY = ("cdom", "secchi", "kd")
+AUXILIARY = ("cdom", "secchi", "kd", "case1")
 #: Tyler's coupling constant of the Secchi depth: z_SD (c + K_d) = Gamma (Tyler 1968).
 SECCHI_GAMMA = 8.7
 #: Its relative scatter (observer, disk, sky, waves: Preisendorfer 1986 gives a range of about
@@ -157,8 +162,8 @@ def planned(auxiliary, water, params) -> dict:
     if not auxiliary:
         return {}
     dummy = {k: ({b: (1.0, e[1]) for b, e in v.items()} if k == "kd" else (1.0, v[1]))
-             for k, v in auxiliary.items()}
-    out = {}
+             for k, v in auxiliary.items() if k != "case1"}
+    out = {k: v for k, v in auxiliary.items() if k == "case1"}  # a relation: no value to plan
     for obs in auxiliary_observations(dummy, water):
         value, _ = obs.function(params, ())
         if obs.name.startswith("kd_"):
@@ -177,7 +182,9 @@ def auxiliary_observations(auxiliary, water) -> list:
     ----------
     auxiliary : dict or None
         'cdom': (value, sd) m^-1; 'secchi': (depth, sd) m; 'kd': {wavelength nm: (value, sd)}
-        m^-1. Values and sds may be (N,) arrays (one per chart; NaN: not measured).
+        m^-1. Values and sds may be (N,) arrays (one per chart; NaN: not measured). 'case1':
+        True (or a sequence of 'cdom', 'nap', 'phyto'), the Case-1 relation prior
+        (:func:`sca.biooptical.case1_observations`).
     water : forward.Water
         The water model of the fit.
 
@@ -215,6 +222,8 @@ def auxiliary_observations(auxiliary, water) -> list:
     out = []
     if "cdom" in auxiliary:
         out.append(cdom_observation(*pair("cdom", auxiliary["cdom"])))
+    if "case1" in auxiliary:
+        out += case1_observations(water, auxiliary["case1"])
     if "secchi" in auxiliary:
         out.append(secchi_observation(*pair("secchi", auxiliary["secchi"]), water))
     if "kd" in auxiliary:

@@ -4,7 +4,7 @@ They live apart from :mod:`sca.budget` (which re-exports them) so that the comma
 state them in its help without importing numpy or the physics (DECISIONS.md "Start-up").
 """
 
-__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "REAL_WATER_UNCERTAIN"]
+__all__ = ["DEFAULT_UNCERTAIN", "BUDGET_SOURCES", "MEASURED_CHART_PATCH", "REAL_WATER_UNCERTAIN"]
 
 #: Real water's chlorophyll-specific absorption about eqs 10 and 8 (NASA NOMAD v2 a_phi(443)/C
 #: and a_d(443)/C: ln sd 0.49 and 1.07 on the even stations, i.e. 49 % and 107 % of 0.0378 and
@@ -48,3 +48,12 @@ BUDGET_SOURCES = {
                 "beyond 10 000 K, 5700 K typical: Hernandez-Andres et al., JOSA A 18 (2001) 1325)",
     "patch": "chart reflectance tolerance, camera-curve error and daylight, ~1 % per patch",
 }
+#: The per-patch term of the default budget when the chart's own spectra were measured with a
+#: spectrometer (``measure.measure(chart_reflectance=...)``, ``--chart-reflectance``): 0.7 %,
+#: the default's 1 % with the chart's reflectance tolerance at its upper end (0.7 %) taken out
+#: in quadrature (sqrt(1.0^2 - 0.7^2) = 0.71 %); what stays is the camera curves' error beyond
+#: their shift, the daylight's spectral variation beyond its colour and the spectrometer's own
+#: reading. Between the 0.5 % at which the independent renderer's clean world (the chart known
+#: exactly) is covered at the nominal rate and the 1 % kept for a chart known only nominally
+#: (DECISIONS.md, "A measured chart"). A camera profile's measured ``patch_sd`` still replaces it.
+MEASURED_CHART_PATCH = 0.007

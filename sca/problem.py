@@ -117,9 +117,10 @@ class Observation:
     function: object
 
     def rows(self, idx) -> "Observation":
-        """The observation of units ``idx``."""
-        return Observation(self.name, np.asarray(self.value)[idx], np.asarray(self.sd)[idx],
-                           self.function)
+        """The observation of units ``idx`` (a value or sd given once for all units stays one)."""
+        value, sd = np.asarray(self.value), np.asarray(self.sd)
+        return Observation(self.name, value[idx] if value.ndim else value,
+                           sd[idx] if sd.ndim else sd, self.function)
 
 
 @dataclass

@@ -43,6 +43,8 @@ from forward.spectra import wavelength_grid
 from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, Water, resolve_water
 
 from .assess import goodness, profile_delta
+from .auxiliary import auxiliary_observations
+from .biooptical import binds
 from .budget import DEFAULT_UNCERTAIN
 from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
 from .lm import evaluate, levenberg_marquardt
@@ -188,14 +190,16 @@ class SpectrumProblem(Problem):
         Free names (:data:`KD_PARAMS`).
     prior_mean, prior_weight : ndarray, (N, p), optional
         The nuisances' Gaussian priors.
+    observations : sequence of sca.problem.Observation, optional
+        Auxiliary measurements and relation priors (:mod:`sca.auxiliary`).
     """
 
     def __init__(self, model: KdModel, M, W2, scale, names, prior_mean=None,
-                 prior_weight=None):
+                 prior_weight=None, observations=()):
         self.model = model
         self.M, self.W2 = np.asarray(M, float), np.asarray(W2, float)
         self.scale = np.asarray(scale, float)
-        super().__init__(names, {}, prior_mean, prior_weight)
+        super().__init__(names, {}, prior_mean, prior_weight, observations)
 
     def lower_bound(self, name: str) -> float:
         return 0.0 if name == "downwelling_cosine" else lower_bound(name, self.model.water)
@@ -212,19 +216,21 @@ class SpectrumProblem(Problem):
 
     def data_terms(self, idx, theta, params, chain, grad: bool) -> Evaluation:
         """chi^2 of the bands, its half gradient and Gauss-Newton matrix; ``extras``: 'kd'
-        (k, q), the fitted K_d in m^-1."""
-        kd, d = self.model.kd(params, self.free if grad else (), chl_floor=TINY)
-        inv = 1.0 / self.scale[idx][:, None]
-        w2 = self.W2[idx]
-        r = self.M[idx] - kd * inv
-        f = np.einsum("iq,iq->i", w2, r * r)
-        g = H = None
-        if grad:
-            cols = [self.free.index(n) for n in self.names]
-            J = np.stack([d[self.free[c]] for c in cols], axis=1) * inv[:, None, :] \
-                * chain[:, :, None]  # (k, p, q)
-            g = -np.einsum("ipq,iq->ip", J, w2 * r)
-            H = np.einsum("ipq,irq->ipr", J * w2[:, None, :], J)
+        (k, q), the fitted K_d in m^-1. (A trial step of mu_d to nearly 0 overflows to an
+        infinite objective, which the Levenberg-Marquardt rejects: not warned about.)"""
+        with np.errstate(over="ignore"):
+            kd, d = self.model.kd(params, self.free if grad else (), chl_floor=TINY)
+            inv = 1.0 / self.scale[idx][:, None]
+            w2 = self.W2[idx]
+            r = self.M[idx] - kd * inv
+            f = np.einsum("iq,iq->i", w2, r * r)
+            g = H = None
+            if grad:
+                cols = [self.free.index(n) for n in self.names]
+                J = np.stack([d[self.free[c]] for c in cols], axis=1) * inv[:, None, :] \
+                    * chain[:, :, None]  # (k, p, q)
+                g = -np.einsum("ipq,iq->ip", J, w2 * r)
+                H = np.einsum("ipq,irq->ipr", J * w2[:, None, :], J)
         return Evaluation(f, g, H, {"kd": kd})
 
 
@@ -244,8 +250,8 @@ class KdFit:
     chi2 : ndarray, (N,)
         The objective at the optimum (chi^2 with the priors).
     dof : ndarray, (N,)
-        Valid bands minus the two free parameters (a nuisance adds one prior term and one
-        parameter).
+        Valid bands minus the two free parameters, plus one for each auxiliary observation
+        of the spectrum (a nuisance adds one prior term and one parameter).
     p_value : ndarray, (N,)
         P(chi^2_dof > chi2).
     code : ndarray of int, (N,)
@@ -288,21 +294,28 @@ def _check_kd(kd, wavelengths):
     return kd, valid, wl
 
 
-def _start(model, kd, w2, nuisance_mean):
-    """Grid start of (u, cdom): the grid point of least chi^2 with the nuisances at their
-    priors' centres."""
+def _start(model, kd, w2, nuisance_mean, observations=()):
+    """Grid start of (u, cdom): the grid point of least objective (chi^2 and the auxiliary
+    observations' terms) with the nuisances at their priors' centres."""
     C, G = np.meshgrid(START_CHL, START_CDOM, indexing="ij")
     params = {"chl": C.ravel(), "cdom": G.ravel()}
     params.update({k: float(v) for k, v in nuisance_mean.items()})
     grid = model.kd(params)[0]  # (g, q)
     chi2 = np.einsum("nq,gq->ng", w2, grid ** 2) - 2 * np.einsum("nq,gq->ng", w2 * kd, grid)
+    for obs in observations:
+        y, sd = np.asarray(obs.value, float), np.asarray(obs.sd, float)
+        h = np.broadcast_to(np.asarray(obs.function(params, ())[0], float), (C.size,))
+        have = np.isfinite(y)
+        r = (h[None, :] - np.where(have, y, 0.0)[:, None]) / np.where(have, sd, 1.0)[:, None]
+        chi2 = chi2 + np.where(have[:, None], r * r, 0.0)
     best = np.argmin(chi2, axis=1)
     return u_from_chl(params["chl"][best], model.e0), params["cdom"][best]
 
 
 def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
                  model_error: float = KD_MODEL_ERROR, uncertain: dict | None = None,
-                 water: Water | None = None, intervals: bool = True) -> KdFit:
+                 water: Water | None = None, intervals: bool = True,
+                 auxiliary: dict | None = None) -> KdFit:
     """Fit C and a_CDOM(440) to measured K_d spectra through the one core, with intervals.
 
     Parameters
@@ -325,6 +338,14 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
         The water model (default: the paper's).
     intervals : bool, optional
         Compute the profile-likelihood intervals (default True).
+    auxiliary : dict, optional
+        What else is known of the water, fused in the fit as in every estimator
+        (:func:`sca.auxiliary.auxiliary_observations`): e.g. a sample's a_CDOM(440),
+        ``{'cdom': (value, sd)}``, or the Case-1 relation prior ``{'case1': True}``
+        (:mod:`sca.biooptical`: a_CDOM(440), a_NAP(440) and a_phi(440) tied to C with their
+        scatter measured on NOMAD's even rows; the particle relations act where ``uncertain``
+        frees their scales, e.g. ``{**KD_UNCERTAIN, **sca.biooptical.CASE1_UNCERTAIN}``; a
+        choice for Case-1-like water, never a default). Values may be (N,) arrays.
 
     Returns
     -------
@@ -334,8 +355,8 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     ------
     ValueError
         Naming the argument: ``kd`` not positive and finite or of the wrong shape, a negative
-        ``sigma_rel`` / ``model_error`` (or both 0), fewer than :data:`MIN_BANDS` bands, or
-        an unknown name in ``uncertain``.
+        ``sigma_rel`` / ``model_error`` (or both 0), fewer than :data:`MIN_BANDS` bands, an
+        unknown name in ``uncertain``, or a malformed ``auxiliary``.
 
     References
     ----------
@@ -365,18 +386,22 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     mean = {k: float(getattr(model.water, k)) for k in nuis}
     prior_mean = np.tile([0.0, 0.0] + [mean[k] for k in nuis], (N, 1))
     prior_weight = np.tile([0.0, 0.0] + [1.0 / uncertain[k] ** 2 for k in nuis], (N, 1))
+    observations = [o for o in auxiliary_observations(auxiliary, model.water)
+                    if binds(o, names)]
     prob = SpectrumProblem(model, M, W2, scale, names, prior_mean=prior_mean if nuis else None,
-                           prior_weight=prior_weight if nuis else None)
+                           prior_weight=prior_weight if nuis else None,
+                           observations=observations)
     theta0 = prior_mean.copy()
     theta0[:, 0], theta0[:, 1] = _start(model, M * scale[:, None], W2 / scale[:, None] ** 2,
-                                        mean)
+                                        mean, prob.observations)
     f_exact = np.zeros(N)
     theta, f, _, code = levenberg_marquardt(prob, theta0, max_iter=MAX_ITER, tol=TOL,
                                             f_exact=f_exact)
     idx = np.arange(N)
     ev = evaluate(prob, idx, theta, True)
     f, H = ev.f, ev.H
-    dof = valid.sum(axis=1) - 2
+    dof = valid.sum(axis=1) - 2 + sum(np.isfinite(o.value).astype(int)
+                                      for o in prob.observations)
     _, p_value = goodness(f, dof, True)
     values = prob.params(idx, theta)
     kd_fit = model.kd({k: values[k] for k in names})[0]

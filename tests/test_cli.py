@@ -87,8 +87,9 @@ def test_estimate_round_trip_and_json(tmp_path):
     assert "chl (C)" in out and "budget of C" in out
     assert "reliable         True" in out and "mode paper" in out
     assert "path model" in out  # the budget fits every path model and says what it found
-    # concise: the result and its budget; the spectrum goes to --json or --attenuation FILE
-    assert len(out.splitlines()) < 15 and "wavelength_nm" not in out
+    # concise: the result, its budget and what is measured in words (one line each); the
+    # spectrum goes to --json, --spectrum FILE or --attenuation FILE
+    assert len(out.splitlines()) < 22 and "wavelength_nm" not in out
     k = tmp_path / "k.csv"
     code, out2, err = run(["estimate", str(f), "--depth", "10", "--distance", "5",
                            "--attenuation", str(k)])

@@ -178,7 +178,7 @@ def test_every_estimator_path_equals_the_model_function(name):
     prob = Problem(mdl, st_.Mv[None], (st_.wt ** 2)[None], np.ones(1), ("chl", "cdom", "cdom_slope"),
                    {"depth": np.array([6.0]), "distance": np.array([2.0])})
     ev = evaluate(prob, np.arange(1), np.array([[1.3 ** mdl.e0, 0.2, 0.016]]))
-    f, g, H, gain, s = ev.f, ev.g, ev.H, ev.extras["gain"], ev.extras["s"]
+    f, g, s = ev.f, ev.g, ev.extras["s"]
     pred = mdl.predict({"chl": 1.3, "cdom": 0.2, "depth": 6.0, "distance": 2.0,
                         "backscatter": s[0], "cdom_slope": 0.016}, jacobian=False)
     r = st_.wt * (st_.Mv - pred.values)

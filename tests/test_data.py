@@ -47,6 +47,7 @@ def test_table1_constants():
                                   "phytoplankton_absorption_basis.csv",
                                   "particle_scattering_table1.csv",
                                   "diffuse_attenuation_morel_1988.csv",
+                                  "case1_relations_nomad_even.csv",
                                   "colour_science_spectra_1nm.csv",
                                   "colour_science_srgb.csv"])
 def test_every_table_header_names_source_units_grid(name):

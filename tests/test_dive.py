@@ -85,7 +85,7 @@ def _csv(path):
 
 def _mtimes(root):
     return {p: p.stat().st_mtime_ns for p in root.rglob("*") if p.is_file()
-            and p.name not in ("summary.csv", "survey.nc", "survey.png")}
+            and p.name not in ("summary.csv", "survey.nc", "survey.png", "ifdo.json")}
 
 
 # --------------------------------------------------------------------------- inputs
@@ -207,13 +207,13 @@ def test_survey_nc_has_cf_names_bounds_and_the_spectrum(tmp_path, shots):
             "organic_matter")
         assert ds["cdom"].attrs["units"] == "m-1"
         assert ds["chl_bounds"].dims == ("photo", "nv") and ds.sizes["nv"] == 2
-        assert ds["attenuation"].dims == ("photo", "wavelength")
+        assert ds["transmittance"].dims == ("photo", "wavelength")
         assert ds["wavelength"].attrs["units"] == "nm"
         ok = ds["status"].values == "measured"
         assert ok.sum() == 2 and np.isnan(ds["chl"].values[~ok]).all()
         b = ds["chl_bounds"].values[ok]
         assert np.all(b[:, 0] <= ds["chl"].values[ok]) and np.all(ds["chl"].values[ok] <= b[:, 1])
-        assert np.all((ds["attenuation"].values[ok] > 0) & (ds["attenuation"].values[ok] < 1))
+        assert np.all((ds["transmittance"].values[ok] > 0) & (ds["transmittance"].values[ok] < 1))
         assert list(ds["depth"].values[ok]) == [5.0, 5.0] and ds["depth"].attrs["units"] == "m"
         rows = {r["image"]: r for r in res.rows}
         assert [rows[i]["chl"] for i in ds["image"].values[ok]] == list(ds["chl"].values[ok])
@@ -593,7 +593,7 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
                  "none"])
     text = capsys.readouterr().out
     assert code in (0, 1) and (out / "joint.json").exists(), text
-    assert "joint: C" in text
+    assert "joint: C" in text and "what the dive measures: measured: c(443)" in text
     rows = {Path(r["image"]).name: r for r in _csv(out / "summary.csv")}
     assert float(rows["IMG_0101.dng"]["depth_sd"]) == 0.1
 
@@ -613,7 +613,7 @@ def test_dask_jobs_carry_absolute_paths(tmp_path, shots, monkeypatch):
 
     from measure.dive import run as run_mod
 
-    d = _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
+    _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
     shutil.copy(shots["profile"], tmp_path / "profile.json")
     seen = []
 
@@ -638,7 +638,7 @@ def test_a_real_scheduler_from_another_cwd_measures_relative_paths(tmp_path, sho
 
     from distributed import Client, LocalCluster
 
-    d = _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
+    _folder(tmp_path, shots, ["a.dng"], rows={"a.dng": 5})
     shutil.copy(shots["profile"], tmp_path / "profile.json")
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()

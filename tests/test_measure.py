@@ -78,7 +78,7 @@ def test_raw_mosaic_unpacked_in_one_pass_as_numpy_would():
     """The compiled one-pass unpack gives numpy's own float32 mosaic - black[colour], the
     channel lut[colour] and the clip test, value for value (black levels per colour index, a
     white level between the values)."""
-    from measure.image import _unpack
+    from measure.pixels import unpack as _unpack
 
     rng = np.random.default_rng(2)
     mosaic = rng.integers(0, 2 ** 14, (37, 52)).astype(np.uint16)
@@ -247,8 +247,10 @@ def test_cli_calibrate_then_measure(files, corners, tmp_path):
                  "--distance", "1.5", "--out", str(out)])
     assert code == 0
     data = json.loads((out / "measurement.json").read_text())
-    for key in ("chl", "cdom", "chl_ci", "cdom_ci", "gain", "attenuation", "wavelengths",
-                "backscatter", "reliable", "flags", "fit_rms", "chi2_dof"):
+    for key in ("chl", "cdom", "chl_ci", "cdom_ci", "gain", "transmittance", "wavelengths",
+                "backscatter", "reliable", "flags", "fit_rms", "chi2_dof", "beam_attenuation",
+                "beam_attenuation_ci", "quantities", "quantity_intervals", "verdicts",
+                "statements"):
         assert key in data["estimate"], key
     assert np.shape(data["patches"]["rgb"]) == (3, 24) and np.shape(data["patches"]["sigma"]) == (3, 24)
     for key in ("n_pixels", "clipped"):

@@ -6,6 +6,7 @@
     uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
     uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
+    uw3p correct PHOTO.dng --water DIR/measurement.json --range map.tif --out CORRECTED
     uw3p figures [--grid reduced] [--out figures]      (what `make reproduce-figures` runs)
     uw3p bench [--quick]                               (what `make bench` runs)
     uw3p --version
@@ -33,8 +34,8 @@ import shlex
 import os
 import sys
 
-from . import (__version__, cmd_bench, cmd_calibrate, cmd_design, cmd_estimate, cmd_figures,
-               cmd_measure, cmd_simulate)
+from . import (__version__, cmd_bench, cmd_calibrate, cmd_correct, cmd_design, cmd_estimate,
+               cmd_figures, cmd_measure, cmd_simulate)
 from .common import EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_OK, option_message, plain
 
 __all__ = ["COMMANDS", "Parser", "build_parser", "main"]
@@ -42,8 +43,8 @@ __all__ = ["COMMANDS", "Parser", "build_parser", "main"]
 #: The subcommand modules, in the order ``uw3p --help`` lists them. Each has ``NAME``,
 #: ``BUFFERED`` (output collected and written at the end), ``add_parser(sub)`` and
 #: ``run(args, out, err) -> exit status``; a new subcommand is a new module added here.
-COMMANDS = (cmd_simulate, cmd_calibrate, cmd_measure, cmd_estimate, cmd_design, cmd_figures,
-            cmd_bench)
+COMMANDS = (cmd_simulate, cmd_calibrate, cmd_measure, cmd_correct, cmd_estimate, cmd_design,
+            cmd_figures, cmd_bench)
 
 
 #: What argparse takes for a negative number, not an option (its own rule).

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import os
 
-from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_photo_options, camera_note,
-                     check_spectra_args, read_photo, write_file)
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_chart_option, add_photo_options,
+                     camera_note, chart_from_args, check_spectra_args, read_photo, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -41,6 +41,7 @@ def add_parser(sub):
     p.add_argument("image", help="RAW (any LibRaw format) or linear 16-bit TIFF of the chart in air")
     p.add_argument("--out", required=True, help="the profile to write (JSON)")
     add_photo_options(p)
+    add_chart_option(p)
     p.set_defaults(func=run)
     return p
 
@@ -56,7 +57,8 @@ def run(args, out, err) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options: ``image``, ``out`` and the photo options (``corners`` in pixels or
+        Parsed options: ``image``, ``out``, ``chart_reflectance`` (a measured chart's CSV,
+        or None for the nominal chart) and the photo options (``corners`` in pixels or
         None to find the chart,
         ``layout``, ``camera``, ``quantal``, ``illuminant``, black and white levels in raw
         units).
@@ -86,6 +88,7 @@ def run(args, out, err) -> int:
     if args.out.endswith(("/", "\\")) or os.path.isdir(args.out):
         raise ValueError(f"--out: {args.out} is a folder; give the profile's file name "
                          "(profile.json)")
+    chart = chart_from_args(args)
     photo = read_photo(args, args.image)
     err.write(camera_note(args.camera))
     corners = args.corners
@@ -105,7 +108,8 @@ def run(args, out, err) -> int:
                          f"{which}{hint}; give the corners next to patch 1, 6, 24, 19")
     sample = measure.sample_patches(photo, c, measure.LAYOUTS[args.layout])
     prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,
-                             illuminant=args.illuminant, image=photo.path)
+                             illuminant=args.illuminant, image=photo.path,
+                             chart_reflectance=chart)
     write_file(args.out, prof.to_json(), err)
     out.write("channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains)
               + "\nchi2/dof per channel: " + ", ".join(f"{v:.3g}" for v in prof.chi2_dof)

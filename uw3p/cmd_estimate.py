@@ -1,14 +1,19 @@
 """``uw3p estimate``: the water (C, CDOM, attenuation) from a chart's 24 patch values.
 
-    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--mode safeguarded]
+    uw3p estimate m.csv --depth 10 --distance 5 [--json] [--spectrum c.csv] [--mode safeguarded]
                   [--saturation S] [--gain free] [--fix-backscatter S] [--fix-cdom A]
-    uw3p estimate --batch charts.csv [--depth D] [--distance R] [--json] [--attenuation k.csv]
+                  [--cdom-sample VALUE:SD] [--secchi DEPTH:SD] [--kd NM=VALUE:SD ...]
+    uw3p estimate --batch charts.csv [--depth D] [--distance R] [--json] [--spectrum c.csv]
 
 One chart is fitted by ``sca.estimate`` (``mode='lm'`` unless ``--mode`` says otherwise), a batch (``--batch``) by ``sca.estimate_batch`` (in
 blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
-:mod:`uw3p.patchfile`. The default output is the result and its uncertainty budget; the
-attenuation spectrum k(lambda) is in ``--json`` and in the ``--attenuation`` file. Exit status
-0 when every estimate is reliable, 1 when one is not (its flags say why).
+:mod:`uw3p.patchfile`. The default output is the result, its uncertainty budget and what the
+chart measures in words (measured, only an upper bound, not constrained: C, a_CDOM(440), the
+attenuation coefficient of the light's path at 443, 490, 555 and 670 nm, a_nw(440), K_d(490));
+the coefficient's spectrum c(lambda) with its 95 % interval and the transmittance k(lambda) are
+in ``--json`` and in the ``--spectrum`` file. Measurements of the water besides the chart
+(``--cdom-sample``, ``--secchi``, ``--kd``) are fused in the fit. Exit status 0 when every
+estimate is reliable, 1 when one is not (its flags say why).
 """
 
 from __future__ import annotations
@@ -19,22 +24,30 @@ import re
 
 from measure.csvsafe import safe_writer
 
-from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
-                     atomic_open, budget_text, camera_note, check_spectra_args, json_text,
-                     setup_kwargs, uncertain_from_args)
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
+                     add_setup_options, atomic_open, auxiliary_from_args, budget_text,
+                     camera_note, check_spectra_args, json_text, setup_kwargs,
+                     uncertain_from_args)
 
 __all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
-           "PROGRESS_BYTES", "add_parser", "run"]
+           "PROGRESS_BYTES", "QUANTITY_NAMES", "add_parser", "run"]
 
 #: The subcommand's name.
 NAME = "estimate"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel.
+#: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures, m^-1), as named
+#: in the outputs (plain data: the command's help imports no numpy).
+QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "a_nw_440", "kd_490")
+#: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel; after
+#: the earlier 22: the verdicts of C and a_CDOM and, for every quantity of
+#: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1).
 BATCH_COLUMNS = ("chart", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "reliable",
                  "flags", "fit_rms", "chi2_dof", "backscatter_*", "gain", "gain_lo", "gain_hi",
                  "objective", "converged", "iterations", "status", "depth_m", "distance_m",
-                 "chl_budget")
+                 "chl_budget", "chl_verdict", "cdom_verdict") + tuple(
+                     f"{q}{end}" for q in QUANTITY_NAMES for end in ("", "_lo", "_hi",
+                                                                     "_verdict"))
 #: A big batch is fitted this many charts per call of ``sca.estimate_batch`` (the progress
 #: bar's step; every chart's fit is independent of the others').
 FIT_BLOCK = 4096
@@ -81,16 +94,24 @@ def add_parser(sub):
     p.add_argument("--saturation", type=float, default=None,
                    help="the sensor's clip level in the data's units (values there are flagged)")
     p.add_argument("--json", action="store_true",
-                   help="print the whole result as JSON (the attenuation spectrum included)")
+                   help="print the whole result as JSON (the spectra, the quantities with their "
+                        "intervals and verdicts, and the statements in words included)")
+    p.add_argument("--spectrum", default=None, metavar="FILE",
+                   help="write the attenuation coefficient of the light's path c(lambda) (m^-1) "
+                        "with its 95 %% interval, and the transmittance k = exp(-(depth + "
+                        "distance) c), to this CSV: wavelength_nm, c_per_m, c_lo_per_m, "
+                        "c_hi_per_m, transmittance (a batch: one row per chart, columns c_<nm>, "
+                        "c_lo_<nm>, c_hi_<nm>, transmittance_<nm>)")
     p.add_argument("--attenuation", default=None, metavar="FILE",
-                   help="write the attenuation spectrum k(lambda) to this CSV: wavelength_nm, "
-                        "attenuation_k (a batch: one row per chart, one column k_<nm> per "
-                        "wavelength)")
+                   help="(kept for scripts; prefer --spectrum) the transmittance k(lambda) "
+                        "alone, dimensionless: wavelength_nm, attenuation_k (a batch: one "
+                        "column k_<nm> per wavelength)")
     p.add_argument("--gain", default="known", choices=["known", "free"],
                    help="known: values in model units (as simulate writes them); free: any units "
                         "(e.g. raw camera values), one unknown exposure gain fitted with the water")
     add_setup_options(p)
     add_budget_options(p)
+    add_auxiliary_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -142,6 +163,16 @@ def _geometry(args, depth, distance):
     return depth, distance
 
 
+def _quantity_cells(res, j):
+    """The batch row's cells of the verdicts and quantities of chart ``j``."""
+    cells = [str(res.verdicts["chl"][j]), str(res.verdicts["cdom"][j])]
+    for q in QUANTITY_NAMES:
+        ci = res.quantity_intervals[q][j]
+        cells += [repr(float(res.quantities[q][j])), repr(float(ci[0])), repr(float(ci[1])),
+                  str(res.verdicts[q][j])]
+    return cells
+
+
 def _batch_rows(res, charts, depth, distance, lo):
     """The output rows (lists) of a block of charts starting at ``lo``."""
     budget = res.budget.get("chl", {}).get("shares", {})
@@ -157,7 +188,7 @@ def _batch_rows(res, charts, depth, distance, lo):
                   repr(float(res.gain_ci[j, 1])), repr(float(res.objective[j])),
                   bool(res.converged[j]), int(res.iterations[j]), str(res.status[j]),
                   repr(float(depth[lo + j])), repr(float(distance[lo + j])),
-                  budget_text({"chl": {"shares": shares}}, "chl")])
+                  budget_text({"chl": {"shares": shares}}, "chl")] + _quantity_cells(res, j))
 
 
 def _batch_records(res, charts, depth, distance, lo):
@@ -175,12 +206,46 @@ def _batch_records(res, charts, depth, distance, lo):
                    depth=float(depth[lo + j]), distance=float(distance[lo + j]),
                    budget={k: {"sd": float(v["sd"][j]),
                                "shares": {s: float(x[j]) for s, x in v["shares"].items()}}
-                           for k, v in res.budget.items()})
+                           for k, v in res.budget.items()},
+                   quantities={q: float(res.quantities[q][j]) for q in res.quantities},
+                   quantity_intervals={q: _ci(res.quantity_intervals[q][j])
+                                       for q in res.quantity_intervals},
+                   verdicts={q: str(v[j]) for q, v in res.verdicts.items()},
+                   beam_attenuation=res.beam_attenuation[j].tolist(),
+                   beam_attenuation_ci=res.beam_attenuation_ci[j].tolist())
+
+
+def _spectrum_header(wavelengths, batch: bool):
+    """The ``--spectrum`` file's header."""
+    if not batch:
+        return ["wavelength_nm", "c_per_m", "c_lo_per_m", "c_hi_per_m", "transmittance"]
+    return ["chart"] + [f"{name}_{w:g}" for name in ("c", "c_lo", "c_hi", "transmittance")
+                        for w in wavelengths]
+
+
+def _spectrum_rows(c, ci, k, wavelengths):
+    """The single chart's ``--spectrum`` rows: per wavelength c, its interval and k."""
+    for w, v, (lo, hi), t in zip(wavelengths, c, ci, k):
+        yield [f"{w:g}", repr(float(v)), repr(float(lo)), repr(float(hi)), repr(float(t))]
+
+
+def _auxiliary(args, sigma) -> dict:
+    """The auxiliary measurements of the options; refused without the patches' noise."""
+    aux = auxiliary_from_args(args)
+    if aux and sigma is None:
+        given = ", ".join(o for o, k in (("--cdom-sample", "cdom"), ("--secchi", "secchi"),
+                                          ("--kd", "kd")) if k in aux)
+        raise ValueError(f"{given.split(', ')[0]}: a measurement is weighed against the patches' "
+                         "noise: the patch file needs its _sd columns (red_sd, green_sd, "
+                         f"blue_sd) to fuse {given}")
+    return aux
 
 
 def _run_batch(args, out, err):
     import contextlib
     import os
+
+    import numpy as np
 
     from sca import estimate_batch
     from tqdm import tqdm
@@ -197,8 +262,9 @@ def _run_batch(args, out, err):
                                                        progress=err if big_file else None)
     depth, distance = _geometry(args, depth, distance)
     fix = {"backscatter": args.fix_backscatter} if args.fix_backscatter is not None else None
+    aux = _auxiliary(args, sigma)
     kw = dict(saturation=args.saturation, fix=fix, max_iter=args.max_iter, gain=args.gain,
-              uncertain=uncertain_from_args(args), **setup_kwargs(args))
+              uncertain=uncertain_from_args(args), auxiliary=aux or None, **setup_kwargs(args))
     err.write(camera_note(args.camera, kw["wavelengths"]))
     N = len(charts)
     step = FIT_BLOCK if N >= PROGRESS_CHARTS else max(N, 1)
@@ -208,6 +274,8 @@ def _run_batch(args, out, err):
     with contextlib.ExitStack() as stack:
         kfile = (safe_writer(stack.enter_context(atomic_open(args.attenuation, "--attenuation")),
                              lineterminator="\n") if args.attenuation else None)
+        cfile = (safe_writer(stack.enter_context(atomic_open(args.spectrum, "--spectrum")),
+                             lineterminator="\n") if args.spectrum else None)
         bar = stack.enter_context(tqdm(total=N, file=err, desc="fitting", unit="chart",
                                        disable=N < PROGRESS_CHARTS, leave=False))
         for lo in range(0, N, step):
@@ -229,6 +297,8 @@ def _run_batch(args, out, err):
                                      for j in (range(m) if c == "backscatter_*" else [0])])
                 if kfile is not None:
                     kfile.writerow(["chart"] + [f"k_{w:g}" for w in res.wavelengths])
+                if cfile is not None:
+                    cfile.writerow(_spectrum_header(res.wavelengths, batch=True))
             if args.json:
                 for j, rec in enumerate(_batch_records(res, charts, depth, distance, lo)):
                     out.write(("\n" if first and j == 0 else ",\n")
@@ -238,6 +308,11 @@ def _run_batch(args, out, err):
             if kfile is not None:
                 kfile.writerows([charts[lo + j]] + [repr(float(v)) for v in res.attenuation[j]]
                                 for j in range(len(res)))
+            if cfile is not None:
+                cfile.writerows([charts[lo + j]] + [repr(float(v)) for v in np.concatenate([
+                    res.beam_attenuation[j], res.beam_attenuation_ci[j, :, 0],
+                    res.beam_attenuation_ci[j, :, 1], res.attenuation[j]])]
+                    for j in range(len(res)))
             first = False
             totals["converged"] += int(res.converged.sum())
             totals["reliable"] += int(res.reliable.sum())
@@ -245,16 +320,20 @@ def _run_batch(args, out, err):
             bar.update(hi - lo)
     if args.json:
         out.write("\n ]\n}\n")
-    if args.attenuation:
-        err.write(f"wrote {args.attenuation}\n")
+    for path in (args.attenuation, args.spectrum):
+        if path:
+            err.write(f"wrote {path}\n")
     err.write(f"{N} charts, {totals['converged']} converged, {totals['reliable']} reliable, "
               f"{totals['elapsed']:.3f} s\n")
     return EXIT_OK if totals["reliable"] == N else EXIT_NOT_RELIABLE
 
 
 # --------------------------------------------------------------------------- one chart
-def _summary(res, gain) -> str:
-    """The default output of one chart: the result and its uncertainty budget."""
+def _summary(res, gain, given=()) -> str:
+    """The default output of one chart: the result, its uncertainty budget and what the chart
+    measures in words (:func:`measure.statements.statements`)."""
+    from measure.statements import statements
+
     lines = [f"chl (C)          {res.chl:.6g} mg m^-3, {_interval_text(res.chl_ci, 'mg m^-3')}",
              f"cdom a_CDOM(440) {res.cdom:.6g} m^-1, {_interval_text(res.cdom_ci, 'm^-1')}",
              "backscatter s    " + " ".join(f"{v:.6g}" for v in res.backscatter)]
@@ -282,9 +361,12 @@ def _summary(res, gain) -> str:
                  + (f" (flags: {', '.join(res.flags)})" if res.flags else ""))
     lines.append(f"converged        {res.converged} ({res.status}; {res.iterations} iterations, "
                  f"mode {res.mode}, path model {res.path_model})")
-    lines.append(f"attenuation      k on {res.wavelengths.size} wavelengths "
-                 f"({res.wavelengths[0]:g}-{res.wavelengths[-1]:g} nm): --json or "
-                 "--attenuation FILE")
+    if res.quantities:
+        lines.append("what this chart measures (95 % intervals):")
+        lines += [f"  {x}" for x in statements(res, "chart", given)]
+    lines.append(f"spectrum         c(lambda) with its interval and the transmittance k on "
+                 f"{res.wavelengths.size} wavelengths ({res.wavelengths[0]:g}-"
+                 f"{res.wavelengths[-1]:g} nm): --json or --spectrum FILE")
     return "\n".join(lines) + "\n"
 
 
@@ -296,11 +378,12 @@ def run(args, out, err) -> int:
     args : argparse.Namespace
         Parsed options: ``measurements`` or ``batch`` (CSV files), ``depth`` (m), ``distance``
         (m), ``mode``, ``max_iter``, ``fix_backscatter``, ``fix_cdom`` (m^-1), ``saturation``
-        (data units), ``json``, ``attenuation`` (a CSV file), ``gain``, the setup and the
-        budget options.
+        (data units), ``json``, ``spectrum`` and ``attenuation`` (CSV files), ``gain``, the
+        setup, the budget and the auxiliary measurements' options.
     out : text stream
-        The estimate: C, a_CDOM(440), the backscatter, the fit, the uncertainty budget and the
-        verdict; a batch: one CSV row per chart (``BATCH_COLUMNS``, ids quoted as needed);
+        The estimate: C, a_CDOM(440), the backscatter, the fit, the uncertainty budget, the
+        verdict and what the chart measures in words; a batch: one CSV row per chart
+        (``BATCH_COLUMNS``, ids quoted as needed);
         ``--json``: every field, the attenuation spectrum included.
     err : text stream
         Notes, ``wrote <file>``, a big batch's progress and its one-line count of converged
@@ -334,12 +417,13 @@ def run(args, out, err) -> int:
     if args.fix_cdom is not None:
         fix["cdom"] = args.fix_cdom
     setup = setup_kwargs(args)
+    aux = _auxiliary(args, sigma)
     err.write(camera_note(args.camera, setup["wavelengths"]))
     try:
         res = estimate(M, depth=args.depth, distance=args.distance, sigma=sigma,
                        saturation=args.saturation, mode=args.mode or "lm",
                        fix=fix or None, max_iter=args.max_iter, gain=args.gain,
-                       uncertain=uncertain_from_args(args), **setup)
+                       uncertain=uncertain_from_args(args), auxiliary=aux or None, **setup)
     except ValueError as exc:
         msg = str(exc)
         if msg.startswith(("rgb:", "sigma:")):
@@ -358,5 +442,17 @@ def run(args, out, err) -> int:
             w.writerows([f"{wl:g}", repr(float(k))] for wl, k in zip(res.wavelengths,
                                                                      res.attenuation))
         err.write(f"wrote {args.attenuation}\n")
-    out.write(json_text(res.to_dict()) if args.json else _summary(res, args.gain))
+    if args.spectrum:
+        with atomic_open(args.spectrum, "--spectrum") as fh:
+            w = safe_writer(fh, lineterminator="\n")
+            w.writerow(_spectrum_header(res.wavelengths, batch=False))
+            w.writerows(_spectrum_rows(res.beam_attenuation, res.beam_attenuation_ci,
+                                       res.attenuation, res.wavelengths))
+        err.write(f"wrote {args.spectrum}\n")
+    if args.json:
+        from measure.statements import statements
+
+        out.write(json_text(res.to_dict() | {"statements": statements(res, "chart", aux)}))
+    else:
+        out.write(_summary(res, args.gain, aux))
     return EXIT_OK if res.reliable else EXIT_NOT_RELIABLE

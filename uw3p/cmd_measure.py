@@ -2,7 +2,12 @@
 colour-corrected; or a dive: a folder of photos, each with its own depth and distance.
 
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
+                 [--cdom-sample VALUE:SD] [--secchi DEPTH:SD] [--kd NM=VALUE:SD ...]
+                 [--chart-reflectance FILE]
     uw3p measure DIVE_FOLDER/ --metadata dive.csv --profile profile.json [--joint] --out DIR
+
+One photo: the estimate, and what the photo measures in words (measured, only an upper bound,
+not constrained), printed and in the files (:mod:`measure.statements`).
 
 A folder (:func:`measure.dive.measure_dive`): one output folder per photo, summary.csv (every
 file of the folder: measured or why not), survey.nc, survey.png and, with ``--joint``,
@@ -10,7 +15,11 @@ joint.json; run on Dask (a local cluster, or ``--scheduler ADDRESS``); a rerun s
 already complete with the same inputs and options, and a rerun with other options is refused
 (``--overwrite``, or another ``--out``). Exit status 0 when every photo measured is reliable, 1
 when one is not, 2 when one could not be measured (bad input) or none was, 130 interrupted
-(Ctrl-C; the summary lists what was done).
+(Ctrl-C; the summary lists what was done). With ``--joint``, the frames in which no chart is
+found are corrected with the dive's joint water at their depth along their range (metadata
+columns ``range_m`` or ``range_map``; else ``distance_m``): status "corrected with the dive's
+water", which leaves the exit status as the measured photos make it. ifdo.json holds the dive's
+photometric fields of the iFDO standard.
 """
 
 from __future__ import annotations
@@ -18,9 +27,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import __version__
-from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK,
-                     add_budget_options, add_photo_options, add_water_options, camera_note,
-                     check_spectra_args, read_photo, uncertain_from_args, water_from_args)
+from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
+                     add_budget_options, add_chart_option, add_photo_options, add_water_options,
+                     auxiliary_from_args, camera_note, chart_from_args, check_spectra_args,
+                     read_photo, uncertain_from_args, water_from_args)
 
 __all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 
@@ -52,8 +62,11 @@ def add_parser(sub):
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--metadata", default=None, metavar="CSV",
                    help="a folder's per-photo inputs: columns image,depth_m,distance_m and "
-                        "optionally depth_sd_m,distance_sd_m,corners (image names relative to "
-                        "the folder; a photo without a row is not measured)")
+                        "optionally depth_sd_m,distance_sd_m,corners,range_m,range_map and the "
+                        "water measured with each photo, each with its sd: "
+                        "cdom_sample,cdom_sample_sd (m^-1), secchi_m,secchi_sd_m (m), "
+                        "kd_<nm>,kd_<nm>_sd (m^-1) (image names relative to the folder, range "
+                        "maps to the CSV's; a photo without a row is not measured)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
@@ -61,29 +74,37 @@ def add_parser(sub):
                    help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
                         "preview corrected.png is always written)")
     p.add_argument("--joint", action="store_true",
-                   help="a folder: also fit all its photos as one water (joint.json)")
+                   help="a folder: also fit all its photos as one water (joint.json) and "
+                        "correct the frames without a chart with it")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="a folder: the Dask scheduler to run on (e.g. tcp://host:8786); default "
                         "a local cluster of one process per core; 'synchronous': no Dask")
     add_photo_options(p)
+    add_chart_option(p)
     add_water_options(p)
     add_budget_options(p)
+    add_auxiliary_options(p, folder=True)
     p.set_defaults(func=run)
     return p
 
 
 def _options(args) -> dict:
-    """The keyword arguments of :func:`measure.measure` given by the options."""
+    """The keyword arguments of :func:`measure.measure` given by the options (the
+    measurements of the water and the measured chart only where given: a dive's run.json
+    keeps the options of earlier runs)."""
+    extra = {"auxiliary": auxiliary_from_args(args), "chart_reflectance": chart_from_args(args)}
     return {"camera": args.camera, "quantal": args.quantal, "profile": args.profile,
             "illuminant": args.illuminant, "layout": args.layout, "water": water_from_args(args),
             "black_level": args.black_level, "white_level": args.white_level,
-            "uncertain": _budget(args)}
+            "uncertain": _budget(args)} | {k: v for k, v in extra.items() if v}
 
 
 def _measure_one(args, image, outdir):
     """Measure one image into ``outdir``; returns (exit code, summary of the estimate)."""
     import measure
+    from measure.auxiliary import auxiliary_record, option_sources
     from measure.output import check_out
+    from measure.statements import statements
 
     check_out(outdir, image, args.overwrite)  # a refusal before the work
     opts = _options(args)
@@ -91,13 +112,16 @@ def _measure_one(args, image, outdir):
     meas = measure.measure(read_photo(args, image), corners=args.corners, depth=args.depth,
                            distance=args.distance, **opts)
     meas.inputs["command"] = getattr(args, "command_line", "")
+    aux = opts.get("auxiliary")
+    meas.inputs["auxiliary"] = auxiliary_record(aux, option_sources(aux))
     written = measure.write_outputs(meas, outdir, version=__version__, tiff=args.tiff,
                                     overwrite=args.overwrite)
     e = meas.estimate
     row = {"chl": e.chl, "chl_lo": e.chl_ci[0], "chl_hi": e.chl_ci[1], "cdom": e.cdom,
            "cdom_lo": e.cdom_ci[0], "cdom_hi": e.cdom_ci[1], "gain": e.gain,
            "fit_rms": e.fit_rms, "chi2_dof": e.chi2_dof, "orientation": meas.orientation,
-           "reliable": meas.reliable, "flags": " ".join(meas.flags), "written": written}
+           "reliable": meas.reliable, "flags": " ".join(meas.flags), "written": written,
+           "statements": statements(e, "photo", meas.auxiliary_kinds)}
     return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
 
 
@@ -113,7 +137,7 @@ def _budget(args):
     if args.exact:
         return given
     profile = measure.load_profile(args.profile) if args.profile else None
-    base = measure.budget_for(None, profile)
+    base = measure.budget_for(None, profile, measured_chart=args.chart_reflectance is not None)
     defaults = uncertain_from_args(type(args)(exact=False, depth_sd=None, distance_sd=None,
                                               uncertain=[]))
     return base | {k: v for k, v in given.items() if defaults.get(k) != v}
@@ -173,7 +197,9 @@ def run(args, out, err) -> int:
               f"fit              fit_rms {e['fit_rms']:.3g}, chi2/dof {e['chi2_dof']:.3g}\n"
               f"orientation      {e['orientation']}\n"
               f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
-              + "\nwrote            " + ", ".join(
+              + "\nwhat this photo measures (95 % intervals):\n"
+              + "".join(f"  {x}\n" for x in e["statements"])
+              + "wrote            " + ", ".join(
                   [str(outdir / "measurement.json")]
                   + [k for k in e["written"] if k != "measurement.json"]) + "\n")
     return code
@@ -185,6 +211,7 @@ def _measure_folder(args, src, out, err):
     import warnings
 
     from measure.dive import DiveWarning, measure_dive
+    from measure.dive.summary import CORRECTED
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DiveWarning)  # written below, in the command's words
@@ -200,10 +227,11 @@ def _measure_folder(args, src, out, err):
     out.write(f"{n} rows: {c['measured'] + c['done earlier']} measured ({c['done earlier']} "
               f"complete from an earlier run), {sum(r.get('reliable') is True for r in res.rows)} "
               f"reliable; {c['error']} not measurable, {c['no chart']} without a chart, "
+              f"{c[CORRECTED]} without a chart corrected with the dive's water, "
               f"{c['not in metadata']} without a metadata row, {c['no such photo']} metadata "
               f"rows naming no photo, {c['not an image']} not photos, {c['interrupted']} "
               "interrupted\n")
-    for path in (res.summary, res.survey, res.figure, res.joint):
+    for path in (res.summary, res.survey, res.figure, res.joint, res.ifdo):
         if path is not None:
             out.write(f"wrote {path}\n")
     if args.joint and res.joint is None:
@@ -213,11 +241,16 @@ def _measure_folder(args, src, out, err):
 
         j = json.loads(Path(res.joint).read_text(encoding="utf-8"))
 
+        from measure.statements import one_line
+
         def end(v):
             return "inf" if v in ("inf", None) else f"{float(v):.4g}"
-        out.write(f"joint: C {j['chl']:.4g} mg m^-3 [{end(j['chl_ci'][0])}, {end(j['chl_ci'][1])}], "
-                  f"a_CDOM(440) {j['cdom']:.4g} m^-1 [{end(j['cdom_ci'][0])}, "
-                  f"{end(j['cdom_ci'][1])}], reliable {j['reliable']}"
+        v = j.get("verdicts") or {}
+        out.write(f"joint: C {j['chl']:.4g} mg m^-3 [{end(j['chl_ci'][0])}, {end(j['chl_ci'][1])}] "
+                  f"({v.get('chl', '?')}), a_CDOM(440) {j['cdom']:.4g} m^-1 "
+                  f"[{end(j['cdom_ci'][0])}, {end(j['cdom_ci'][1])}] ({v.get('cdom', '?')}); "
+                  f"what the dive measures: {one_line(j, j.get('quantities') or ())}; "
+                  f"reliable {j['reliable']}"
                   + (f" (flags: {' '.join(j['flags'])})" if j["flags"] else "")
                   + ("" if j["heterogeneity"]["one_water"] else
                      "; not one water: " + (", ".join(j["heterogeneity"]["disagree"]) or "?"))

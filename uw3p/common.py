@@ -16,6 +16,7 @@ from pathlib import Path
 __all__ = [
     "EXIT_OK", "EXIT_NOT_RELIABLE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
     "add_setup_options", "add_water_options", "add_photo_options", "add_budget_options",
+    "add_auxiliary_options", "add_chart_option", "auxiliary_from_args", "chart_from_args",
     "uncertain_from_args", "budget_text", "check_spectra_args", "camera_note",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
     "write_file", "write_atomic", "atomic_open", "json_text", "option_message", "plain",
@@ -117,6 +118,116 @@ def add_budget_options(p) -> None:
     p.add_argument("--exact", action="store_true",
                    help="the paper's exact model: nothing uncertain but the sensor noise "
                         "(entries given with the options above are still applied)")
+
+
+def add_auxiliary_options(p, folder: bool = False) -> None:
+    """Add the options of what was measured of the water besides the photos
+    (:mod:`sca.auxiliary`): ``--cdom-sample VALUE:SD``, ``--secchi DEPTH:SD`` and
+    ``--kd NM=VALUE:SD`` (repeatable).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    folder : bool, optional
+        The command also measures folders (``measure``): the help says the options are the
+        photos' defaults there.
+    """
+    g = p.add_argument_group(
+        "measurements of the water besides the photos",
+        "Each with its standard deviation, fused in the fit (sca.auxiliary)."
+        + (" For a folder: the default of every photo whose metadata row has none; the joint "
+           "fit counts each reading once." if folder else ""))
+    g.add_argument("--cdom-sample", default=None, metavar="VALUE:SD",
+                   help="a_CDOM(440) of a water sample and its sd, m^-1 (e.g. 0.12:0.02): it "
+                        "separates C from CDOM")
+    g.add_argument("--secchi", default=None, metavar="DEPTH:SD",
+                   help="a Secchi-disk depth and its sd, m (e.g. 8:0.5), through z = 8.7 / "
+                        "(c + K_d) at 555 nm with 20 %% scatter (Tyler 1968; Preisendorfer 1986)")
+    g.add_argument("--kd", action="append", default=[], metavar="NM=VALUE:SD",
+                   help="a radiometer's K_d at a band and its sd, m^-1 (e.g. 490=0.12:0.01; "
+                        "400-700 nm; the model's own 15 %% error added); repeatable")
+
+
+def auxiliary_from_args(args) -> dict:
+    """The ``auxiliary=`` dict of the options of :func:`add_auxiliary_options`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options (``cdom_sample``, ``secchi``, ``kd``).
+
+    Returns
+    -------
+    dict
+        :mod:`sca.auxiliary`'s form ({} when none is given).
+
+    Raises
+    ------
+    ValueError
+        Naming the option: a malformed value, a value or sd not > 0, a band outside
+        400-700 nm or given twice.
+    """
+    from measure.auxiliary import parse_kd, parse_pair
+
+    out = {}
+    if getattr(args, "cdom_sample", None) is not None:
+        out["cdom"] = parse_pair("--cdom-sample", args.cdom_sample)
+    if getattr(args, "secchi", None) is not None:
+        out["secchi"] = parse_pair("--secchi", args.secchi, "DEPTH:SD")
+    for item in getattr(args, "kd", None) or []:
+        band, pair = parse_kd("--kd", item)
+        if band in out.get("kd", {}):
+            raise ValueError(f"--kd: the band {band:g} nm is given twice")
+        out.setdefault("kd", {})[band] = pair
+    return out
+
+
+def add_chart_option(p) -> None:
+    """Add ``--chart-reflectance FILE``: the chart's own spectra measured with a spectrometer.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser (``calibrate``, ``measure``).
+    """
+    from sca.budget_defaults import MEASURED_CHART_PATCH
+
+    p.add_argument("--chart-reflectance", default=None, metavar="FILE",
+                   help="your chart's reflectance spectra measured with a spectrometer: a CSV "
+                        "of wavelength (nm) then 24 columns of reflectance factor (0-1) in "
+                        "ColorChecker order (patch 1 dark skin ... 24 black), covering "
+                        "400-700 nm; it replaces the nominal chart, and the default budget's "
+                        f"per-patch term falls from 1 %% to {100 * MEASURED_CHART_PATCH:g} %% "
+                        "(a profile's measured term still applies)")
+
+
+def chart_from_args(args):
+    """The ``--chart-reflectance`` file, checked (None without it).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options (``chart_reflectance``).
+
+    Returns
+    -------
+    str or None
+        The file's path.
+
+    Raises
+    ------
+    ValueError
+        Naming ``--chart-reflectance``: a missing or malformed file
+        (:func:`measure.camera.read_chart_reflectance`).
+    """
+    path = getattr(args, "chart_reflectance", None)
+    if path is None:
+        return None
+    from measure.camera import read_chart_reflectance
+
+    read_chart_reflectance(path, name="--chart-reflectance")
+    return path
 
 
 def uncertain_from_args(args) -> dict:

@@ -41,6 +41,7 @@ from sca.spectral import (
 )
 
 from ..common import save_figure, style, write_csv
+from .estimators import MOREL_TABLE, morel_coefficients
 
 __all__ = [
     "CHL_CLASSES",
@@ -72,7 +73,7 @@ CHL_CLASSES = ((0.0, 0.1), (0.1, 1.0), (1.0, 10.0), (10.0, np.inf))
 #: Bands quoted in the report's tables, nm (the others are in the CSV).
 REPORT_BANDS = (411, 443, 489, 510, 555, 670, 683)
 #: File of ``data/`` with Morel's (1988) K_w, chi, e.
-MOREL_1988_TABLE = "diffuse_attenuation_morel_1988.csv"
+MOREL_1988_TABLE = MOREL_TABLE
 #: A grid around 443 nm (forward's grids need >= 3 wavelengths; index 1 is 443 nm).
 _GRID_443 = np.array([440.0, 443.0, 446.0])
 #: The same around 555 nm.
@@ -208,9 +209,7 @@ def morel_1988_kd(wavelengths, chl) -> np.ndarray:
     ----------
     A. Morel (1988), J. Geophys. Res. 93:10749, Table 2 (``data/diffuse_attenuation_morel_1988.csv``).
     """
-    wl_t, vals = read_spectral_table(MOREL_1988_TABLE)
-    wl = np.asarray(wavelengths, float)
-    kw, chi, e = (np.interp(wl, wl_t, vals[:, j]) for j in range(3))
+    kw, chi, e = morel_coefficients(wavelengths)
     c = np.asarray(chl, float)[:, None]
     return kw + chi * c ** e
 
@@ -600,16 +599,16 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
     write_inverse_csv(outdir / "nomad_inverse.csv", st, fit)
     checks = iop_checks(st)
     widened = bio_optical_uncertain(checks)
-    odd = st.subset(np.flatnonzero(st.station % 2 == 1))
-    fit_b = fit_stations(odd, uncertain=widened)
-    stats_b = inverse_stats(odd, fit_b)
     synth = synthetic_coverage(st)
+    from .empirical import section as empirical_section  # it imports this module
+
+    empirical_md, empirical = empirical_section(st, outdir)
     figs = _figure_forward(st, pred, groups, outdir) + _figure_inverse(st, fit, outdir)
     table = {(g, m, b): (n, a, lo, hi) for g, m, b, n, a, lo, hi in rows}
     red = red_band_subset(st, pred)
     numbers = {"stations": len(st), "stations_with_ag443": int(np.sum(~np.isnan(st.ag443))),
                "hplc_fraction": float(np.mean(st.hplc)), "inverse": stats,
-               "iop_checks": checks, "widened_priors": widened, "inverse_widened_odd": stats_b,
+               "iop_checks": checks, "widened_priors": widened, "empirical": empirical,
                "synthetic_coverage": synth, "red_band_subset": red,
                "forward": {f"{g}|{m}|{b}": v for (g, m, b), v in table.items()}}
     md = [f"## NOMAD v2: the model against {len(st)} measured K_d spectra\n",
@@ -699,24 +698,18 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
                      ("bb555", "b_b(555) = 0.5 b_w + eq 12 as b_bp")):
         v = checks[k]
         md.append(f"| {label} | {v['n']} | {_fmt(v['median_ratio'])} | {_fmt(v['log_sd'])} |")
-    sb = stats_b["chl"]
-    sa = stats["chl_odd"]
     md += ["", "b_b(555) measured / model ≈ " + _fmt(checks["bb555"]["median_ratio"]) +
            ": eq 12 with Table 1 is the particle **back**scattering (were it b_p, b_bp would be "
            "1–2 % of it and the ratio ≈ 0.01–0.02), so `particle_backscatter_fraction` = 1 is "
            "right for b_b, and the paper's c = a + b_w + eq 12 lacks almost all particle "
            "scattering: it is a + b_b + b_w/2, i.e. ≈ μ̄_d K_d, not a beam attenuation.\n",
-           ("**Held-out test of a wider budget.** The scatter of a_φ(443) and a_NAP(443) per unit "
-           "C, measured on the EVEN stations only (ln sd "
-           f"{_fmt(checks['aph443']['log_sd_even'])} and {_fmt(checks['ad443']['log_sd_even'])}),"
-           " added as priors on `phyto_scale` and `nap_scale` (relative sds, centred on the "
-           "paper's values), fitted on the ODD stations:\n"),
-           ("| odd stations | bias | median factor error | r² (log10) | coverage | reliable | "
-           "coverage (reliable) |"), "|---|---|---|---|---|---|---|"]
-    for label, v in (("error model of sca.spectral", sa), ("+ a_φ, a_NAP scatter (even half)", sb)):
-        md.append(f"| {label} | {_fmt(v['bias_factor'])} | {_fmt(v['median_factor_error'])} | "
-                  f"{_fmt(v['r2_log'])} | {_fmt(100 * v['coverage_all'], 0)} % | "
-                  f"{v['n_reliable']} | {_fmt(100 * v['coverage_reliable'], 0)} % |")
+           ("**The budget's real-water term.** The scatter of a_φ(443) and a_NAP(443) per unit "
+            "C, measured on the EVEN stations only (ln sd "
+            f"{_fmt(checks['aph443']['log_sd_even'])} and {_fmt(checks['ad443']['log_sd_even'])}"
+            "), as priors on `phyto_scale` and `nap_scale` (relative sds, centred on the "
+            "paper's values: `sca.budget.REAL_WATER_UNCERTAIN`), is tested on the odd stations "
+            "in the next table (row 'package + the budget's real-water term').")]
+    md += empirical_md
     md += ["", "Files: " + ", ".join(f"`{p.name}`" for p in figs if p.suffix == ".png")
            + ", `nomad_forward_ratio.csv`, `nomad_inverse.csv` (one row per station) in "
            f"`{_shown(outdir)}`.\n", "Command: `make real-data`.\n"]

@@ -29,16 +29,19 @@ One concept per module:
 
 from __future__ import annotations
 
-from .metadata import (DATETIME_ORIGINAL_TAG, EXIF_DEPTH_TAGS, METADATA_COLUMNS,
-                       METADATA_OPTIONAL, WATER_DEPTH_TAG, exif_info, read_metadata)
+from .metadata import (AUXILIARY_COLUMNS, DATETIME_ORIGINAL_TAG, EXIF_DEPTH_TAGS, KD_COLUMN,
+                       METADATA_COLUMNS, METADATA_OPTIONAL, WATER_DEPTH_TAG, exif_info,
+                       read_metadata)
 from .names import LOCK_FILE, MANIFEST, RUN_FILES, dive_files, output_names
 from .plot import SURVEY_LOG_SPAN, plot_survey
 from .run import DiveResult, DiveWarning, measure_dive
 from .summary import STATUSES, SUMMARY_COLUMNS
-from .survey import CDOM_WAVELENGTH_NM, CF_CDOM, CF_CHL, netcdf_engine, survey_dataset
+from .survey import (CDOM_WAVELENGTH_NM, CF_CDOM, CF_CHL, netcdf_engine, path_standard_name,
+                     survey_dataset)
 
-__all__ = ["CDOM_WAVELENGTH_NM", "CF_CDOM", "CF_CHL", "DATETIME_ORIGINAL_TAG",
-           "EXIF_DEPTH_TAGS", "LOCK_FILE", "MANIFEST", "METADATA_COLUMNS", "METADATA_OPTIONAL",
-           "RUN_FILES", "STATUSES", "SUMMARY_COLUMNS", "SURVEY_LOG_SPAN", "WATER_DEPTH_TAG",
-           "DiveResult", "DiveWarning", "dive_files", "exif_info", "measure_dive",
-           "netcdf_engine", "output_names", "plot_survey", "read_metadata", "survey_dataset"]
+__all__ = ["AUXILIARY_COLUMNS", "CDOM_WAVELENGTH_NM", "CF_CDOM", "CF_CHL",
+           "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN", "LOCK_FILE", "MANIFEST",
+           "METADATA_COLUMNS", "METADATA_OPTIONAL", "RUN_FILES", "STATUSES", "SUMMARY_COLUMNS",
+           "SURVEY_LOG_SPAN", "WATER_DEPTH_TAG", "DiveResult", "DiveWarning", "dive_files",
+           "exif_info", "measure_dive", "netcdf_engine", "output_names", "path_standard_name",
+           "plot_survey", "read_metadata", "survey_dataset"]

@@ -2,9 +2,10 @@
 so that a rerun with other options is refused before it writes anything (:func:`check_manifest`).
 
 The manifest holds uw3p's version, the ``measure.measure`` options (camera, quantal, profile,
-illuminant, layout, water model, black and white levels, light field, uncertainty budget) and
-the outputs asked for (``tiff``, ``report``). An option that names a file (the profile, a
-camera's or an illuminant's curves as CSV) is recorded by the SHA-256 of the file's content, so
+illuminant, layout, water model, black and white levels, light field, uncertainty budget, the
+run's measurements of the water, a measured chart) and the outputs asked for (``tiff``,
+``report``). An option that names a file (the profile, a camera's or an illuminant's curves as
+CSV, a measured chart's spectra) is recorded by the SHA-256 of the file's content, so
 an edited file is noticed and a moved one is not. ``--joint`` and the survey figure are not in
 it: they change no photo's results, and the run's own files follow the run that wrote them.
 """
@@ -26,7 +27,7 @@ __all__ = ["FILE_OPTIONS", "HASH_CHUNK_BYTES", "check_manifest", "file_digest", 
            "manifest_digest", "write_manifest"]
 
 #: Options of ``measure.measure`` that may name a file (recorded by its content's hash)
-FILE_OPTIONS = ("profile", "camera", "illuminant")
+FILE_OPTIONS = ("profile", "camera", "illuminant", "chart_reflectance")
 #: Files are hashed in chunks of this many bytes (a 50 MB RAW file is not read into memory
 #: at once; SHA-256 streams at several hundred MB/s, below a disk's or network's reading)
 HASH_CHUNK_BYTES = 1 << 20

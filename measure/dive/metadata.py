@@ -6,17 +6,31 @@ from __future__ import annotations
 import csv
 import datetime
 import math
+import re
 from pathlib import Path
 
-__all__ = ["DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "METADATA_COLUMNS", "METADATA_OPTIONAL",
-           "WATER_DEPTH_TAG", "exif_info", "read_metadata"]
+__all__ = ["AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
+           "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
+           "read_metadata"]
 
 #: Required columns of the metadata CSV (``--metadata``): the image's file name relative to the
 #: folder, the chart's depth (m) and the camera-to-chart distance (m)
 METADATA_COLUMNS = ("image", "depth_m", "distance_m")
 #: Optional columns: the standard deviations (m) of depth and distance, the chart's corners
-#: ("x1,y1 x2,y2 x3,y3 x4,y4", pixels; empty: detected)
-METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners")
+#: ("x1,y1 x2,y2 x3,y3 x4,y4", pixels; empty: detected), and what a photo is corrected along:
+#: ``range_m``, the camera-to-scene range (m), or ``range_map``, a range-map file (a float TIFF
+#: in m, a 16-bit PNG in mm or a .npy in m; relative to the metadata file's folder;
+#: :mod:`measure.rangemap`). Without either a photo is corrected at its ``distance_m``.
+METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners", "range_m", "range_map")
+#: Optional columns of what was measured of the water besides the photo
+#: (:mod:`sca.auxiliary`), each with its standard deviation: a water sample's a_CDOM(440)
+#: (m^-1) and a Secchi-disk depth (m); a radiometer's K_d at a band (m^-1) is
+#: :data:`KD_COLUMN`. kind -> (value column, sd column).
+AUXILIARY_COLUMNS = {"cdom": ("cdom_sample", "cdom_sample_sd"),
+                     "secchi": ("secchi_m", "secchi_sd_m")}
+#: A radiometer's K_d at a band: ``kd_<nm>`` (m^-1) with ``kd_<nm>_sd``, e.g. ``kd_490``,
+#: ``kd_490_sd`` (the band 400-700 nm)
+KD_COLUMN = re.compile(r"^kd_(\d+(?:\.\d+)?)(_sd)?$")
 #: EXIF tags that record the depth under water, in the order tried. EXIF 2.31 (CIPA DC-008-2016)
 #: added ``WaterDepth`` (tag 0x9403 = 37891, signed rational, m) to the Exif IFD; tough
 #: compacts (e.g. Olympus/OM System TG series) write it. Dive-log geotagging tools write the
@@ -47,8 +61,13 @@ def read_metadata(path) -> dict:
 
     Columns (by name, any order; UTF-8 with or without a byte-order mark): ``image`` (file name
     relative to the folder), ``depth_m``, ``distance_m`` (m) and optionally ``depth_sd_m``,
-    ``distance_sd_m`` (m) and ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels). An empty cell
-    means "not given here": the EXIF depth or the default applies (corners: detected). A quoted
+    ``distance_sd_m`` (m), ``corners`` ("x1,y1 x2,y2 x3,y3 x4,y4", pixels), ``range_m`` (m),
+    ``range_map`` (a range-map file, relative to the CSV's folder) and what was
+    measured of the water when the photo was taken, each with its sd (:data:`AUXILIARY_COLUMNS`,
+    :data:`KD_COLUMN`): ``cdom_sample``, ``cdom_sample_sd`` (a water sample's a_CDOM(440),
+    m^-1), ``secchi_m``, ``secchi_sd_m`` (a Secchi-disk depth, m), ``kd_<nm>``, ``kd_<nm>_sd``
+    (a radiometer's K_d at <nm> nm, m^-1). An empty cell means "not given here": the EXIF depth
+    or the default applies (corners: detected; a measurement: the run's, if any). A quoted
     cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
     are ignored when their cells are empty.
 
@@ -60,15 +79,19 @@ def read_metadata(path) -> dict:
     Returns
     -------
     dict
-        image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m' (floats or None),
-        'corners' (str or None), 'line' (int: the line the row starts on)}.
+        image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m', 'range_m'
+        (floats or None), 'corners' (str or None), 'range_map' (absolute path or None),
+        'auxiliary' (the row's measurements in :mod:`sca.auxiliary`'s form, {} for none), 'line'
+        (int: the line the row starts on)}.
 
     Raises
     ------
     ValueError
         Naming ``metadata`` and the line: a missing file or column, an unknown or repeated
-        column, a value that is not a positive number, a value under no column name, an empty
-        or repeated image name, a malformed CSV.
+        column, a measurement's column without its sd column (or the reverse), a K_d band
+        outside 400-700 nm, a value that is not a positive number, a measurement without its
+        sd (or the reverse), a value under no column name, an empty or repeated image name, a
+        malformed CSV.
     """
     p = Path(path)
     try:
@@ -90,13 +113,17 @@ def _rows(p: Path, fh) -> dict:
         if missing:
             raise ValueError(f"metadata: {p} line 1: missing column(s) {', '.join(missing)} "
                              f"(needs {', '.join(METADATA_COLUMNS)}; optional "
-                             f"{', '.join(METADATA_OPTIONAL)})")
-        unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL]
+                             f"{', '.join(METADATA_OPTIONAL + sum(AUXILIARY_COLUMNS.values(), ()))}"
+                             ", kd_<nm>, kd_<nm>_sd)")
+        aux_columns = sum(AUXILIARY_COLUMNS.values(), ())
+        unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL
+                   + aux_columns and not KD_COLUMN.match(c)]
         if unknown:
             raise ValueError(f"metadata: {p} line 1: unknown column(s) {', '.join(unknown)}")
         repeated = sorted({c for c in names if names.count(c) > 1})
         if repeated:
             raise ValueError(f"metadata: {p} line 1: column(s) {', '.join(repeated)} repeat")
+        pairs = _auxiliary_pairs(p, names)
         rows = {}
         start = reader.line_num + 1
         for raw in reader:
@@ -123,10 +150,64 @@ def _rows(p: Path, fh) -> dict:
                                                 positive=False),
                           "distance_sd_m": _number(cell.get("distance_sd_m", ""),
                                                    "distance_sd_m", where, positive=False),
-                          "corners": cell.get("corners", "").strip() or None, "line": n}
+                          "corners": cell.get("corners", "").strip() or None,
+                          "range_m": _number(cell.get("range_m", ""), "range_m", where),
+                          "range_map": _range_map(p, cell.get("range_map", ""), where),
+                          "auxiliary": _auxiliary(cell, pairs, where), "line": n}
     except csv.Error as exc:
         raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
     return rows
+
+
+def _range_map(csv_path: Path, value: str, where: str):
+    """A range map's absolute path (relative to the CSV's folder), or None for an empty cell."""
+    value = value.strip()
+    if not value:
+        return None
+    p = Path(value)
+    p = p if p.is_absolute() else csv_path.resolve().parent / p
+    if not p.is_file():
+        raise ValueError(f"{where}: range_map: no such file: {value}")
+    return str(p)
+
+
+def _auxiliary_pairs(p: Path, names) -> dict:
+    """kind (or ('kd', nm)) -> (value column, sd column) of the measurement columns of a
+    header; each value column must come with its sd column and the reverse."""
+    pairs = {k: v for k, v in AUXILIARY_COLUMNS.items() if v[0] in names or v[1] in names}
+    for c in names:
+        m = KD_COLUMN.match(c)
+        if m:
+            nm = float(m.group(1))
+            if not 400.0 <= nm <= 700.0:
+                raise ValueError(f"metadata: {p} line 1: column {c}: the band {nm:g} nm lies "
+                                 "outside 400-700 nm")
+            pairs[("kd", nm)] = (f"kd_{m.group(1)}", f"kd_{m.group(1)}_sd")
+    for value, sd in pairs.values():
+        if (value in names) != (sd in names):
+            have, lack = (value, sd) if value in names else (sd, value)
+            raise ValueError(f"metadata: {p} line 1: column {have} needs column {lack} (every "
+                             "measurement with its standard deviation)")
+    return pairs
+
+
+def _auxiliary(cell, pairs, where) -> dict:
+    """A row's measurements in :mod:`sca.auxiliary`'s form: only those given."""
+    out = {}
+    for key, (vcol, scol) in pairs.items():
+        value = _number(cell.get(vcol, ""), vcol, where)
+        sd = _number(cell.get(scol, ""), scol, where)
+        if (value is None) != (sd is None):
+            empty = scol if sd is None else vcol
+            raise ValueError(f"{where}: {empty} is empty: give the measurement with its "
+                             "standard deviation, or neither")
+        if value is None:
+            continue
+        if isinstance(key, tuple):
+            out.setdefault("kd", {})[key[1]] = (value, sd)
+        else:
+            out[key] = (value, sd)
+    return out
 
 
 def _rational(value):

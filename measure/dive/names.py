@@ -26,7 +26,7 @@ __all__ = ["LOCK_FILE", "MANIFEST", "RUN_FILES", "SUFFIX_HEX", "dive_files", "ou
 #: The run's manifest: the options that change results (:mod:`measure.dive.manifest`)
 MANIFEST = "run.json"
 #: The run's own files in the output folder (beside the photos' folders)
-RUN_FILES = ("summary.csv", "survey.nc", "survey.png", "joint.json", MANIFEST)
+RUN_FILES = ("summary.csv", "survey.nc", "survey.png", "joint.json", "ifdo.json", MANIFEST)
 #: The lock file a run holds while it writes the output folder (:mod:`measure.dive.files`)
 LOCK_FILE = ".uw3p.lock"
 #: Hex digits of the disambiguating suffix (32 bits: two names of one dive sharing one is a

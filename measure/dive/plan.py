@@ -23,9 +23,29 @@ import numpy as np
 
 from ..output import read_marker, result_owner
 from .manifest import file_digest
-from .summary import summary_row
+from .summary import CORRECTED, summary_row
 
-__all__ = ["photo_key", "plan_photo", "resolve_inputs"]
+__all__ = ["correction_range", "photo_key", "plan_photo", "resolve_inputs"]
+
+
+def correction_range(inputs: dict):
+    """What a photo is corrected along: its ``range_map``, else its ``range_m``, else its
+    ``distance_m`` (m).
+
+    Parameters
+    ----------
+    inputs : dict
+        :func:`resolve_inputs`'s.
+
+    Returns
+    -------
+    str or float
+        A range-map path or a range in m (:func:`measure.rangemap.read_range`).
+    """
+    for k in ("range_map", "range_m", "distance_m"):
+        if inputs.get(k) is not None:
+            return inputs[k]
+    raise ValueError("range: not given (range_map, range_m or distance_m)")
 
 
 def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
@@ -47,7 +67,9 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
     Returns
     -------
     dict
-        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time`` and their sources.
+        ``depth_m``, ``distance_m``, their sds, ``corners``, ``time``, the row's measurements
+        of the water (``auxiliary``, :mod:`sca.auxiliary`'s form) and their sources, and
+        ``range_m`` and ``range_map`` (what the photo is corrected along; None: not given).
 
     Raises
     ------
@@ -74,7 +96,10 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
     return {"depth_m": d, "depth_source": d_src, "distance_m": r, "distance_source": r_src,
             "depth_sd_m": row.get("depth_sd_m"), "distance_sd_m": row.get("distance_sd_m"),
             "corners": c if c is None or isinstance(c, str) else np.asarray(c, float).tolist(),
-            "corners_source": c_src, "time": exif.get("time")}
+            "corners_source": c_src, "time": exif.get("time"),
+            "range_m": row.get("range_m"), "range_map": row.get("range_map"),
+            "auxiliary": row.get("auxiliary") or {},
+            "auxiliary_source": f"metadata line {row['line']}" if row.get("line") else ""}
 
 
 def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
@@ -102,6 +127,8 @@ def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
         The photo cannot be read.
     """
     data = {"image": photo.name, "sha256": file_digest(photo),
+            "range_map_sha256": file_digest(Path(inputs["range_map"]))
+            if inputs.get("range_map") else None,
             "row": {k: v for k, v in (row or {}).items() if k != "line"},
             "inputs": {k: v for k, v in inputs.items() if not k.endswith("_source")},
             "run": run_digest}
@@ -169,6 +196,9 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
         return None, summary_row(photo, plan, "error", error=(
             f"image: cannot read {photo}: {exc.strerror or exc}")), None
     marker = read_marker(out) if out.is_dir() else None
+    if marker is not None and marker.get("key") == key and marker.get("corrected"):
+        # a frame without a chart corrected with the dive's water: the run checks the water
+        return None, summary_row(photo, plan, CORRECTED), None
     if marker is not None and marker.get("key") == key:
         record = _record(out)
         if record is not None:

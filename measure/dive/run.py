@@ -27,8 +27,10 @@ from forward.spectra import is_path
 
 from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
 from ..output import TIFF_MODES, read_marker, strict_json
+from .chartless import correct_frames
 from .execute import execute
 from .files import atomic, clean_temp, locked
+from .ifdo import write_ifdo
 from .manifest import FILE_OPTIONS, check_manifest, manifest, manifest_digest, write_manifest
 from .metadata import exif_info, read_metadata
 from .names import dive_files, output_names
@@ -61,8 +63,8 @@ class DiveResult:
     code : int
         The exit status (:func:`measure.dive.summary.dive_code`): 0 every photo measured is
         reliable, 1 one is not, 2 one could not be measured or none was, 130 interrupted.
-    summary, survey, figure, joint : pathlib.Path or None
-        summary.csv, survey.nc, survey.png and joint.json (None when not written).
+    summary, survey, figure, joint, ifdo : pathlib.Path or None
+        summary.csv, survey.nc, survey.png, joint.json and ifdo.json (None when not written).
     interrupted : bool
         The run was interrupted (Ctrl-C); the outputs list what was done.
     counts : dict
@@ -80,6 +82,7 @@ class DiveResult:
     survey: Path | None = None
     figure: Path | None = None
     joint: Path | None = None
+    ifdo: Path | None = None
     interrupted: bool = False
     counts: dict = field(default_factory=dict)
     joint_error: str = ""
@@ -172,7 +175,10 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     **measure_options
         Passed to :func:`measure.measure`: ``camera``, ``quantal``, ``profile``,
         ``illuminant``, ``layout``, ``water``, ``black_level``, ``white_level``,
-        ``light_field``, ``uncertain``.
+        ``light_field``, ``uncertain``, ``chart_reflectance``, and ``auxiliary``: the default
+        of every photo whose metadata row gives no reading of its own (kind by kind, band by
+        band); the joint fit gets every reading of the dive once
+        (:func:`measure.auxiliary.dive_auxiliary`).
 
     Returns
     -------
@@ -275,7 +281,7 @@ def _locked_run(root, photos, others, folder, meta, metadata, run, digest, optio
     all_rows = [rows[p] for p in photos] + others_rows + extra
     all_rows.sort(key=lambda r: Path(r["image"]).name)
     res = _finish(all_rows, records, root, bool(left), joint, options, version, command,
-                  figure)
+                  figure, {job["image"]: job for job in jobs}, outputs[0])
     res.warnings = notes
     return res
 
@@ -319,25 +325,33 @@ def _finished(job):
         return None
 
 
-def _finish(rows, records, root, interrupted, joint, options, version, command, figure):
-    """Write summary.csv, joint.json, survey.nc and survey.png of this run (removing a
-    joint.json or survey.png it does not make); the DiveResult."""
-    counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
-    res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
-    res.summary = write_summary(rows, root / "summary.csv")
-    joint_data = None
+def _finish(rows, records, root, interrupted, joint, options, version, command, figure,
+            jobs=None, tiff="compressed"):
+    """Write joint.json, correct the chartless frames with it, then summary.csv, survey.nc,
+    ifdo.json and survey.png of this run (removing a joint.json or survey.png it does not
+    make); the DiveResult."""
+    joint_data, joint_path, joint_error = None, None, ""
     if joint:
         if interrupted:
-            res.joint_error = "not fitted: the run was interrupted"
+            joint_error = "not fitted: the run was interrupted"
         else:
-            joint_data, res.joint, res.joint_error = _joint(rows, records, root, options)
+            joint_data, joint_path, joint_error = _joint(rows, records, root, options)
+    if not interrupted:
+        correct_frames(rows, records, jobs or {}, joint_data if joint else None,
+                       _run_setup(options), water=options.get("water"), version=version,
+                       command=command, tiff=tiff)
+    counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
+    res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
+    res.joint, res.joint_error = joint_path, joint_error
+    res.summary = write_summary(rows, root / "summary.csv")
+    res.ifdo = write_ifdo(rows, records, joint_data, root / "ifdo.json", version)
     if res.joint is None:
         _remove(root / "joint.json")
     photo_rows = [r for r in rows if r["status"] not in NOT_PHOTOS]
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     ds = survey_dataset(photo_rows, records, {
         "history": f"{now} {command or 'uw3p measure_dive'}", "uw3p_version": version,
-        "command": command, "interrupted": int(interrupted)})
+        "command": command, "interrupted": int(interrupted)}, joint=joint_data)
     res.survey = write_survey(ds, root / "survey.nc")
     if records and figure:
         res.figure = plot_survey(ds, root / "survey.png", joint_data)
@@ -354,30 +368,43 @@ def _remove(path: Path) -> None:
         raise ValueError(f"out: cannot remove {path}: {exc.strerror or exc}") from None
 
 
+def _run_setup(options):
+    """The run's camera set-up (camera, profile balance, illuminant, the chart's measured
+    reflectance if given)."""
+    from ..camera import camera_setup, load_profile, read_chart_reflectance
+
+    prof = options.get("profile")
+    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    chart = options.get("chart_reflectance")
+    return camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
+                        quantal=options.get("quantal", False),
+                        illuminant=options.get("illuminant"),
+                        gains=None if prof is None else (prof.gains or None),
+                        reflectances=None if chart is None else read_chart_reflectance(chart))
+
+
 def _joint(rows, records, root, options):
     """Fit the dive as one water (measure.joint); (content, path, error)."""
     try:
         from .. import joint as joint_mod
     except ImportError as exc:
         return None, None, f"not fitted: measure.joint is not available ({exc})"
-    from ..camera import camera_setup, load_profile
-
     good = [records[r["image"]] for r in rows
             if r["status"] in MEASURED and r["image"] in records]
     if not good:
         return None, None, "not fitted: no photo was measured"
-    prof = options.get("profile")
-    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
-    setup = camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
-                         quantal=options.get("quantal", False),
-                         illuminant=options.get("illuminant"),
-                         gains=None if prof is None else (prof.gains or None))
+    from ..auxiliary import auxiliary_record, dive_auxiliary
+
+    setup = _run_setup(options)
+    aux = dive_auxiliary(good)  # every measurement of the dive's water, each reading once
     try:
         # each photo's own budget, as it was measured: the run's, its own depth and distance sds
-        fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"))
+        fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"), auxiliary=aux)
     except ValueError as exc:
         return None, None, f"not fitted: {exc}"
-    data = strict_json(fit.to_dict())
+    data = strict_json(fit.to_dict() | {"auxiliary": auxiliary_record(
+        aux, dict.fromkeys(["cdom", "secchi"] + [f"kd {float(b):g}" for b in aux.get("kd", {})],
+                           "the dive's readings combined"))})
     path = root / "joint.json"
     with atomic(path) as tmp:
         tmp.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n", encoding="utf-8")

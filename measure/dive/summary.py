@@ -16,27 +16,42 @@ import math
 import os
 from pathlib import Path
 
+from sca.derived import QUANTITIES
+
 from ..csvsafe import safe_writer
 from .files import atomic
 
-__all__ = ["MEASURED", "STATUSES", "SUMMARY_COLUMNS", "dive_code", "exit_code", "summary_row",
-           "to_float", "write_summary"]
+__all__ = ["CORRECTED", "MEASURED", "QUANTITY_COLUMNS", "STATUSES", "SUMMARY_COLUMNS",
+           "dive_code", "exit_code", "summary_row", "to_float", "write_summary"]
 
+#: A frame without a chart corrected with the dive's joint water (measure.dive.chartless)
+CORRECTED = "corrected with the dive's water"
 #: A row's status: measured now; complete results of the same inputs found (not redone);
 #: not measurable (``error`` says why); not measured because the run was interrupted; a file
-#: that is not a photo; a photo in which no chart was found (its inputs kept); a metadata row
-#: that names no photo of the folder; a photo that has no metadata row (``error`` says why)
+#: that is not a photo; a photo in which no chart was found (its inputs kept; not corrected:
+#: ``error`` says why); a metadata row that names no photo of the folder; a photo that has no
+#: metadata row (``error`` says why); a photo without a chart corrected with the dive's water
 STATUSES = ("measured", "done earlier", "error", "interrupted", "not an image", "no chart",
-            "no such photo", "not in metadata")
+            "no such photo", "not in metadata", CORRECTED)
 #: The statuses of a photo with results
 MEASURED = ("measured", "done earlier")
-#: Columns of summary.csv, one row per file (the first 20 as in earlier versions)
+#: Columns of what the photo measures (:mod:`sca.derived`, m^-1): each quantity, its 95 %
+#: interval and its verdict (:func:`sca.derived.verdict`)
+QUANTITY_COLUMNS = tuple(f"{q}{end}" for q in QUANTITIES for end in ("", "_lo", "_hi",
+                                                                      "_verdict"))
+#: Columns of summary.csv, one row per file (the first 33 as in earlier versions): then the
+#: verdicts of C and a_CDOM, what the photo measures (:data:`QUANTITY_COLUMNS`), the path models
+#: the fit found (best, and every one the data support), the measurements of the water fused in
+#: the fit (JSON) and the measured chart's file
 SUMMARY_COLUMNS = ("image", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "gain",
                    "fit_rms", "chi2_dof", "orientation", "reliable", "flags", "depth_m",
                    "depth_sd", "distance_m", "distance_sd", "chl_budget", "out", "error",
                    "status", "depth_source", "distance_source", "corners", "corners_source",
                    "time", "camera", "profile", "illuminant", "layout", "path_model",
-                   "uncertain", "tiff")
+                   "uncertain", "tiff", "range_m", "range_map", "chl_verdict",
+                   "cdom_verdict") + QUANTITY_COLUMNS + (
+                   "path_model_fitted", "path_models_supported", "auxiliary",
+                   "chart_reflectance")
 
 
 def to_float(v) -> float:
@@ -87,7 +102,7 @@ def summary_row(photo, plan, status, record=None, error="") -> dict:
     row = {"image": str(photo), "status": status, "error": error, "out": plan.get("out", ""),
            "tiff": plan.get("tiff", "")}
     for k in ("depth_m", "distance_m", "depth_source", "distance_source", "corners_source",
-              "time"):
+              "time", "range_m", "range_map"):
         row[k] = inputs.get(k, "")
     row["corners"] = corners if corners is None or isinstance(corners, str) else " ".join(
         f"{x:g},{y:g}" for x, y in corners)
@@ -105,7 +120,19 @@ def summary_row(photo, plan, status, record=None, error="") -> dict:
                depth_m=inp.get("depth_m"), distance_m=inp.get("distance_m"),
                depth_sd=inp.get("depth_sd"), distance_sd=inp.get("distance_sd"),
                chl_budget=_budget_text(e.get("budget")), path_model=inp.get("path_model", ""),
-               uncertain=json.dumps(inp.get("uncertain", {}), sort_keys=True))
+               uncertain=json.dumps(inp.get("uncertain", {}), sort_keys=True),
+               chl_verdict=(e.get("verdicts") or {}).get("chl", ""),
+               cdom_verdict=(e.get("verdicts") or {}).get("cdom", ""),
+               path_model_fitted=e.get("path_model", ""),
+               path_models_supported=" ".join(e.get("path_models") or []),
+               auxiliary=json.dumps(inp.get("auxiliary") or [], sort_keys=True),
+               chart_reflectance=(inp.get("chart_reflectance") or {}).get("path", ""))
+    quantities, intervals = e.get("quantities") or {}, e.get("quantity_intervals") or {}
+    for q in QUANTITIES:
+        if q in quantities:
+            row.update({q: quantities[q], f"{q}_lo": intervals[q][0],
+                        f"{q}_hi": intervals[q][1],
+                        f"{q}_verdict": (e.get("verdicts") or {}).get(q, "")})
     if row["corners_source"] == "detected":
         row["corners"] = " ".join(f"{x:.1f},{y:.1f}" for x, y in record["corners"])
     return row

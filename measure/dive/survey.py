@@ -10,8 +10,8 @@ import numpy as np
 from .files import atomic
 from .summary import exit_code, to_float
 
-__all__ = ["CDOM_WAVELENGTH_NM", "CF_CDOM", "CF_CHL", "netcdf_engine", "survey_dataset",
-           "write_survey"]
+__all__ = ["CDOM_WAVELENGTH_NM", "CF_CDOM", "CF_CHL", "netcdf_engine", "path_standard_name",
+           "survey_dataset", "write_survey"]
 
 #: CF standard name and canonical units of C (Chl-a concentration; mg m-3 = 1e-6 kg m-3)
 CF_CHL = ("mass_concentration_of_chlorophyll_a_in_sea_water", "mg m-3")
@@ -22,8 +22,101 @@ CF_CDOM = (("volume_absorption_coefficient_of_radiative_flux_in_sea_water_due_to
 CDOM_WAVELENGTH_NM = 440.0
 
 
-def survey_dataset(rows, records, attrs=None):
-    """The survey as an xarray Dataset (CF-1.8): one record per photo.
+def path_standard_name(path_models) -> str:
+    """The CF standard name of the path's attenuation coefficient of results whose supported
+    path models are ``path_models`` (:data:`sca.derived.PATH_CF`): the name where every one
+    is the same model with a CF name, else '' (the coefficient is then the path's, by path
+    model: the beam attenuation c under 'beam', the absorption a under 'absorption').
+
+    Parameters
+    ----------
+    path_models : iterable of str
+
+    Returns
+    -------
+    str
+    """
+    from sca.derived import PATH_CF
+
+    models = set(path_models)
+    return PATH_CF.get(models.pop(), "") if len(models) == 1 else ""
+
+
+def _quantity_attrs(name, standard_name):
+    """Attributes of one derived quantity's variable (:data:`sca.derived.QUANTITIES`)."""
+    from sca.derived import QUANTITIES
+
+    terms, band, text, units, cf = QUANTITIES[name]
+    cf = standard_name if terms is None else cf
+    return ({"standard_name": cf} if cf else {}) | {
+        "long_name": f"{text} (95 % interval in {name}_bounds)", "units": units,
+        "coordinates": f"{name}_wavelength"}
+
+
+def _spectrum_attrs(standard_name, models):
+    return ({"standard_name": standard_name} if standard_name else {}) | {
+        "long_name": "attenuation coefficient of the light's path, tau / (depth + distance)",
+        "units": "m-1", "comment": "the beam attenuation c = a + b under path model 'beam', the "
+        "absorption a under 'absorption', the path-weighted mean of K_d and c under 'split'; "
+        "path models of these results: " + (", ".join(sorted(models)) or "none")}
+
+
+def _joint_variables(joint, wl):
+    """The joint estimate of the dive as variables of their own (joint.json's content)."""
+    from sca.derived import QUANTITIES
+
+    nv = ("nv",)
+    span = "path-model-span" in (joint.get("flags") or [])
+    models = list(joint.get("path_models") or {}) if span else [joint.get("path_model", "")]
+    cf = path_standard_name(models)
+    where = " of the dive (all photos fitted as one water)"
+    out = {"joint_chl": ((), to_float(joint["chl"]),
+                         {"standard_name": CF_CHL[0], "units": CF_CHL[1],
+                          "long_name": "chlorophyll concentration C" + where,
+                          "bounds": "joint_chl_bounds"}),
+           "joint_chl_bounds": (nv, [to_float(v) for v in joint["chl_ci"]],
+                                {"units": CF_CHL[1], "long_name": "95 % interval of joint_chl"}),
+           "joint_cdom": ((), to_float(joint["cdom"]),
+                          {"standard_name": CF_CDOM[0], "units": CF_CDOM[1],
+                           "long_name": "CDOM absorption a_CDOM at 440 nm" + where,
+                           "bounds": "joint_cdom_bounds", "coordinates": "cdom_wavelength"}),
+           "joint_cdom_bounds": (nv, [to_float(v) for v in joint["cdom_ci"]],
+                                 {"units": CF_CDOM[1],
+                                  "long_name": "95 % interval of joint_cdom"}),
+           "joint_reliable": ((), np.int8(bool(joint.get("reliable"))),
+                              {"long_name": "joint estimate reliable (no blocking flag)",
+                               "flag_values": np.array([0, 1], np.int8),
+                               "flag_meanings": "not_reliable reliable"})}
+    quantities, intervals = joint.get("quantities") or {}, joint.get("quantity_intervals") or {}
+    for q in QUANTITIES:
+        if q in quantities:
+            attrs = _quantity_attrs(q, cf)
+            attrs["long_name"] = attrs["long_name"].replace(f"{q}_bounds", f"joint_{q}_bounds")
+            out[f"joint_{q}"] = ((), to_float(quantities[q]),
+                                 attrs | {"bounds": f"joint_{q}_bounds"} | {
+                                     "comment": "at the photos' median depth and distance"})
+            out[f"joint_{q}_bounds"] = (nv, [to_float(v) for v in intervals[q]],
+                                        {"units": "m-1", "long_name": f"95 % interval of joint_{q}"})
+    c = np.asarray(joint.get("beam_attenuation") or [], float)
+    if c.size and c.size == wl.size and np.allclose(joint.get("wavelengths"), wl):
+        ci = np.asarray([[to_float(v) for v in pair] for pair in joint["beam_attenuation_ci"]])
+        out["joint_attenuation_coefficient"] = (
+            ("wavelength",), c, _spectrum_attrs(cf, models) | {
+                "bounds": "joint_attenuation_coefficient_bounds",
+                "long_name": "attenuation coefficient of the light's path" + where})
+        out["joint_attenuation_coefficient_bounds"] = (
+            ("wavelength", "nv"), ci,
+            {"units": "m-1", "long_name": "95 % interval of joint_attenuation_coefficient"})
+    for name, verdict in (joint.get("verdicts") or {}).items():
+        out[f"joint_{name}_verdict"] = ((), str(verdict), {
+            "long_name": f"what the dive says of {name}: measured, upper bound or not "
+                         "constrained"})
+    return out
+
+
+def survey_dataset(rows, records, attrs=None, joint=None):
+    """The survey as an xarray Dataset (CF-1.8): one record per photo, and the dive's joint
+    estimate as variables of its own.
 
     Parameters
     ----------
@@ -33,28 +126,60 @@ def survey_dataset(rows, records, attrs=None):
         image -> measurement.json content, for the photos measured.
     attrs : dict, optional
         More global attributes (``history``, ``command``, ``uw3p_version``).
+    joint : dict, optional
+        joint.json's content (:meth:`sca.joint.JointEstimate.to_dict`).
 
     Returns
     -------
     xarray.Dataset
         Dimension ``photo`` (coordinate ``image``), ``wavelength`` (nm) and ``nv`` (2, the
         interval ends): ``chl`` (mg m-3) and ``cdom`` (m-1 at 440 nm) with CF standard names
-        and ``chl_bounds``/``cdom_bounds`` (95 % intervals), ``attenuation`` (photo,
-        wavelength), ``depth``, ``distance`` and their sds (m), ``time`` (EXIF, NaT where
-        absent), ``reliable``, ``flags``, ``status``, ``error`` and the input sources.
+        and ``chl_bounds``/``cdom_bounds`` (95 % intervals); what each photo measures
+        (:mod:`sca.derived`, m-1, each with ``<name>_bounds`` and ``<name>_verdict``): ``c_443``
+        ... ``c_670``, ``a_nw_440``, ``kd_490``, and the spectrum ``attenuation_coefficient``
+        (photo, wavelength) with ``attenuation_coefficient_bounds`` (photo, wavelength, nv) --
+        the CF name of the beam attenuation or the absorption coefficient where every photo's
+        path model says which (:func:`path_standard_name`); ``transmittance`` (photo,
+        wavelength; k = exp(-(depth + distance) c), dimensionless); ``chl_verdict``,
+        ``cdom_verdict``, ``path_model``; ``depth``, ``distance`` and their sds (m), ``time``
+        (EXIF, NaT where absent), ``reliable``, ``flags``, ``status``, ``error`` and the input
+        sources; with ``joint``: ``joint_chl``, ``joint_cdom``, ``joint_<quantity>``, their
+        ``_bounds``, ``joint_attenuation_coefficient`` (wavelength) with its bounds,
+        ``joint_reliable`` and the verdicts.
     """
     import xarray as xr
 
     from sca.budget import parse_sd
+    from sca.derived import QUANTITIES
 
     n = len(rows)
     wl = next((np.asarray(r["estimate"]["wavelengths"], float) for r in records.values()),
-              np.array([], float))
+              np.asarray((joint or {}).get("wavelengths") or [], float))
     k = np.full((n, wl.size), np.nan)
+    c = np.full((n, wl.size), np.nan)
+    c_ci = np.full((n, wl.size, 2), np.nan)
+    q = {name: np.full(n, np.nan) for name in QUANTITIES}
+    q_ci = {name: np.full((n, 2), np.nan) for name in QUANTITIES}
+    verdicts = {name: [""] * n for name in ("chl", "cdom", *QUANTITIES)}
+    path_model = [""] * n
+    models = set()
     for i, row in enumerate(rows):
         rec = records.get(row["image"])
-        if rec is not None and np.array_equal(rec["estimate"]["wavelengths"], wl):
-            k[i] = np.asarray(rec["estimate"]["attenuation"], float)
+        if rec is None or not np.array_equal(rec["estimate"]["wavelengths"], wl):
+            continue
+        e = rec["estimate"]
+        k[i] = np.asarray(e["transmittance"], float)
+        c[i] = np.asarray(e["beam_attenuation"], float)
+        c_ci[i] = np.asarray([[to_float(v) for v in pair] for pair in e["beam_attenuation_ci"]])
+        for name in QUANTITIES:
+            q[name][i] = to_float(e["quantities"][name])
+            q_ci[name][i] = [to_float(v) for v in e["quantity_intervals"][name]]
+        for name, v in e["verdicts"].items():
+            if name in verdicts:
+                verdicts[name][i] = str(v)
+        path_model[i] = e["path_model"]
+        models.update(e.get("path_models") or [e["path_model"]])
+    cf = path_standard_name(models)
 
     def col(name):
         return np.array([to_float(r.get(name)) for r in rows], float)
@@ -69,6 +194,17 @@ def survey_dataset(rows, records, attrs=None):
     times = np.array([np.datetime64(r["time"]) if r.get("time") else np.datetime64("NaT")
                       for r in rows], dtype="datetime64[ns]")
     photo = ("photo",)
+    quantity_vars = {}
+    for name in QUANTITIES:
+        quantity_vars[name] = (photo, q[name], _quantity_attrs(name, cf)
+                               | {"bounds": f"{name}_bounds"})
+        quantity_vars[f"{name}_bounds"] = (("photo", "nv"), q_ci[name], {
+            "long_name": f"95 % interval of {name}", "units": "m-1"})
+    verdict_vars = {f"{name}_verdict": (photo, np.array(v, dtype=object), {
+        "long_name": f"what the photo says of {name}: measured, upper bound or not "
+                     "constrained"}) for name, v in verdicts.items()}
+    band_coords = {f"{name}_wavelength": ((), float(QUANTITIES[name][1]), {
+        "standard_name": "radiation_wavelength", "units": "nm"}) for name in QUANTITIES}
     ds = xr.Dataset(
         {"chl": (photo, col("chl"), {"standard_name": CF_CHL[0], "units": CF_CHL[1],
                                      "long_name": "chlorophyll concentration C",
@@ -81,9 +217,17 @@ def survey_dataset(rows, records, attrs=None):
                                        "coordinates": "cdom_wavelength"}),
          "cdom_bounds": (("photo", "nv"), np.column_stack([col("cdom_lo"), col("cdom_hi")]),
                          {"long_name": "95 % interval of cdom", "units": CF_CDOM[1]}),
-         "attenuation": (("photo", "wavelength"), k,
-                         {"long_name": "path attenuation k = exp(-(depth + distance) c)",
-                          "units": "1"}),
+         **quantity_vars,
+         "attenuation_coefficient": (("photo", "wavelength"), c, _spectrum_attrs(cf, models)
+                                     | {"bounds": "attenuation_coefficient_bounds"}),
+         "attenuation_coefficient_bounds": (("photo", "wavelength", "nv"), c_ci, {
+             "long_name": "95 % interval of attenuation_coefficient", "units": "m-1"}),
+         "transmittance": (("photo", "wavelength"), k,
+                           {"long_name": "transmittance of the light's path k = exp(-(depth + "
+                                         "distance) c)", "units": "1"}),
+         **verdict_vars,
+         "path_model": (photo, np.array(path_model, dtype=object),
+                        {"long_name": "the best-fitting path model of the photo's fit"}),
          "depth": (photo, col("depth_m"), {"standard_name": "depth", "units": "m",
                                            "positive": "down", "long_name": "chart depth"}),
          "depth_sd": (photo, sd("depth"), {"long_name": "standard deviation of depth",
@@ -104,12 +248,14 @@ def survey_dataset(rows, records, attrs=None):
                        "flag_meanings": "not_reliable reliable"}),
          **{name: (photo, text(name), {"long_name": name.replace("_", " ")})
             for name in ("flags", "status", "error", "depth_source", "distance_source",
-                         "corners_source", "corners", "out")}},
+                         "corners_source", "corners", "out")},
+         **(_joint_variables(joint, wl) if joint else {})},
         coords={"image": (photo, text("image"), {"long_name": "photo file"}),
                 "wavelength": ("wavelength", wl, {"standard_name": "radiation_wavelength",
                                                   "units": "nm"}),
                 "cdom_wavelength": ((), CDOM_WAVELENGTH_NM,
-                                    {"standard_name": "radiation_wavelength", "units": "nm"})},
+                                    {"standard_name": "radiation_wavelength", "units": "nm"}),
+                **band_coords},
         attrs={"Conventions": "CF-1.8", "title": "uw3p dive survey: one record per photo",
                "source": "uw3p measure (Blasinski & Farrell three-parameter model)",
                "references": "H. Blasinski and J. Farrell, A Three Parameter Underwater Image "

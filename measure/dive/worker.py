@@ -14,6 +14,7 @@ import signal
 import threading
 
 from ..output import strict_json
+from .plan import correction_range
 
 __all__ = ["dask_setup", "run_job"]
 
@@ -44,7 +45,24 @@ def _budget(options, inputs) -> dict | None:
 
     prof = options.get("profile")
     prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
-    return budget_for(options.get("uncertain"), prof) | sds
+    return budget_for(options.get("uncertain"), prof,
+                      measured_chart=options.get("chart_reflectance") is not None) | sds
+
+
+def _auxiliary(options, inputs) -> tuple:
+    """``auxiliary=`` for one photo (its row's measurements over the run's,
+    :func:`measure.auxiliary.merge_auxiliary`) and where each came from."""
+    from ..auxiliary import merge_auxiliary
+
+    defaults, own = options.get("auxiliary") or {}, inputs.get("auxiliary") or {}
+    aux = merge_auxiliary(defaults, own)
+    sources = {}
+    for which, given in (("the run's default", defaults),
+                         (inputs.get("auxiliary_source") or "metadata", own)):
+        for kind, entry in given.items():
+            keys = [f"kd {float(b):g}" for b in entry] if kind == "kd" else [kind]
+            sources.update(dict.fromkeys(keys, which))
+    return aux, sources
 
 
 def run_job(job: dict) -> dict:
@@ -65,16 +83,21 @@ def run_job(job: dict) -> dict:
     from ..measurement import measure
     from ..output import write_outputs
 
+    from ..auxiliary import auxiliary_record
+
     inputs, options = job["inputs"], job["options"]
     try:
+        aux, sources = _auxiliary(options, inputs)
         meas = measure(job["image"], corners=inputs["corners"], depth=inputs["depth_m"],
                        distance=inputs["distance_m"], uncertain=_budget(options, inputs),
-                       **{k: v for k, v in options.items() if k != "uncertain"})
+                       auxiliary=aux, **{k: v for k, v in options.items()
+                                         if k not in ("uncertain", "auxiliary")})
         meas.inputs.update({k: inputs[k] for k in ("depth_source", "distance_source",
                                                    "corners_source", "time")})
+        meas.inputs["auxiliary"] = auxiliary_record(aux, sources)
         meas.inputs["command"] = job["command"]
         write_outputs(meas, job["out"], version=job["version"], report=job["report"],
-                      tiff=job["tiff"],
+                      tiff=job["tiff"], range=correction_range(inputs),
                       overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
         return {"status": "measured", "record": record}

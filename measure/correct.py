@@ -1,0 +1,506 @@
+"""Every pixel corrected along its own range, from the measured water.
+
+The model (Blasinski & Farrell eqs 1-3 and 15, with the veiling light of eq 2 modelled as the
+simulator does) of a pixel of channel c at range r, in raw units:
+
+    raw_c = gain W_c(r) rho_c + s_c(r),
+
+W_c(r) the camera's channel-c response to a white reflector at range r at the photo's depth
+(the light that reached the depth, along the path model's legs, times the camera's curves), and
+rho_c the object's reflectance seen by channel c. The correction inverts it per channel,
+
+    J_c = (raw_c - s_c(r)) / (gain t_c(r)),   t_c(r) = W_c(r) / W_c(air),
+
+J in the camera's units *in air* (a white reflector in air = 1 in the most sensitive channel):
+the paper's von Kries correction (Fig 11; :func:`measure.correction`) generalised from one
+distance to every pixel's own. Nothing is restated: W_c(r) is the estimators' own model
+function (:meth:`sca.model.ChartModel.predict` of a white reflector: the water's
+:meth:`forward.WaterTerms.optical_depth` with the fit's path model, Water constants, the
+camera's fitted ``balance`` and ``camera_shift`` and the ``daylight`` shift) on a table of
+ranges, and each pixel interpolates the table (no spectral integral per pixel).
+
+The veiling light s_c(r): the fit measured s_c(r0) along the chart's ray (r0 the chart's
+distance). Its shape in r is the simulator's single-scattering model
+(:func:`forward.veiling_light`, rho_b = i exp(-K depth) (b_b / c)(1 - exp(-c r))) projected on
+the camera's channels, V_c(r) = P^T rho_b(r), and anchored to the measurement:
+s_c(r) = s_c(r0) V_c(r) / V_c(r0). The model's b_b only enters as the spectral shape of the
+veil, not as its level (DECISIONS.md, "Per-pixel correction").
+
+Far and unknown ranges: the correction along a range amplifies the direct signal (and its
+noise) by 1 / t_c(r). Ranges beyond ``max_range``, or beyond the range at which a channel's
+transmission along the range alone, t_c(r) / t_c(0), falls below 1 / ``max_gain``, are
+corrected as at that range (the cap, :data:`MAX_GAIN`); unknown ranges (0 or NaN in a map) as
+at ``unknown`` (default the chart's distance: today's single-distance correction).
+
+Not modelled: the object's own depth where it differs from the photo's (the light that reaches
+a deeper object has come further down; a seafloor seen from above is lit as at the camera's
+depth), forward scattering (blur and the glow around bright objects), the light's angle (the
+daylight comes straight down; no shading, no shadow), artificial light, and a veiling light
+that varies across the frame otherwise than with the range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+import forward
+from forward.water import COEFFICIENT_PARAMS
+from sca.compiled import KERNEL_LOCK
+
+from .correctwater import CorrectionWater, correction_water
+from .image import UINT16_MAX, Photo, read_image
+from .pixels import correct_pixels
+from .measurement import WHITE_TARGET
+from .rangemap import read_range
+
+__all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "SRGB_LUT_BITS", "TABLE_SIZE", "Corrected",
+           "CorrectionTable", "correct_image", "correction_table", "seathru_coefficients",
+           "srgb_encoding_lut"]
+
+#: Ranges in the transmission table (0 to the cap, evenly spaced); linear interpolation
+#: between them is within 1e-4 of the model for a cap of 20 m in the clearest and the most
+#: turbid of the paper's waters (tests/test_correct.py)
+TABLE_SIZE = 512
+#: The largest factor by which the correction along the range may amplify a channel's direct
+#: signal, t_c(0) / t_c(r): beyond it the range is capped (DECISIONS.md, "Per-pixel
+#: correction": 16, 4 stops, held the far charts' ΔE00 of CORRECTION.md without amplifying
+#: the open water's noise)
+MAX_GAIN = 16.0
+#: The cap is searched for up to this range, m (beyond it nothing of a photo is corrected)
+SEARCH_RANGE_M = 100.0
+#: The 16-bit sRGB encoding is a table of 2^SRGB_LUT_BITS linear levels (a step of 1e-6 in
+#: linear light: under one 16-bit code even at black, where the encoding's slope is 12.92)
+SRGB_LUT_BITS = 20
+#: IEC 61966-2-1:1999 sRGB encoding: 12.92 x below 0.0031308, 1.055 x^(1/2.4) - 0.055 above
+SRGB_THRESHOLD, SRGB_LINEAR_SLOPE, SRGB_GAMMA, SRGB_OFFSET = 0.0031308, 12.92, 2.4, 0.055
+
+
+@dataclass
+class CorrectionTable:
+    """The correction on a table of ranges (:func:`correction_table`).
+
+    Attributes
+    ----------
+    ranges : numpy.ndarray, (n,)
+        0 to ``cap``, m, evenly spaced.
+    transmission : numpy.ndarray, (n, 3)
+        t_c(r) = W_c(r) / W_c(air), dimensionless (the light at the depth along the range).
+    veil : numpy.ndarray, (n, 3)
+        s_c(r), raw units.
+    veil_infinity : numpy.ndarray, (3,)
+        The veiling light of an infinitely long ray, raw units (B-infinity of Sea-thru).
+    gain : float
+        Raw units per model unit.
+    cap : float
+        Ranges beyond are corrected as at ``cap``, m.
+    cap_reason : str
+        'max_gain', 'max_range' or 'none' (the search range).
+    unknown : float
+        The range unknown pixels are corrected at, m.
+    reference : float
+        The chart's distance r0, m.
+    water : CorrectionWater
+        The water it was made from.
+    """
+
+    ranges: np.ndarray
+    transmission: np.ndarray
+    veil: np.ndarray
+    veil_infinity: np.ndarray
+    gain: float
+    cap: float
+    cap_reason: str
+    unknown: float
+    reference: float
+    water: CorrectionWater = field(repr=False)
+
+    @property
+    def step(self) -> float:
+        """The table's range step, m."""
+        return float(self.ranges[1] - self.ranges[0])
+
+    def factors(self):
+        """(A, B) of J = (raw - B) A per table row: A (n, 3) model units per raw unit, B (n, 3)
+        raw units."""
+        return 1.0 / (self.gain * self.transmission), self.veil
+
+    def apply(self, raw, ranges) -> np.ndarray:
+        """The correction of raw values at given ranges (numpy; for a few values).
+
+        Parameters
+        ----------
+        raw : array_like, (..., 3)
+            Raw camera values (black subtracted), raw units.
+        ranges : array_like, (...)
+            Ranges, m (NaN or <= 0: unknown).
+
+        Returns
+        -------
+        numpy.ndarray, (..., 3)
+            J, model units in air.
+        """
+        r = np.asarray(ranges, float)
+        r = np.where(np.isfinite(r) & (r > 0), r, self.unknown)
+        r = np.clip(r, 0.0, self.cap)
+        A, B = self.factors()
+        a = np.stack([np.interp(r, self.ranges, A[:, c]) for c in range(3)], axis=-1)
+        b = np.stack([np.interp(r, self.ranges, B[:, c]) for c in range(3)], axis=-1)
+        return (np.asarray(raw, float) - b) * a
+
+
+def _white_setup(setup):
+    q = setup.wavelengths.size
+    return dataclasses.replace(setup, reflectances=np.ones((q, 1)))
+
+
+def _white_response(cw: CorrectionWater, ranges) -> np.ndarray:
+    """W_c(r) (n, 3): a white reflector at each range, unit gain, no veil (the model function
+    of every estimator)."""
+    from sca.model import ChartModel
+
+    r = np.atleast_1d(np.asarray(ranges, float))
+    n = r.size
+    model = ChartModel(_white_setup(cw.setup), water=cw.water)
+    params = {"chl": np.full(n, cw.chl), "cdom": np.full(n, cw.cdom),
+              "depth": np.full(n, cw.depth), "distance": r}
+    for k, v in cw.nuisance.items():
+        params[k] = np.broadcast_to(np.asarray(v, float), (n, 3)) if np.ndim(v) else float(v)
+    return model.predict(params, jacobian=False).signal.reshape(n, 3)
+
+
+def _veil_shape(cw: CorrectionWater, ranges) -> np.ndarray:
+    """V_c(r) (n, 3): the simulator's veiling light projected on the camera's channels."""
+    setup = cw.setup
+    light = setup.illuminant
+    shift = cw.nuisance.get("daylight")
+    if shift:
+        from forward.daylight import DaylightTilt
+
+        light = light * np.exp(DaylightTilt(setup.wavelengths, setup.daylight_cct)
+                               .log_ratio(float(shift)))
+    consts = {k: float(v) for k, v in cw.nuisance.items() if k in COEFFICIENT_PARAMS}
+    water = dataclasses.replace(cw.water, **consts) if consts else cw.water
+    rho = forward.veiling_light(setup.wavelengths, cw.chl, cw.cdom, cw.depth,
+                                np.asarray(ranges, float), illuminant=light, water=water)
+    return rho @ setup.sensitivities
+
+
+def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | None = None,
+                     unknown="reference", size: int = TABLE_SIZE, **water_options
+                     ) -> CorrectionTable:
+    """The per-channel correction on a table of ranges.
+
+    Parameters
+    ----------
+    water : CorrectionWater or anything :func:`measure.correctwater.correction_water` takes
+        The water, light and camera.
+    max_gain : float, optional
+        The cap: the largest t_c(0) / t_c(r) a range is corrected with (default
+        :data:`MAX_GAIN`; ``inf``: no cap but ``max_range``).
+    max_range : float, optional
+        Ranges beyond are corrected as at it, m (default: only ``max_gain`` caps).
+    unknown : 'reference' or float, optional
+        The range unknown pixels are corrected at: the chart's distance (default) or a range
+        in m.
+    size : int, optional
+        Rows of the table (default :data:`TABLE_SIZE`).
+    **water_options
+        For :func:`correction_water` when ``water`` is not a :class:`CorrectionWater`.
+
+    Returns
+    -------
+    CorrectionTable
+
+    Raises
+    ------
+    ValueError
+        Naming ``max_gain``, ``max_range``, ``unknown`` or ``size``.
+    """
+    cw = water if isinstance(water, CorrectionWater) else correction_water(water, **water_options)
+    if not (max_gain > 1):
+        raise ValueError(f"max_gain: must be > 1 (or inf), got {max_gain!r}")
+    if max_range is not None and not (math.isfinite(max_range) and max_range > 0):
+        raise ValueError(f"max_range: must be finite and > 0 m, got {max_range!r}")
+    if int(size) != size or size < 16:
+        raise ValueError(f"size: an integer >= 16, got {size!r}")
+    air = cw.setup.white_response
+    # the cap: where t_c(r) / t_c(0) first falls below 1 / max_gain in some channel
+    search = np.linspace(0.0, SEARCH_RANGE_M if max_range is None else max_range, 2001)
+    t = _white_response(cw, search) / air
+    rel = t / t[:1]
+    below = np.flatnonzero(np.any(rel < 1.0 / max_gain, axis=1))
+    if below.size:
+        i = below[0]  # interpolate the crossing in the channel that crosses first
+        c = int(np.argmin(rel[i]))
+        lo, hi = np.log(rel[i - 1, c]), np.log(rel[i, c])
+        f = (np.log(1.0 / max_gain) - lo) / (hi - lo) if hi != lo else 1.0
+        cap, why = float(search[i - 1] + f * (search[i] - search[i - 1])), "max_gain"
+    else:
+        cap, why = float(search[-1]), "max_range" if max_range is not None else "none"
+    ranges = np.linspace(0.0, cap, int(size))
+    trans = _white_response(cw, ranges) / air
+    r0 = cw.distance
+    shape = _veil_shape(cw, np.concatenate([ranges, [r0, 1e6]]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(shape[-2] > 0, cw.backscatter / shape[-2], 0.0)
+    veil = shape[:-2] * scale
+    if unknown == "reference":
+        unk = r0
+    else:
+        try:
+            unk = float(unknown)
+        except (TypeError, ValueError):
+            unk = math.nan
+        if not (math.isfinite(unk) and unk > 0):
+            raise ValueError(f"unknown: 'reference' or a range > 0 m, got {unknown!r}")
+    return CorrectionTable(ranges, trans, veil, shape[-1] * scale, float(cw.gain), cap, why,
+                           min(unk, cap), r0, cw)
+
+
+# --------------------------------------------------------------------------- pixels
+_LUT = {}
+
+
+def srgb_encoding_lut(bits: int = SRGB_LUT_BITS) -> np.ndarray:
+    """16-bit codes of the sRGB encoding at 2^bits evenly spaced linear levels 0-1.
+
+    Parameters
+    ----------
+    bits : int, optional
+        log2 of the table's length (default :data:`SRGB_LUT_BITS`).
+
+    Returns
+    -------
+    numpy.ndarray, uint16, (2^bits,)
+        round(65535 V(x)), V the IEC 61966-2-1 encoding (read-only, cached).
+
+    References
+    ----------
+    IEC 61966-2-1:1999, Multimedia systems and equipment - Colour measurement and management -
+    Default RGB colour space - sRGB (the encoding's two pieces).
+    """
+    if bits not in _LUT:
+        x = np.linspace(0.0, 1.0, 2 ** bits)
+        v = np.where(x <= SRGB_THRESHOLD, SRGB_LINEAR_SLOPE * x,
+                     (1.0 + SRGB_OFFSET) * x ** (1.0 / SRGB_GAMMA) - SRGB_OFFSET)
+        lut = np.rint(np.clip(v, 0, 1) * UINT16_MAX).astype(np.uint16)
+        lut.setflags(write=False)
+        _LUT[bits] = lut
+    return _LUT[bits]
+
+
+def srgb_matrix(setup, white: float = 1.0) -> np.ndarray:
+    """Camera model units in air -> linear sRGB (3, 3): :func:`forward.camera_to_xyz_matrix`
+    then colour-science's XYZ -> sRGB (D65, :func:`forward.spectra.srgb_8bit`), a white
+    reflector in air at Y = ``white``.
+
+    Parameters
+    ----------
+    setup : forward.ChartSetup
+    white : float, optional
+        Y (0-1) of a perfect white reflector (default 1).
+
+    Returns
+    -------
+    numpy.ndarray, (3, 3)
+    """
+    from forward.spectra import srgb_8bit
+
+    xyz_to_srgb, _ = srgb_8bit()
+    return xyz_to_srgb @ forward.camera_to_xyz_matrix(setup) * float(white)
+
+
+@dataclass
+class Corrected:
+    """A photo corrected along every pixel's range (:func:`correct_image`).
+
+    Attributes
+    ----------
+    linear : numpy.ndarray or None
+        uint16 (H, W, 3) camera RGB in air, a white reflector at ``white_linear`` x 65535 in the
+        most sensitive channel.
+    srgb : numpy.ndarray or None
+        uint16 (H, W, 3) sRGB (IEC 61966-2-1), a white reflector in air at Y = ``white``.
+    values : numpy.ndarray or None
+        float32 (H, W, 3) J, camera model units in air (``float_output=True``).
+    table : CorrectionTable
+    photo : Photo
+    ranges : dict
+        What the range was: ``kind``, min / max / unknown fraction, the cap.
+    notes : list of str
+    """
+
+    linear: np.ndarray | None
+    srgb: np.ndarray | None
+    values: np.ndarray | None
+    table: CorrectionTable
+    photo: Photo = field(repr=False)
+    ranges: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+
+def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A002
+                  max_range: float | None = None, unknown="reference", white: float = 1.0,
+                  white_linear: float = WHITE_TARGET, linear: bool = True, srgb: bool = True,
+                  float_output: bool = False, black_level=None, white_level=None,
+                  **water_options) -> Corrected:
+    """Correct a photo pixel by pixel along each pixel's range, from the measured water.
+
+    Parameters
+    ----------
+    image : str, os.PathLike or Photo
+        A RAW (LibRaw) or linear TIFF (:func:`measure.read_image`), or a :class:`Photo`.
+    water : CorrectionWater, Measurement, dict, str or os.PathLike
+        The water (:func:`measure.correctwater.correction_water`: measurement.json, joint.json
+        or a survey record).
+    range : float, str, os.PathLike or numpy.ndarray
+        A distance (m), a range map (float TIFF m, 16-bit PNG mm, .npy m; 0 or NaN unknown) or
+        ``"plane:A,B,C"`` (:func:`measure.rangemap.read_range`).
+    max_gain, max_range, unknown :
+        The cap and the unknown ranges (:func:`correction_table`).
+    white : float, optional
+        Y of a perfect white reflector in the sRGB image (default 1).
+    white_linear : float, optional
+        A perfect white reflector's most sensitive channel in the linear image, fraction of
+        full scale (default :data:`measure.measurement.WHITE_TARGET`).
+    linear, srgb, float_output : bool, optional
+        Which images to make.
+    black_level, white_level : optional
+        For :func:`measure.read_image`.
+    **water_options
+        For :func:`measure.correctwater.correction_water` (``setup``, ``depth``, ``photo``,
+        ``exposure_ratio``, ``model``).
+
+    Returns
+    -------
+    Corrected
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: ``image``, ``water``, ``range``, ``max_gain``, ``max_range``,
+        ``unknown``, ``white``, ``white_linear``.
+
+    References
+    ----------
+    H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
+    Electronic Imaging 2016, eqs 1-3, 15 and Fig 11 (the von Kries correction generalised to
+    every pixel's range). D. Akkaynak and T. Treibitz, "Sea-thru: A method for removing water
+    from underwater images", CVPR 2019 (the per-pixel range correction this parallels).
+
+    Examples
+    --------
+    >>> out = correct_image("DIVE_03.dng", "results/DIVE_01/measurement.json",
+    ...                     "DIVE_03_range.tif")  # doctest: +SKIP
+    """
+    for name, v in (("white", white), ("white_linear", white_linear)):
+        if not (math.isfinite(v) and 0 < v <= 1):
+            raise ValueError(f"{name}: must be in (0, 1], got {v!r}")
+    photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
+                                                              white_level=white_level)
+    table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,
+                             **water_options)
+    rng = read_range(range, photo.size)
+    has_map = not isinstance(rng, float)
+    H, W = photo.data.shape[:2]
+    A, B = table.factors()
+    M = srgb_matrix(table.water.setup, white)
+    lut = srgb_encoding_lut()
+    empty16 = np.zeros((1, 1, 3), np.uint16)
+    lin16 = np.empty((H, W, 3), np.uint16) if linear else empty16
+    s16 = np.empty((H, W, 3), np.uint16) if srgb else empty16
+    flt = np.empty((H, W, 3), np.float32) if float_output else np.zeros((1, 1, 3), np.float32)
+    raw = photo.kind == "raw"
+    mosaic = photo.data if raw else np.zeros((1, 1), np.float32)
+    rgb = np.zeros((1, 1, 3), np.float32) if raw else photo.data
+    channel = photo.channel if raw else np.zeros((1, 1), np.int8)
+    rmap = np.ascontiguousarray(rng, np.float32) if has_map else np.zeros((1, 1), np.float32)
+    with KERNEL_LOCK:
+        correct_pixels(mosaic, channel, rgb, raw, H, W, rmap, has_map, 0.0 if has_map else float(rng),
+                 float(table.unknown), float(table.cap), table.step, A, B, M, lut,
+                 float(white_linear * UINT16_MAX), lin16, s16, flt,
+                 np.array([linear, srgb, float_output]))
+    if has_map:
+        known = np.isfinite(rng)
+        summary = {"kind": "map", "min_m": float(np.nanmin(rng)), "max_m": float(np.nanmax(rng)),
+                   "unknown_fraction": float(1 - known.mean()),
+                   "capped_fraction": float((rng[known] > table.cap).mean()) if known.any() else 0.0}
+    else:
+        summary = {"kind": "constant", "min_m": float(rng), "max_m": float(rng),
+                   "unknown_fraction": 0.0, "capped_fraction": float(rng > table.cap)}
+    summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
+    notes = list(table.water.notes)
+    if summary["capped_fraction"] > 0:
+        notes.append(f"{100 * summary['capped_fraction']:.1f} % of the pixels lie beyond "
+                     f"{table.cap:.2f} m ({table.cap_reason}): corrected as at that range")
+    if summary["unknown_fraction"] > 0:
+        notes.append(f"{100 * summary['unknown_fraction']:.1f} % of the pixels have no range: "
+                     f"corrected as at {table.unknown:.2f} m")
+    return Corrected(lin16 if linear else None, s16 if srgb else None,
+                     flt if float_output else None, table, photo, summary, notes)
+
+
+def seathru_coefficients(table: CorrectionTable) -> dict:
+    """The correction in the form of Sea-thru's image formation model, per channel.
+
+        I_c = J_c exp(-beta_D_c z) + B_inf_c (1 - exp(-beta_B_c z)),
+
+    z the range (m), J_c the scene at the photo's depth seen from range 0 (raw units),
+    fitted to the table (least squares in the logarithm through z = 0, over 0 to the cap);
+    ``white_balance`` maps J to the white of air (1 / (gain t_c(0))). The exact
+    per-range table is given beside.
+
+    Parameters
+    ----------
+    table : CorrectionTable
+
+    Returns
+    -------
+    dict
+        ``beta_D`` (3,) m^-1, ``beta_B`` (3,) m^-1, ``B_inf`` (3,) raw units, ``white_balance``
+        (3,) model units per raw unit, ``table`` (ranges, transmission, veil), units, and how
+        well the exponentials fit (``rms_log``).
+
+    References
+    ----------
+    D. Akkaynak and T. Treibitz, "Sea-thru: A method for removing water from underwater
+    images", CVPR 2019, eq 2 (the revised model, Akkaynak & Treibitz CVPR 2018).
+    """
+    z = table.ranges
+    t = table.transmission
+    ln_t = np.log(t / t[:1])
+    zz = float(z @ z)
+    beta_d = -(z @ ln_t) / zz
+    binf = table.veil_infinity
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(binf > 0, 1.0 - table.veil / binf, 1.0)
+        ln_b = np.log(np.clip(frac, 1e-300, None))
+    beta_b = -(z @ ln_b) / zz
+    rms_d = np.sqrt(np.mean((ln_t + np.outer(z, beta_d)) ** 2, axis=0))
+    rms_b = np.sqrt(np.mean((ln_b + np.outer(z, beta_b)) ** 2, axis=0))
+    w = table.water
+    return {
+        "model": "I_c = J_c exp(-beta_D_c z) + B_inf_c (1 - exp(-beta_B_c z)); corrected = "
+                 "white_balance_c J_c",
+        "channels": ["red", "green", "blue"],
+        "beta_D": beta_d.tolist(), "beta_B": beta_b.tolist(), "B_inf": binf.tolist(),
+        "white_balance": (1.0 / (table.gain * t[0])).tolist(),
+        "rms_log": {"beta_D": rms_d.tolist(), "beta_B": rms_b.tolist()},
+        "range_m": [0.0, float(table.cap)],
+        "table": {"range_m": z[:: max(1, z.size // 64)].tolist(),
+                  "transmission": t[:: max(1, z.size // 64)].tolist(),
+                  "veil": table.veil[:: max(1, z.size // 64)].tolist()},
+        "cap_m": table.cap, "cap_reason": table.cap_reason, "unknown_m": table.unknown,
+        "reference_distance_m": table.reference, "depth_m": w.depth, "gain": table.gain,
+        "water": {"chl": w.chl, "cdom": w.cdom, "chl_ci": list(w.chl_ci),
+                  "cdom_ci": list(w.cdom_ci), "path_model": w.water.path_model,
+                  "source": w.source, "reliable": w.reliable},
+        "units": {"beta_D": "m^-1", "beta_B": "m^-1", "B_inf": "raw units (DN above black)",
+                  "white_balance": "model units in air per raw unit", "range_m": "m",
+                  "transmission": "dimensionless, t_c(z) = W_c(z) / W_c(air)",
+                  "veil": "raw units", "gain": "raw units per model unit"},
+    }

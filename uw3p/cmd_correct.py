@@ -1,0 +1,180 @@
+"""``uw3p correct``: a photo corrected pixel by pixel along each pixel's range, with a measured
+water (measure.correct).
+
+    uw3p correct PHOTO.dng --water RESULTS/DIVE_01/measurement.json --range 2.5 --out DIR
+    uw3p correct PHOTO.dng --water RESULTS/joint.json --depth 8 --range PHOTO_range.tif --out DIR
+    uw3p correct PHOTO.dng --water measurement.json --range plane:4,0,-3 --out DIR
+
+Writes corrected_srgb.tif (16-bit sRGB with its ICC profile), corrected.jpg, corrected.tiff
+(linear camera RGB) and correction.json (the coefficients in Sea-thru's form, the range, the
+cap, the water) into DIR, whole or not at all. Exit status 0 when the water's measurement is
+reliable, 1 when it is not, 2 bad input.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import __version__
+from .common import EXIT_NOT_RELIABLE, EXIT_OK, check_spectra_args, read_photo
+
+__all__ = ["BUFFERED", "NAME", "add_parser", "run"]
+
+#: The subcommand's name.
+NAME = "correct"
+#: Output is collected and written when the command ends (see ``uw3p.cli.main``).
+BUFFERED = True
+
+
+def add_parser(sub):
+    """Register ``correct`` and its options.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The ``uw3p`` parser's subcommands.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The subcommand's parser, its ``func`` default set to :func:`run`.
+    """
+    p = sub.add_parser(NAME, help="correct a photo pixel by pixel along each pixel's range with "
+                                  "a measured water")
+    p.add_argument("image", help="RAW or linear 16-bit TIFF")
+    p.add_argument("--water", required=True, metavar="JSON",
+                   help="measurement.json of uw3p measure, or joint.json of a dive")
+    p.add_argument("--range", required=True, metavar="RANGE",
+                   help="camera-to-object range: a distance in m, a range map (float TIFF in m, "
+                        "16-bit PNG in mm, .npy in m; 0 or NaN unknown; resampled to the photo) "
+                        "or plane:A,B,C (A + B u + C v m, u and v across the photo in [-1, 1])")
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--depth", type=float, default=None,
+                   help="the photo's depth, m (default the chart's)")
+    p.add_argument("--photo", default=None,
+                   help="joint.json: the dive photo whose veiling light and gain are used "
+                        "(default the one nearest in depth)")
+    p.add_argument("--exposure-ratio", type=float, default=None,
+                   help="this photo's exposure over the chart photo's (t ISO / N^2); default "
+                        "from both photos' EXIF where known, else 1")
+    p.add_argument("--max-gain", type=float, default=None,
+                   help="cap: the largest amplification of a channel's direct signal by the "
+                        "range; farther ranges are corrected as at the cap (default "
+                        "measure.correct.MAX_GAIN, 16)")
+    p.add_argument("--max-range", type=float, default=None,
+                   help="ranges beyond are corrected as at it, m")
+    p.add_argument("--unknown", default="reference",
+                   help="range (m) at which pixels without a range are corrected (default: "
+                        "'reference', the chart's distance)")
+    p.add_argument("--white", type=float, default=1.0,
+                   help="Y of a perfect white reflector in the sRGB image, 0-1 (default 1)")
+    p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
+                   help="the TIFFs lossless deflate (default), uncompressed, or none")
+    p.add_argument("--no-jpeg", action="store_true", help="do not write corrected.jpg")
+    p.add_argument("--uncertainty", action="store_true",
+                   help="also the ΔE00 spread over the water's 95 %% intervals (correction.json)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an output folder that holds another photo's results")
+    p.add_argument("--camera", default=None,
+                   help="camera name or CSV (default: the measurement's; joint.json: Nikon 5100 "
+                        "(NPL))")
+    p.add_argument("--quantal", action="store_true", help="the camera curves act on photons")
+    p.add_argument("--profile", default=None, help="camera profile from uw3p calibrate")
+    p.add_argument("--illuminant", default=None, help="surface illuminant (default D65)")
+    p.add_argument("--black-level", type=float, default=None, help="override the file's, raw units")
+    p.add_argument("--white-level", type=float, default=None, help="override the file's, raw units")
+    p.set_defaults(func=run)
+    return p
+
+
+def _setup(args):
+    """The camera set-up the options ask for (None: the measurement's own)."""
+    if args.camera is None and args.profile is None and args.illuminant is None \
+            and not args.quantal:
+        return None
+    import forward
+    import measure
+
+    prof = measure.load_profile(args.profile) if args.profile else None
+    return measure.camera_setup(args.camera or forward.DEFAULT_CAMERA, quantal=args.quantal,
+                                illuminant=args.illuminant,
+                                gains=None if prof is None else prof.gains)
+
+
+def _exposure(args, photo, water_path):
+    """--exposure-ratio, or the ratio of the EXIF exposures (this photo's over the chart
+    photo's, from measurement.json) where both are known."""
+    if args.exposure_ratio is not None:
+        return args.exposure_ratio
+    import json
+
+    from measure.correctwater import exposure_ratio
+
+    try:
+        rec = json.loads(Path(water_path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    chart = (rec.get("image") or {}).get("exposure") if isinstance(rec, dict) else None
+    return exposure_ratio(photo.exposure, chart) if chart else None
+
+
+def run(args, out, err) -> int:
+    """Correct one photo.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    out : text stream
+        What was written, the range and the cap.
+    err : text stream
+
+    Returns
+    -------
+    int
+        ``EXIT_OK`` when the water's measurement is reliable, ``EXIT_NOT_RELIABLE`` otherwise.
+
+    Raises
+    ------
+    ValueError
+        Bad input, naming the option (``--water``, ``--range``, ``--out``, ...).
+    """
+    from measure.correct import MAX_GAIN, correct_image, seathru_coefficients
+    from measure.correct_output import NOT_MODELLED, write_corrected
+
+    check_spectra_args(args)
+    src = Path(args.image)
+    if not src.is_file():
+        raise ValueError(f"image: file not found: {src}")
+    if not Path(args.water).is_file():
+        raise ValueError(f"water: file not found: {args.water}")
+    if Path(args.out).is_file():
+        raise ValueError(f"out: {args.out} is a file; give a folder (created if missing)")
+    from measure.output import check_out
+
+    check_out(args.out, src, args.overwrite)  # a refusal before the work
+    photo = read_photo(args, src)
+    corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
+                         max_range=args.max_range, unknown=args.unknown, white=args.white,
+                         linear=args.tiff != "none", setup=_setup(args), depth=args.depth,
+                         photo=args.photo, exposure_ratio=_exposure(args, photo, args.water))
+    record = {"image": str(src), "range": {"given": str(args.range)} | corr.ranges,
+              "seathru": seathru_coefficients(corr.table), "notes": corr.notes,
+              "not_modelled": list(NOT_MODELLED), "white_Y": args.white,
+              "command": getattr(args, "command_line", ""), "version": __version__}
+    if args.uncertainty:
+        from measure.correct_uncertainty import correction_spread
+
+        record["uncertainty"] = correction_spread(corr.table.water)
+    written = write_corrected(corr, args.out, record=record, version=__version__,
+                              tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite)
+    r = corr.ranges
+    out.write(f"range            {r['kind']}: {r['min_m']:.3g}-{r['max_m']:.3g} m"
+              + (f", {100 * r['unknown_fraction']:.1f} % unknown" if r["unknown_fraction"] else "")
+              + f"; capped at {r['cap_m']:.3g} m ({r['cap_reason']})\n"
+              f"water            C {corr.table.water.chl:.4g} mg m^-3, a_CDOM(440) "
+              f"{corr.table.water.cdom:.4g} m^-1, depth {corr.table.water.depth:.3g} m "
+              f"({corr.table.water.source})\n")
+    for note in corr.notes:
+        out.write(f"note             {note}\n")
+    out.write("wrote            " + ", ".join(written.values()) + "\n")
+    return EXIT_OK if corr.table.water.reliable else EXIT_NOT_RELIABLE
