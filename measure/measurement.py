@@ -332,11 +332,13 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     """The paper's von Kries colour correction from the estimated attenuation.
 
     corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
-    (P^T i) / (P^T diag(i r) k) of a white's response in air to its response through the water
-    (r: the surface daylight's change of colour the fit found, where the budget has the
-    ``daylight`` term; the corrected white is that of the given illuminant), times one common
-    factor that puts the corrected white patch's brightest channel at
-    :data:`WHITE_TARGET` x ``full_scale``.
+    (P^T i) / ((1 + beta) (P_delta^T diag(i r) k)) of a white's response in air to its response
+    through the water as the fit found it (r: the surface daylight's change of colour, where the
+    budget has the ``daylight`` term; beta and delta: the camera's fitted channel balance and
+    curve shifts, where it has ``balance`` and ``camera_shift``, P_delta = P - delta dP/dlambda
+    to first order as :mod:`sca.model` takes them; the corrected white is that of the given
+    illuminant and the camera's nominal curves), times one common factor that puts the
+    corrected white patch's brightest channel at :data:`WHITE_TARGET` x ``full_scale``.
 
     Parameters
     ----------
@@ -363,13 +365,27 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     """
     P, i = setup.sensitivities, setup.illuminant
     light = i * estimate.attenuation
-    shift = (estimate.nuisance or {}).get("daylight")
+    nuisance = estimate.nuisance or {}
+    shift = nuisance.get("daylight")
     if shift:  # the surface light's colour as the fit found it (the budget's daylight term)
         from forward.daylight import DaylightTilt
 
         light = light * np.exp(DaylightTilt(setup.wavelengths,
                                             setup.daylight_cct).log_ratio(float(shift)))
-    vk = (P.T @ i) / (P.T @ light)
+    # the white through the water as the fit saw it: with the camera's fitted curve shifts (to
+    # first order, as sca.model takes them) and channel balance (the budget's camera terms), so
+    # that the correction inverts the whole colour path the fit found, not the water's part alone
+    P_fit = P
+    delta = nuisance.get("camera_shift")
+    if delta is not None:
+        from sca.model import curve_shift_derivative
+
+        P_fit = P + np.asarray(delta, float)[None, :] * curve_shift_derivative(P, setup.wavelengths)
+    through = P_fit.T @ light
+    balance = nuisance.get("balance")
+    if balance is not None:
+        through = through * (1.0 + np.asarray(balance, float))
+    vk = (P.T @ i) / through
     offset = np.asarray(estimate.backscatter, float)
     if white_value is not None:
         top = float(np.max(vk * (np.asarray(white_value, float) - offset)))

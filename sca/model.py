@@ -34,8 +34,30 @@ from .projection import linear_part_stats
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
+           "check_names", "curve_shift_derivative", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
            "du_chain"]
+
+def curve_shift_derivative(P, wavelengths) -> np.ndarray:
+    """d P(lambda - delta) / d delta at delta = 0, i.e. -dP/dlambda (q, m): the camera curves'
+    shift to first order, P(lambda - delta) ~ P + delta (-dP/dlambda) (the budget's
+    ``camera_shift``; the one place this term is computed).
+
+    Parameters
+    ----------
+    P : array_like, (q, m)
+        Sensitivities on ``wavelengths``.
+    wavelengths : array_like, (q,)
+        Their grid, nm.
+
+    Returns
+    -------
+    numpy.ndarray, (q, m)
+        -dP/dlambda, per nm (zeros on a one-node grid).
+    """
+    P = np.asarray(P, float)
+    wl = np.asarray(wavelengths, float)
+    return -np.gradient(P, wl, axis=0) if wl.size > 1 else 0 * P
+
 
 #: Geometry of the path (eqs 3, 14), m.
 GEOMETRY = ("depth", "distance")
@@ -387,7 +409,7 @@ class ChartModel:
             model, factor = self._dt_source
             return model.Dt / factor
         P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
-        dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
+        dP = curve_shift_derivative(P, self.wavelengths)
         return np.ascontiguousarray(
             (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
 
