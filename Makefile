@@ -4,7 +4,10 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast test-adversarial reproduce-figures real-data dive honesty bench clean
+.PHONY: install test test-fast test-adversarial reproduce-figures real-data dive honesty design-check bench bench-slow docs test-release clean
+
+# each step of reproduce-figures timed into benchmarks/make_times.json (BENCHMARKS.md reads it)
+STOPWATCH = $(PY) -m experiments.stopwatch --json benchmarks/make_times.json
 
 $(STAMP): pyproject.toml
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -15,13 +18,18 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 # the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded);
-# pyproject's addopts deselect the tests marked adversarial (make test-adversarial)
+# not the tests marked release (make test-release) or adversarial (make test-adversarial)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release and not adversarial"
+
+# the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
+# (its kernels compiled afresh: a minute)
+test-release: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m release
 
 # the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow and not adversarial"
+	$(PY) -m pytest -q -m "not slow and not release and not adversarial"
 
 # the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
 # runs interrupted and killed, clusters started; about 10 min on 2 cores)
@@ -29,11 +37,12 @@ test-adversarial: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m adversarial tests/test_adversarial_dive.py
 
 reproduce-figures: $(STAMP)
-	$(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.honesty
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty
-	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.correct_range
-	@if [ -d ../shared/realdata ]; then $(MAKE) real-data; \
+	$(STOPWATCH) "reproduce-figures: figures" -- $(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: honesty" -- $(PY) -m experiments.honesty
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: dive_honesty" -- $(PY) -m experiments.dive_honesty
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: design_check" -- $(PY) -m experiments.design_check
+	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: correct_range" -- $(PY) -m experiments.correct_range
+	@if [ -d ../shared/realdata ]; then $(STOPWATCH) "reproduce-figures: real-data" -- $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
 
 # REALWATER.md: the physics against real water (NOMAD, COPS casts, G7X photos); needs
@@ -47,6 +56,11 @@ real-data: $(STAMP)
 dive: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.dive_honesty --strict
 
+# DESIGN.md alone: the designs of `uw3p design` (C to +-30 %, coastal and clear water) rendered
+# by the independent renderer and fitted jointly; exit 1 when a criterion fails
+design-check: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.design_check --strict
+
 # HONESTY.md alone: the estimator on worlds an independent renderer made (exit 1 when an
 # acceptance criterion fails; the report says which)
 honesty: $(STAMP)
@@ -57,5 +71,25 @@ honesty: $(STAMP)
 bench: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.benchmark
 
+# the slower studies BENCHMARKS.md reports from the JSON files they write (each names its
+# command): the default batch against commit ffa6454 side by side, the first `uw3p measure`
+# after a fresh install, the joint fit counted by step; then `make bench`
+bench-slow: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.compare_commits ffa6454 WORKTREE --workload default --batch 1000,120 --rounds 3 --json benchmarks/compare_default.json
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.cold_start --json benchmarks/cold_start.json
+	OPENBLAS_NUM_THREADS=1 $(PY) -m experiments.joint_bench --profile --json benchmarks/joint_profile.json
+	$(MAKE) bench
+
 clean:
 	rm -rf figures cache .pytest_cache
+
+# the documentation site -> docs/_build/html (warnings are errors): the gallery's figures made
+# on the reduced grid first (a minute), unless UW3P_FIGURES names a folder of figures
+DOCS_STAMP := $(VENV)/.docs-stamp
+$(DOCS_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e ".[test,docs]"
+	@touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	@if [ -z "$(UW3P_FIGURES)" ]; then OPENBLAS_NUM_THREADS=1 $(VENV)/bin/uw3p figures --grid reduced --setting default --out docs/_build/figures --cache docs/_build/cache; fi
+	UW3P_FIGURES=$${UW3P_FIGURES:-docs/_build/figures} $(PY) -m sphinx -W --keep-going -b html docs docs/_build/html

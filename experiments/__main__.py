@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .grids import SETTINGS
 
-__all__ = ["main", "FIGURES", "STUDIES"]
+__all__ = ["main", "FIGURES", "STUDIES", "APPEARANCE"]
 
 #: Figure scripts, in order (made at every setting).
 FIGURES = [
@@ -29,9 +29,14 @@ FIGURES = [
     "fig12_chlorophyll_estimates",
     "fig13_cdom_estimates",
 ]
+#: The appearance figures (Figs 5-8): noise-free ``forward`` charts and the sensor's light, the
+#: same at the default and same-code settings, so not made again at a machinery check (the
+#: report reads the default setting's)
+APPEARANCE = ["fig05_06_appearance_sites", "fig07_depth_distance", "fig08_chlorophyll"]
 #: Made once (into DIR itself), after the figures (instrument reads Fig 12's CSV): Figs 3-4
-#: (the constituents' spectra, the same at every setting) and the two studies.
-STUDIES = ["fig03_04_spectra", "paper_like", "instrument"]
+#: (the constituents' spectra, the same at every setting), the paper-like search, the
+#: instrument study and the real camera (``DIR/realcamera/``: the G7X charts, issue 39).
+STUDIES = ["fig03_04_spectra", "paper_like", "instrument", "realcamera"]
 
 
 def _call(name, outdir, args, setting=None):
@@ -72,6 +77,8 @@ def main(argv=None):
             _call(name, out, args)
         else:
             for s in settings:
+                if name in APPEARANCE and SETTINGS[s].get("machinery_check"):
+                    continue
                 _call(name, out / s, args, s)
         print(f"{name}: {time.perf_counter() - t0:.1f} s", flush=True)
     if args.report:

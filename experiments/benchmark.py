@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
 import os
 import platform
 import time
@@ -38,7 +39,8 @@ from .sweep import rrmse_bands
 __all__ = ["chart_set", "run_single", "run_batch", "coverage", "equal_optimum", "machine",
            "main", "RESOLUTIONS_NM", "METHODS", "COVERAGE_LUX", "BATCH_N",
            "BATCH_REPEATS", "BUDGET_BATCH_N", "BUDGET_REPEATS", "SEED",
-           "SINGLE_RESOLUTIONS_NM", "WAIT_COMMANDS", "loop_optimum", "peak_memory_mb", "process_age_s"]
+           "SINGLE_RESOLUTIONS_NM", "WAIT_COMMANDS", "loop_optimum", "peak_memory_mb", "process_age_s",
+           "INCLUDED", "JOINT_REPEATS", "PROFILE_N", "included", "issue36_studies"]
 
 RESOLUTIONS_NM = (10.0, 5.0, 2.0, 1.0)
 #: The one-chart-at-a-time methods run at these resolutions only (the batch rows at all of
@@ -64,10 +66,11 @@ def _uncertain(method):
 #: light levels of the coverage study (lx): the default sensor's daylight and a dim scene
 COVERAGE_LUX = (20000.0, 200.0)
 #: Charts in the batch throughput stack (the chart set tiled); QUICK_BATCH_N with --quick
-BATCH_N = 6000
-QUICK_BATCH_N = 2000
-#: Charts of the untimed warm-up batch call before the timed ones (numba compilation, caches)
-WARMUP_N = 600
+BATCH_N = 2000
+QUICK_BATCH_N = 600
+#: Charts of the untimed warm-up batch call before the timed ones (numba compilation, caches;
+#: more than sca.projection.SERIAL_BELOW: the parallel kernels too)
+WARMUP_N = 200
 #: Timed batch runs (0.1-1 s each): their median is the batch rows' speed
 BATCH_REPEATS = 3
 #: The ``batch_budget`` rows: charts timed and runs (the default budget fits every chart under
@@ -270,7 +273,9 @@ def equal_optimum(n=EQUAL_OPTIMUM_N, seed=11):
     """Batch vs the sca safeguarded loop at the default grid (1 nm) on n random noise-free and n
     noisy charts (unweighted: the paper's objective). The charts: C log-uniform in 1e-3-100
     mg m^-3, a_CDOM 0 for a tenth of them and else log-uniform in 0.01-2 m^-1, depth and
-    distance drawn from the grid's values. Same: see EQUAL_RTOL, EQUAL_ATOL, OBJECTIVE_RTOL."""
+    distance drawn from the grid's values. Same: see EQUAL_RTOL, EQUAL_ATOL, OBJECTIVE_RTOL.
+    Both fit the grid as given (``quadrature='full'``): one objective, compared to 1e-9 (the
+    certified quadrature's own error is measured apart, :mod:`experiments.quadrature_check`)."""
     rng = np.random.default_rng(seed)
     C = 10 ** rng.uniform(-3, 2, n)
     A = np.where(rng.random(n) < 0.1, 0.0, 10 ** rng.uniform(-2, np.log10(2), n))
@@ -280,9 +285,9 @@ def equal_optimum(n=EQUAL_OPTIMUM_N, seed=11):
     for noise in (False, True):
         M = np.array([forward.simulate_chart(C[i], A[i], D[i], R[i], noise=noise, seed=i).rgb
                       for i in range(n)])
-        b = sca.estimate_batch(M, depth=D, distance=R, uncertain=PAPER_MODEL)
-        ref = [sca.estimate(M[i], depth=D[i], distance=R[i], uncertain=PAPER_MODEL)
-               for i in range(n)]
+        b = sca.estimate_batch(M, depth=D, distance=R, uncertain=PAPER_MODEL, quadrature="full")
+        ref = [sca.estimate(M[i], depth=D[i], distance=R[i], uncertain=PAPER_MODEL,
+                            quadrature="full") for i in range(n)]
         chl = np.array([e.chl for e in ref])
         cdom = np.array([e.cdom for e in ref])
         obj = np.array([e.objective for e in ref])
@@ -399,6 +404,67 @@ WAIT_COMMANDS = ("decode", "measure", "estimate", "help", "measure --help", "bad
 WAIT_REPEATS = 2
 QUICK_PHOTO_FRAME = (1000, 1500)
 
+# --------------------------------------------------------------------------- issue 36
+#: Charts of the counted default batch (:mod:`experiments.batch_profile`); QUICK_PROFILE_N
+#: with --quick
+PROFILE_N, QUICK_PROFILE_N = 300, 60
+#: Timed joint fits of the six-photo dive (:mod:`experiments.joint_bench`, after a warm-up)
+JOINT_REPEATS = 2
+#: The quadrature check's single fits on every QUICK_SINGLE_STRIDE-th chart with --quick
+QUICK_SINGLE_STRIDE = 30
+#: The slower studies ``make bench`` does not run but reports, each from the JSON its own
+#: command writes (``make bench-slow`` runs them): name -> (file, the command that writes it)
+INCLUDED = {
+    "compare": ("benchmarks/compare_default.json",
+                "python -m experiments.compare_commits ffa6454 WORKTREE --workload default "
+                "--batch 1000,120 --rounds 3 --json benchmarks/compare_default.json"),
+    "cold_start": ("benchmarks/cold_start.json",
+                   "python -m experiments.cold_start --json benchmarks/cold_start.json"),
+    "joint_profile": ("benchmarks/joint_profile.json",
+                      "python -m experiments.joint_bench --profile --json "
+                      "benchmarks/joint_profile.json"),
+    "make_times": ("benchmarks/make_times.json",
+                   "python -m experiments.stopwatch NAME -- COMMAND (make reproduce-figures "
+                   "runs each of its steps so; the test tiers were timed so by hand)"),
+}
+
+
+def issue36_studies(quick=False) -> dict:
+    """Issue 36's measurements that ``make bench`` makes itself: the default batch counted by
+    caller (:func:`experiments.batch_profile.profile_default_batch`), the certified
+    quadrature against the full grid at the defaults (:func:`experiments.quadrature_check.run`)
+    and the joint fit of a six-photo dive as ``measure.fit_joint`` calls it
+    (:func:`experiments.joint_bench.time_joint`); each with its seconds."""
+    from . import batch_profile, joint_bench, quadrature_check
+
+    out = {}
+    for name, fn in (
+            ("profile", lambda: batch_profile.profile_default_batch(
+                QUICK_PROFILE_N if quick else PROFILE_N)),
+            ("quadrature", lambda: quadrature_check.run(
+                QUICK_SINGLE_STRIDE if quick else quadrature_check.SINGLE_STRIDE)),
+            ("joint", lambda: joint_bench.time_joint(
+                repeats=1 if quick else JOINT_REPEATS, variants=("as_fit_joint",)))):
+        t0 = time.perf_counter()
+        out[name] = fn()
+        out[name]["study_seconds"] = time.perf_counter() - t0
+        print(f"({name} {out[name]['study_seconds']:.1f} s)", flush=True)
+    return out
+
+
+def included(root=None) -> dict:
+    """The slower studies' results (:data:`INCLUDED`) as their commands last wrote them: name
+    -> {'file', 'command', 'data' (None where the file is absent)}."""
+    root = Path(__file__).resolve().parents[1] if root is None else Path(root)
+    out = {}
+    for name, (rel, command) in INCLUDED.items():
+        try:
+            data = json.loads((root / rel).read_text())
+        except (OSError, ValueError):
+            data = None
+        out[name] = {"file": rel, "command": command, "data": data}
+    return out
+
 
 def main(argv=None):
     """``python -m experiments.benchmark [--quick] [--out] [--report] [--figure]``: run every
@@ -452,6 +518,7 @@ def main(argv=None):
     print(f"the benchmark's charts: the batch at the loop's optimum on {sixty['at_optimum']} of "
           f"{sixty['loop_converged']} where the loop converged", flush=True)
     print(f"(the benchmark's charts {time.perf_counter() - t_sec:.1f} s)", flush=True)
+    issue36 = issue36_studies(args.quick)
     from . import wait_bench
 
     waits = wait_bench.run(repeats=WAIT_REPEATS, names=WAIT_COMMANDS,
@@ -461,7 +528,7 @@ def main(argv=None):
                quick=args.quick, charts=dict(n=len(conds), chl=CHLS, cdom=CDOMS, depth=DEPTHS,
                                              distance=DISTANCES, truth_grid_nm=1.0),
                records=records, coverage=cov, equal_optimum=eq, loop_optimum=sixty,
-               waits=waits, sizes=dict(batch_n=QUICK_BATCH_N if args.quick else BATCH_N,
+               waits=waits, issue36=issue36, included=included(), sizes=dict(batch_n=QUICK_BATCH_N if args.quick else BATCH_N,
                                        batch_repeats=BATCH_REPEATS,
                                        budget_batch_n=len(conds) if args.quick else BUDGET_BATCH_N,
                                        single_resolutions_nm=list(SINGLE_RESOLUTIONS_NM),

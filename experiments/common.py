@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import os
 from pathlib import Path
 
@@ -11,7 +12,7 @@ from measure.csvsafe import safe_writer
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
 
-__all__ = ["figures_dir", "save_figure", "write_csv", "style", "percent_axis", "DPI",
+__all__ = ["figures_dir", "read_csv", "save_figure", "write_csv", "style", "percent_axis", "DPI",
            "MIN_FONT_PT"]
 
 
@@ -69,6 +70,12 @@ def _metadata(suffix):
     if suffix == ".pdf":
         return {"CreationDate": None, "Creator": "uw3p", "Producer": "uw3p"}
     return {"Software": "uw3p"}
+
+
+def read_csv(path) -> list[dict]:
+    """The rows of a CSV that :func:`write_csv` wrote (its ``#`` comment lines skipped)."""
+    with open(path, newline="") as f:
+        return list(csv.DictReader(line for line in f if not line.startswith("#")))
 
 
 def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -> Path:

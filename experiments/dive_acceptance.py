@@ -31,7 +31,7 @@ from measure.csvsafe import safe_writer
 
 from . import independent_world as iw
 from . import scene
-from .dive_honesty import draw_dive
+from .dive_worlds import draw_dive, photo_options
 
 __all__ = ["WIDTHS", "render_dive_folder", "calibrate_camera", "run", "checks", "report", "main"]
 
@@ -83,7 +83,7 @@ def render_dive_folder(folder: Path, dive: dict, size, rng) -> dict:
     for i in range(dive["depth"].size):
         out = iw.render_chart(dive["chl_photo"][i], dive["cdom"], dive["depth"][i],
                               dive["distance"][i], rng=int(rng.integers(2 ** 31)),
-                              **{**dive["options"], "noise": False})
+                              **photo_options(dive, i, noise=False, exposure=1.0))
         img = _frame(out["expected"], i, size, rng)
         name = f"DIVE_{i + 1:02d}.dng"
         scene.write_dng(folder / name, img["image"])

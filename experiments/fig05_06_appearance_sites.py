@@ -2,7 +2,8 @@
 
 Fig 5: C = 1 mg m^-3, a_CDOM(440) = 0.05 m^-1; Fig 6: C = 5 mg m^-3, a_CDOM(440) = 0.1 m^-1.
 The paper does not give depth and distance for these photographs; we use 5 m depth and 1 m
-distance (a diver's typical chart shot), see DECISIONS.md. The captured photographs are not
+distance (a diver's typical chart shot), see decision 0023-appearance-figures. The captured
+photographs are not
 reproducible here.
 """
 

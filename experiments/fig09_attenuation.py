@@ -10,6 +10,7 @@ import numpy as np
 
 from . import sweep
 from .common import figures_dir, save_figure, style, write_csv
+from .estimation import condition_kw
 from .grids import FIG9
 from .grids import setting as get_setting
 
@@ -21,8 +22,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     style()
     step = s["estimation_step_nm"]
     cond = sweep.condition(FIG9["chl"], FIG9["cdom"], FIG9["depth"], FIG9["distance"], 0,
-                           illuminance_lux=s["illuminance_lux"], exposure=s["exposure"],
-                           estimation_step_nm=step)
+                           **condition_kw(s))
     (res,), _ = sweep.run([cond], cache_dir=cache_dir, workers=1, progress=False, desc="fig09")
     wl, k = np.asarray(res["wavelengths"]), np.asarray(res["attenuation"])
     wl_hat, k_hat = np.asarray(res["wavelengths_hat"]), np.asarray(res["attenuation_hat"])
@@ -30,7 +30,8 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     factor = np.sqrt(q) if s["rrmse_reading"] != "eq19" else 1.0
     rr = res["rrmse_k"] * factor
     fig, ax = plt.subplots(figsize=(4.5, 3.3), constrained_layout=True)
-    ax.plot(wl, k, "k-", lw=2, label="ground truth (1 nm world)")
+    world = "independent renderer" if s.get("world") == "independent" else "forward"
+    ax.plot(wl, k, "k-", lw=2, label=f"ground truth ({world}, {wl[1] - wl[0]:g} nm)")
     nodes = np.isin(wl_hat, sweep.RRMSE_BANDS_NM)
     ax.plot(wl_hat[nodes], k_hat[nodes], "o", ms=4, mfc="none", color="tab:red",
             label=f"estimate ({step:g} nm grid; every {max(step, 10.0):g} nm)")
@@ -46,7 +47,8 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     k_true_hat = np.interp(wl_hat, wl, k)
     write_csv(figures_dir(outdir) / "fig09_attenuation.csv", ["wavelength_nm", "k_true", "k_est"],
               [[f"{w:g}", f"{a:.10g}", f"{b:.10g}"] for w, a, b in zip(wl_hat, k_true_hat, k_hat)],
-              comment=(f"Fig 9 ({s['name']}: {s['illuminance_lux']:g} lx, {s['exposure']} exposure, "
+              comment=(f"Fig 9 ({s['name']}: charts by {world}, {s['illuminance_lux']:g} lx, "
+                       f"{s['exposure']} exposure, "
                        f"estimator on a {step:g} nm grid): "
                        f"seed {res['seed']}, C_hat {res['chl_hat']:.6g}, CDOM_hat "
                        f"{res['cdom_hat']:.6g}, RRMSE (eq 19, q = {q}) {res['rrmse_k']:.6g}, "

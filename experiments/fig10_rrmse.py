@@ -10,10 +10,10 @@ import numpy as np
 
 from . import sweep
 from .common import figures_dir, percent_axis, save_figure, style, write_csv
-from .estimation import fig10_conditions, fit_header, fit_row, mean_se, resolve
+from .estimation import condition_kw, fig10_conditions, fit_header, fit_row, mean_se, resolve
 from .grids import setting as get_setting
 
-__all__ = ["summarise", "main", "SQRT_Q"]
+__all__ = ["summarise", "by_medium", "main", "SQRT_Q"]
 
 #: sqrt(q) of eq 19 for the 1 nm estimator (its 31 nodes at 10 nm); a coarser estimator's is
 #: ``sqrt(sweep.q_eq19(step))``
@@ -32,13 +32,39 @@ def summarise(results, g):
     return rows
 
 
+def by_medium(results, g):
+    """The RRMSE by medium (the paper: "the high quality of the estimate does not depend on the
+    specific medium characteristics"): per C class and per a_CDOM class, the mean over every
+    depth, distance, other constituent and seed.
+
+    Parameters
+    ----------
+    results : list of dict
+        The Fig 10 fits (:func:`experiments.sweep.run`).
+    g : dict
+        The grid.
+
+    Returns
+    -------
+    list of dict
+        ``group`` ('chl' or 'cdom'), ``value``, ``mean``, ``se``, ``n``.
+    """
+    rows = []
+    for group, values in (("chl", g["fig10_chl"]), ("cdom", g["fig10_cdom"])):
+        for v in values:
+            m, se = mean_se([x["rrmse_k"] for x in results if x[group] == v])
+            rows.append(dict(group=group, value=v, mean=m, se=se,
+                             n=sum(x[group] == v for x in results)))
+    return rows
+
+
 def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None):
     g = resolve(grid_name)
     s = get_setting(setting)
     style()
     step = s["estimation_step_nm"]
-    results, _ = sweep.run(fig10_conditions(g, s["illuminance_lux"], s["exposure"], step),
-                           cache_dir=cache_dir, workers=workers, desc="fig10")
+    results, _ = sweep.run(fig10_conditions(g, **condition_kw(s)), cache_dir=cache_dir,
+                           workers=workers, desc="fig10")
     rows = summarise(results, g)
     q = sweep.q_eq19(step)
     sqrt_q = float(np.sqrt(q))
@@ -68,9 +94,17 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
                 f"{x['mean'] * sqrt_q:.6g}", x["n"], x["converged"]] for x in rows],
               comment=f"Fig 10 ({g['name']} grid, setting {s['name']}: {s['illuminance_lux']:g} lx, "
                       f"{s['exposure']} exposure): C {g['fig10_chl']}, CDOM {g['fig10_cdom']}, "
-                      f"{g['fig10_seeds']} seeds per condition; charts in the 1 nm world, fitted "
+                      f"{g['fig10_seeds']} seeds per condition; charts by "
+                      f"{'the independent renderer (0.5 nm)' if s.get('world') == 'independent' else 'forward (1 nm)'}, fitted "
                       f"on a {step:g} nm grid; RRMSE (eq 19) on the estimator's q = {q} nodes "
                       "at 10 nm (experiments.sweep.rrmse_on_grid), and without eq 19's 1/sqrt(q)")
+    write_csv(figures_dir(outdir) / "fig10_by_medium.csv",
+              ["group", "value", "rrmse_mean", "rrmse_se", "rrmse_mean_without_sqrt_q", "n"],
+              [[x["group"], f"{x['value']:g}", f"{x['mean']:.6g}", f"{x['se']:.3g}",
+                f"{x['mean'] * sqrt_q:.6g}", x["n"]] for x in by_medium(results, g)],
+              comment="Fig 10 by medium: RRMSE (eq 19) per C class (group chl, mg m^-3) and per "
+                      "a_CDOM(440) class (group cdom, m^-1), each the mean over every depth, "
+                      "distance, other constituent and seed")
     write_csv(figures_dir(outdir) / "fig10_fits.csv", fit_header(), [fit_row(x) for x in results],
               comment="every fit behind Fig 10")
     return rows

@@ -10,6 +10,11 @@ patch the white of air), both on the captured values. All images are normalised 
 white patch has the luminance of the reference (the paper normalises its images too). The
 number: mean CIEDE2000 of the 24 patches against the chart under the surface illuminant (CIE
 1931 XYZ of R under D65); the camera-in-air value is the floor set by the 3x3 matrix.
+
+The control (issue 39): the same von Kries correction with the *true* attenuation and veiling
+light (the world's k, sampled on the estimator's grid, and s): the limit of a diagonal
+correction, so that the estimator's share of the error (estimated minus true) is separated
+from the correction's own.
 """
 
 from __future__ import annotations
@@ -22,12 +27,14 @@ from forward.spectra import WHITE_PATCH
 
 from . import sweep
 from .common import figures_dir, save_figure, style, write_csv
+from .estimation import condition_kw
 from .grids import FIG11
 from .grids import setting as get_setting
 
 __all__ = ["main", "correct", "baseline", "delta_e", "METHODS"]
 
-METHODS = ("captured", "von Kries (estimated k)", "grey-world", "white-patch")
+METHODS = ("captured", "von Kries (estimated k)", "von Kries (true k)", "grey-world",
+           "white-patch")
 
 
 def _normalise(xyz, ref):
@@ -82,11 +89,11 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     wl_hat = sweep.estimation_grid(step)
     setup_k = None if wl_hat is None else forward.chart_setup(wavelengths=wl_hat)
     conds = [sweep.condition(FIG11["chl"], FIG11["cdom"], d, FIG11["distance"], 0,
-                             illuminance_lux=s["illuminance_lux"], exposure=s["exposure"],
-                             estimation_step_nm=step)
+                             **condition_kw(s))
              for d in FIG11["depths"]]
+    grid_k = (setup if setup_k is None else setup_k).wavelengths
     results, _ = sweep.run(conds, cache_dir=cache_dir, workers=1, progress=False, desc="fig11")
-    fig, axes = plt.subplots(len(conds), len(METHODS), figsize=(7.2, 1.9 * len(conds) + 0.4),
+    fig, axes = plt.subplots(len(conds), len(METHODS), figsize=(7.5, 1.7 * len(conds) + 0.4),
                              squeeze=False, constrained_layout=True)
     rows = []
     for axrow, res in zip(axes, results):
@@ -96,6 +103,9 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
             "von Kries (estimated k)": _normalise(correct(rgb, res["attenuation_hat"],
                                                           res["backscatter_hat"], setup, setup_k),
                                                   ref),
+            "von Kries (true k)": _normalise(correct(
+                rgb, np.interp(grid_k, res["wavelengths"], res["attenuation"]),
+                res["backscatter"], setup, setup_k), ref),
             "grey-world": _normalise(baseline(rgb, setup, "grey-world"), ref),
             "white-patch": _normalise(baseline(rgb, setup, "white-patch"), ref),
         }
@@ -105,7 +115,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
         for ax, method in zip(axrow, METHODS):
             srgb = np.clip(colour.XYZ_to_sRGB(images[method]), 0, 1)
             ax.imshow(forward.patches_image(srgb))
-            ax.set_title(f"{res['depth']:g} m, {method}\nmean ΔE$_{{00}}$ {de[method]:.1f}",
+            ax.set_title(f"{method}\n{res['depth']:g} m: mean ΔE$_{{00}}$ {de[method]:.1f}",
                          fontsize=8)
             ax.set_axis_off()
     fig.suptitle(f"Colour correction, distance 5 m ({s['illuminance_lux']:g} lx; estimator on a "
@@ -114,11 +124,12 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, setting=None
     plt.close(fig)
     write_csv(figures_dir(outdir) / "fig11_colour_correction.csv",
               ["depth_m", "distance_m", "mean_de2000_captured", "mean_de2000_von_kries",
-               "mean_de2000_grey_world", "mean_de2000_white_patch", "mean_de2000_camera_in_air",
-               "seed", "converged"], rows,
+               "mean_de2000_von_kries_true_k", "mean_de2000_grey_world",
+               "mean_de2000_white_patch", "mean_de2000_camera_in_air", "seed", "converged"], rows,
               comment="Fig 11: mean CIEDE2000 of the 24 patches vs the chart under D65 (CIE 1931); "
-                      "von Kries with the estimated attenuation (the paper's method) and two "
-                      "model-free baselines on the same captured values")
+                      "von Kries with the estimated attenuation (the paper's method), with the "
+                      "true attenuation and veiling light (the control: a diagonal correction's "
+                      "limit), and two model-free baselines on the same captured values")
     return rows
 
 

@@ -62,10 +62,13 @@ __all__ = [
     "WATER_SCATTERING_EXPONENT",
     "WAVELENGTH_RANGE_NM",
     "WorldOptions",
+    "D65_CCT",
     "camera_curves",
     "chart_reflectances",
+    "daylight_spd",
     "illuminant_spd",
     "patch_columns",
+    "path_coefficient",
     "read_constants",
     "read_spectral_table",
     "render_calibration",
@@ -120,6 +123,9 @@ MEAN_COSINE_DOWNWELLING = 0.75
 DEFAULT_CAMERA = "Nikon 5100 (NPL)"
 #: CIE standard illuminant D65 (``colour.SDS_ILLUMINANTS``).
 DEFAULT_ILLUMINANT = "D65"
+#: Correlated colour temperature of D65, K: 6500 K times 1.4388 / 1.4380 (the change of the
+#: second radiation constant c2 since the illuminant was defined; CIE 015:2018, 4.1.2).
+D65_CCT = 6500.0 * 1.4388 / 1.4380
 #: Default chart reflectances (``colour.SDS_COLOURCHECKERS``).
 DEFAULT_CHART = "BabelColor Average"
 #: ColorChecker Classic layout: 4 rows x 6 columns, read row by row (McCamy, Marcus &
@@ -294,7 +300,7 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 
 # --------------------------------------------------------------------------- water (eqs 4-12)
 def _absorption(wl, chl, cdom, cdom_slope, nap_slope, method):
-    """a = a_w + a_CDOM + a_phi + a_NAP (eqs 5-10), m^-1."""
+    """(a, a_w): a = a_w + a_CDOM + a_phi + a_NAP (eqs 5-10) and pure water's a_w, m^-1."""
     a_w = resample(*read_spectral_table(_PURE_WATER_FILE), wl, method, outside=None)
     basis_wl, basis = read_spectral_table(_BASIS_FILE)
     shape = resample(basis_wl, basis, wl, method, outside=None) / np.interp(
@@ -302,7 +308,7 @@ def _absorption(wl, chl, cdom, cdom_slope, nap_slope, method):
     a_phi = PHYTO_440_SCALE * chl ** PHYTO_440_EXPONENT * shape
     a_cdom = cdom * np.exp(-cdom_slope * (wl - REFERENCE_NM))
     a_nap = NAP_440_SCALE * chl ** NAP_440_EXPONENT * np.exp(-nap_slope * (wl - REFERENCE_NM))
-    return a_w + a_cdom + a_phi + a_nap
+    return a_w + a_cdom + a_phi + a_nap, a_w
 
 
 def _particle_scattering(wl, chl):
@@ -335,7 +341,7 @@ def water_optics(wavelengths, chl: float, cdom: float, *, cdom_slope: float = CD
     Returns
     -------
     dict
-        Arrays (q,) in m^-1: ``a`` (eq 5), ``b_w`` (Morel 1974), ``b_p`` (eq 12), ``b`` (eq 11),
+        Arrays (q,) in m^-1: ``a`` (eq 5), ``a_w`` (pure water's part of it), ``b_w`` (Morel 1974), ``b_p`` (eq 12), ``b`` (eq 11),
         ``c`` (eq 4), ``b_b`` = 0.5 b_w + 0.0183 b_p (Petzold/Mobley ratio) and ``K_d`` =
         (a + b_b) / mu_d with mu_d = 0.75 (Gordon 1989; Kirk 2011).
 
@@ -344,11 +350,12 @@ def water_optics(wavelengths, chl: float, cdom: float, *, cdom_slope: float = CD
     Blasinski & Farrell eqs 4-12, Table 1; Morel 1974; Petzold 1972; Mobley 1994; Kirk 2011.
     """
     wl = np.asarray(wavelengths, float)
-    a = _absorption(wl, chl, cdom, cdom_slope, nap_slope, interpolation)
+    a, a_w = _absorption(wl, chl, cdom, cdom_slope, nap_slope, interpolation)
     b_w = WATER_SCATTERING_500 * (wl / 500.0) ** -WATER_SCATTERING_EXPONENT
     b_p = _particle_scattering(wl, chl)
     b_b = WATER_BACKSCATTER_RATIO * b_w + PARTICLE_BACKSCATTER_RATIO * b_p
-    return {"a": a, "b_w": b_w, "b_p": b_p, "b": b_w + b_p, "c": a + b_w + b_p, "b_b": b_b,
+    return {"a": a, "a_w": a_w, "b_w": b_w, "b_p": b_p, "b": b_w + b_p, "c": a + b_w + b_p,
+            "b_b": b_b,
             "K_d": (a + b_b) / MEAN_COSINE_DOWNWELLING}
 
 
@@ -416,6 +423,57 @@ def illuminant_spd(illuminant: str = DEFAULT_ILLUMINANT, wavelengths=None, *,
     sd = _colour_table("SDS_ILLUMINANTS", illuminant)
     spd = resample(sd.wavelengths, sd.values, wl, interpolation)
     return spd / spd.max()
+
+
+def daylight_spd(mired_shift: float = 0.0, wavelengths=None, *,
+                 interpolation: str = "pchip") -> np.ndarray:
+    """Relative SPD of CIE daylight whose colour temperature is D65's moved by ``mired_shift``.
+
+    The temperature is T = 10^6 / (10^6 / :data:`D65_CCT` + ``mired_shift``); the spectrum is
+    colour-science's CIE daylight series at the daylight locus's chromaticity of T
+    (``colour.temperature.CCT_to_xy_CIE_D``, ``colour.sd_CIE_illuminant_D_series``), resampled
+    to the grid. At 0 mired it is D65's table to 0.1 %.
+
+    Parameters
+    ----------
+    mired_shift : float, optional
+        Change of 10^6 / T from D65's, mired (positive: warmer, redder light).
+    wavelengths : array_like, shape (q,), optional
+        Grid, nm (default :func:`wavelength_grid`).
+    interpolation : {'pchip', 'linear'}, optional
+        Resampling method.
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        Relative SPD, peak in range 1 (the scale cancels in model units).
+
+    Raises
+    ------
+    ValueError
+        When T leaves the daylight series' range, 4000-25 000 K (CIE 015:2018, 4.1.2).
+
+    References
+    ----------
+    CIE 015:2018, Colorimetry, 4th ed., section 4.1.2 (the daylight series).
+    """
+    wl = wavelength_grid() if wavelengths is None else np.asarray(wavelengths, float)
+    mired = 1e6 / D65_CCT + float(mired_shift)
+    cct = 1e6 / mired if mired > 0 else np.inf
+    if not 4000.0 <= cct <= 25000.0:
+        raise ValueError(f"mired_shift: the temperature {cct:.0f} K leaves the daylight series' "
+                         "range 4000-25000 K")
+    sd = colour.sd_CIE_illuminant_D_series(colour.temperature.CCT_to_xy_CIE_D(cct))
+    spd = resample(sd.wavelengths, sd.values, wl, interpolation)
+    return spd / spd.max()
+
+
+def _light(opts, wl) -> np.ndarray:
+    """The surface light of ``opts``: the named illuminant, or CIE daylight moved by
+    ``daylight_mired`` from D65."""
+    if opts.daylight_mired != 0.0:
+        return daylight_spd(opts.daylight_mired, wl, interpolation=opts.interpolation)
+    return illuminant_spd(opts.illuminant, wl, interpolation=opts.interpolation)
 
 
 def chart_reflectances(chart: str = DEFAULT_CHART, wavelengths=None, *,
@@ -491,6 +549,9 @@ class WorldOptions:
         Explicit per-channel gains (replace the drawn ones).
     illuminant : str
         Illuminant name (``colour.SDS_ILLUMINANTS``; default 'D65').
+    daylight_mired : float
+        When not 0: the surface light is CIE daylight whose colour temperature is D65's moved
+        by this many mired (:func:`daylight_spd`; ``illuminant`` must then be 'D65').
     cdom_slope, nap_slope : float
         Slopes of eqs 6 and 7, nm^-1 (defaults 0.014, 0.011).
     path : {'paper', 'split'}
@@ -544,6 +605,7 @@ class WorldOptions:
     camera_gain_sd: float = 0.0
     camera_gains: tuple | None = None
     illuminant: str = DEFAULT_ILLUMINANT
+    daylight_mired: float = 0.0
     cdom_slope: float = CDOM_SLOPE_PER_NM
     nap_slope: float = NAP_SLOPE_PER_NM
     path: str = "paper"
@@ -602,6 +664,10 @@ class WorldOptions:
             raise ValueError(f"pixels_per_patch: an integer >= 2, got {self.pixels_per_patch!r}")
         if not 0 <= int(self.glint_patches) <= CHART_ROWS * CHART_COLUMNS:
             raise ValueError(f"glint_patches: must be in 0..24, got {self.glint_patches!r}")
+        if self.daylight_mired != 0.0:
+            if self.illuminant != DEFAULT_ILLUMINANT:
+                raise ValueError("daylight_mired: moves D65; the illuminant must be 'D65'")
+            daylight_spd(self.daylight_mired, np.array([500.0, 600.0]))  # in range
         if self.clip is not None and not self.clip > 0:
             raise ValueError(f"clip: must be > 0 or None, got {self.clip!r}")
 
@@ -727,7 +793,7 @@ def _render(k, veil_light, background_light, opts: WorldOptions, rng, truth) -> 
     """The shared pipeline: spectra -> scene values -> exposure -> pixels -> statistics."""
     wl = wavelength_grid(opts.step_nm)
     rngs = _generators(rng)
-    i = illuminant_spd(opts.illuminant, wl, interpolation=opts.interpolation)
+    i = _light(opts, wl)
     P = _camera_matrix(opts, wl, i, rngs, truth)
     R = _chart_matrix(opts, wl, rngs, truth)
     veil, background = P @ veil_light, P @ background_light
@@ -744,6 +810,43 @@ def _transmittance(optics, depth, distance, path):
     if path == "paper":
         return np.exp(-optics["c"] * (depth + distance))
     return np.exp(-optics["K_d"] * depth - optics["c"] * distance)
+
+
+def path_coefficient(optics: dict, depth: float, distance: float, path: str = "paper"):
+    """The attenuation coefficient of the light's path: tau / (depth + distance), m^-1.
+
+    tau = -ln k is the optical depth of the path from the surface to the chart and on to the
+    camera (:func:`render_chart`'s ``attenuation`` k): for the paper's path c (depth +
+    distance), so the coefficient is the beam attenuation c; for 'split' K_d depth + c distance,
+    its path-weighted mean.
+
+    Parameters
+    ----------
+    optics : dict
+        :func:`water_optics`' result (``render_chart``'s ``optics``).
+    depth, distance : float
+        The true depth and distance, m (depth + distance > 0).
+    path : {'paper', 'split'}, optional
+        The renderer's path (:class:`WorldOptions`' ``path``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (q,)
+        m^-1 on the optics' grid.
+
+    Raises
+    ------
+    ValueError
+        For an unknown path or a path of length 0.
+    """
+    if path not in _PATHS:
+        raise ValueError(f"path: must be one of {_PATHS}, got {path!r}")
+    length = float(depth) + float(distance)
+    if not length > 0:
+        raise ValueError("depth + distance: must be > 0")
+    if path == "paper":
+        return np.array(optics["c"], dtype=float)
+    return (optics["K_d"] * float(depth) + optics["c"] * float(distance)) / length
 
 
 def _veiling_light(optics, i, depth, distance, opts: WorldOptions):
@@ -816,7 +919,7 @@ def render_chart(chl: float, cdom: float, depth: float, distance: float, *, rng=
     optics = water_optics(wl, truth["chl"], truth["cdom"], cdom_slope=opts.cdom_slope,
                           nap_slope=opts.nap_slope, interpolation=opts.interpolation)
     k = _transmittance(optics, truth["depth"], truth["distance"], opts.path)
-    i = illuminant_spd(opts.illuminant, wl, interpolation=opts.interpolation)
+    i = _light(opts, wl)
     veil, water = _veiling_light(optics, i, truth["depth"], truth["distance"], opts)
     out = _render(k, veil, water, opts, rng, truth)
     out["optics"] = optics

@@ -4,13 +4,18 @@
 
 The paper: "We use the inverse estimation method as a metric to evaluate how well any digital
 camera can be used to measure environmental parameters." Here with the Cramér-Rao bound of
-:func:`sca.precision` (the estimator attains it: the validation table):
+:func:`sca.precision` with the default uncertainty budget (:data:`sca.budget.DEFAULT_UNCERTAIN`),
+the camera-only bound (photon and read noise alone, ``uncertain={}``) beside it for contrast
+(the estimator attains the camera-only bound: the validation table; DESIGN.md checks the
+budget's dive designs on an independent world), and the designs of :func:`sca.design`:
 
 * cameras: Nikon 5100 and Sigma SDMerill (colour-science's NPL curves; the Sigma's stop at
   680 nm, so its grid is 400-680 nm), a hypothetical 6-band camera (:data:`BANDS_NM`, Gaussian,
   20 nm FWHM, peak 1) and any user camera CSV (``--camera-csv``);
 * water types :data:`WATERS`; depths :data:`DEPTHS_M`; distances 1 and 5 m; daylight
   (20 000 lx) and dim light (200 lx); the default sensor otherwise;
+* what a dive buys: :data:`DESIGN_TARGETS` for each water type over :data:`DESIGN_DEPTHS_M` and
+  :data:`DESIGN_DISTANCES_M` (:func:`design_table`), with the budget and camera-only;
 * writes ``instrument_precision.csv`` (every condition), ``instrument_validation.csv`` (bound
   vs the estimator's spread over :data:`DRAWS` noise draws), ``instrument.png`` and the tables of
   INSTRUMENT.md.
@@ -27,7 +32,7 @@ import numpy as np
 import forward
 import sca
 
-from .common import figures_dir, save_figure, style, write_csv
+from .common import figures_dir, read_csv, save_figure, style, write_csv
 from .sweep import pearson
 
 
@@ -38,7 +43,8 @@ def _paper_like_setting():
 
 
 __all__ = ["cameras", "precision_table", "validation", "depth_limit", "depth_ranges",
-           "format_ranges", "budget_table", "BUDGET_DEPTHS_M",
+           "format_ranges", "budget_table", "BUDGET_DEPTHS_M", "design_table", "DESIGN_TARGETS",
+           "DESIGN_DEPTHS_M", "DESIGN_DISTANCES_M", "C_LEVEL",
            "paper_connection", "connection_text", "plot", "doc", "main", "WATERS", "DEPTHS_M",
            "DISTANCES_M", "LIGHTS_LUX", "BANDS_NM", "FWHM_NM", "DRAWS", "GAINS",
            "VALIDATION_SEED", "VALIDATION_DEPTHS_M", "VALIDATION_DISTANCE_M",
@@ -63,6 +69,13 @@ VALIDATION_DISTANCE_M = 1.0
 CONNECTION_DRAWS = 30
 CONNECTION_SEED = 9000
 GAINS = ("known", "free", "channels")
+#: The level of the depth table's attenuation column: c at every standard band within +-10 %.
+C_LEVEL = 0.10
+#: What a dive buys (:func:`design_table`): the targets designed for, over this depth range
+#: and these distances (m) -- a diver's dive (the issue's 2-15 m and 1-3 m).
+DESIGN_TARGETS = ({"chl": 0.30}, {"c": 0.05})
+DESIGN_DEPTHS_M = (2.0, 15.0)
+DESIGN_DISTANCES_M = (1.0, 3.0)
 
 
 def cameras(camera_csv=None) -> dict:
@@ -79,13 +92,24 @@ def cameras(camera_csv=None) -> dict:
     return out
 
 
-def _precision(cam, chl, cdom, depth, distance, lux, **kw):
+def _precision(cam, chl, cdom, depth, distance, lux, uncertain=None, **kw):
+    """The bound with the default budget (``uncertain`` None) or as given ({}: camera only)."""
     setup = forward.chart_setup(cam["camera"], wavelengths=cam["wavelengths"])
     return sca.precision(chl, cdom, depth=depth, distance=distance, setup=setup,
-                         sensor=forward.SensorSettings(illuminance_lux=lux), uncertain={}, **kw)
+                         sensor=forward.SensorSettings(illuminance_lux=lux),
+                         uncertain=uncertain, **kw)
+
+
+def _c_rel95(p) -> np.ndarray:
+    """The worst standard band's 95 % half-width of the path's attenuation coefficient."""
+    from sca.protocols import C_BANDS
+
+    return np.max([p.quantity_rel95[b] for b in C_BANDS], axis=0)
 
 
 def precision_table(cams) -> list:
+    """Every condition's 95 % half-widths: camera only (``uncertain={}``; keys without a suffix)
+    and with the default budget (``_budget``)."""
     rows = []
     grid = list(itertools.product(WATERS.items(), DEPTHS_M, DISTANCES_M))
     chl = np.array([w[1][0] for w, _, _ in grid])
@@ -93,18 +117,31 @@ def precision_table(cams) -> list:
     depth = np.array([d for _, d, _ in grid])
     dist = np.array([r for _, _, r in grid])
     for (name, cam), lux in itertools.product(cams.items(), LIGHTS_LUX):
-        res = {g: _precision(cam, chl, cdom, depth, dist, lux, gain=g) for g in GAINS}
-        fixc = _precision(cam, chl, cdom, depth, dist, lux, gain="free", fix={"cdom": None})
-        fixs = _precision(cam, chl, cdom, depth, dist, lux, gain="free", fix={"backscatter": None})
+        res, fixc, fixs = {}, {}, {}
+        for tag, unc in (("", {}), ("_budget", None)):
+            for g in GAINS:
+                res[g + tag] = _precision(cam, chl, cdom, depth, dist, lux, unc, gain=g)
+            fixc[tag] = _precision(cam, chl, cdom, depth, dist, lux, unc, gain="free",
+                                   fix={"cdom": None})
+            fixs[tag] = _precision(cam, chl, cdom, depth, dist, lux, unc, gain="free",
+                                   fix={"backscatter": None})
         for j, ((water, _), d, r) in enumerate(grid):
-            rows.append(dict(camera=name, lux=lux, water=water, chl=chl[j], cdom=cdom[j],
-                             depth=d, distance=r,
-                             **{f"chl_rel95_{g}": float(res[g].chl_rel95[j]) for g in GAINS},
-                             **{f"cdom_rel95_{g}": float(res[g].cdom_rel95[j]) for g in GAINS},
-                             chl_rel95_free_fix_cdom=float(fixc.chl_rel95[j]),
-                             chl_rel95_free_fix_backscatter=float(fixs.chl_rel95[j]),
-                             correlation_free=float(res["free"].correlation[j]),
-                             flags=" ".join(res["free"].flags[j])))
+            row = dict(camera=name, lux=lux, water=water, chl=chl[j], cdom=cdom[j], depth=d,
+                       distance=r)
+            for tag in ("", "_budget"):
+                free = res["free" + tag]
+                row.update({f"chl_rel95_{g}{tag}": float(res[g + tag].chl_rel95[j])
+                            for g in GAINS})
+                row.update({f"cdom_rel95_{g}{tag}": float(res[g + tag].cdom_rel95[j])
+                            for g in GAINS})
+                row.update({f"c_rel95_free{tag}": float(_c_rel95(free)[j]),
+                            f"chl_rel95_free_fix_cdom{tag}": float(fixc[tag].chl_rel95[j]),
+                            f"chl_rel95_free_fix_backscatter{tag}": float(
+                                fixs[tag].chl_rel95[j]),
+                            f"correlation_free{tag}": float(free.correlation[j]),
+                            f"flags{tag}": " ".join(free.flags[j])})
+            row["limiting_free_budget"] = res["free_budget"].limiting[j]
+            rows.append(row)
     return rows
 
 
@@ -150,8 +187,34 @@ def budget_table() -> list:
             out.append(dict(water=water, depth=d, chl_rel95_camera=float(cam.chl_rel95),
                             chl_rel95_budget=float(hon.chl_rel95),
                             cdom_rel95_camera=float(cam.cdom_rel95),
-                            cdom_rel95_budget=float(hon.cdom_rel95), limiting=hon.limiting,
+                            cdom_rel95_budget=float(hon.cdom_rel95),
+                            c_rel95_camera=float(_c_rel95(cam)),
+                            c_rel95_budget=float(_c_rel95(hon)), limiting=hon.limiting,
                             limiting_share=float(shares.get(hon.limiting, float("nan")))))
+    return out
+
+
+def design_table() -> list:
+    """What a dive buys: :func:`sca.design` for every water type and target of
+    :data:`DESIGN_TARGETS` over :data:`DESIGN_DEPTHS_M` and :data:`DESIGN_DISTANCES_M` (the
+    default camera, 20 000 lx), with the default budget and with the camera alone; one row per
+    water, target and budget."""
+    out = []
+    for (water, (c, a)), targets, unc in itertools.product(WATERS.items(), DESIGN_TARGETS,
+                                                           (None, {})):
+        d = sca.design(c, a, depth=DESIGN_DEPTHS_M, distance=DESIGN_DISTANCES_M,
+                       targets=targets, uncertain=unc)
+        shown = d.protocol if d.meets else d.best
+        (name, level), = targets.items()
+        out.append(dict(water=water, target=name, level=level, budget=unc is None,
+                        meets=d.meets, protocol=shown.protocol.describe(),
+                        n_photos=shown.protocol.n_photos, auxiliary=shown.protocol.auxiliary,
+                        chl_rel95=shown.rel95["chl"], c_rel95=shown.rel95["c"],
+                        cdom_rel95=shown.rel95["cdom"], bound_chl_rel95=shown.bound_rel95["chl"],
+                        span=" and ".join(shown.span), limiting=d.limiting,
+                        without_limiting=d.without_limiting,
+                        one_photo_chl=d.one_photo.rel95["chl"],
+                        one_photo_c=d.one_photo.rel95["c"]))
     return out
 
 
@@ -206,9 +269,8 @@ def paper_connection(figdir: Path, grid_name=None):
     observed = {}
     path = Path(figdir) / "paper-like" / "fig12_chlorophyll.csv"
     if path.exists():
-        from .report import _read
 
-        observed = {float(r["depth_m"]): float(r["r2"]) for r in _read(path)}
+        observed = {float(r["depth_m"]): float(r["r2"]) for r in read_csv(path)}
     cells = list(itertools.product(g["fig12_chl"], g["fig12_cdom"]))
     c = np.array([x[0] for x in cells])
     a = np.array([x[1] for x in cells])
@@ -307,18 +369,22 @@ def plot(rows, outdir):
     colours = dict(zip(cams, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
     for ax, water in zip(axes, WATERS):
         for cam, lux in itertools.product(cams, LIGHTS_LUX):
-            sel = sorted((r["depth"], r["chl_rel95_free"]) for r in rows if r["camera"] == cam
-                         and r["lux"] == lux and r["water"] == water and r["distance"] == 1.0)
-            ax.plot([d for d, _ in sel], [100 * v for _, v in sel], "-" if lux > 1000 else "--",
-                    color=colours[cam], marker="o", ms=2,
-                    label=f"{cam}, {lux:g} lx" if water == list(WATERS)[0] else None)
+            for key, alpha, lw in (("chl_rel95_free_budget", 1.0, 1.2), ("chl_rel95_free", 0.35, 0.7)):
+                sel = sorted((r["depth"], r[key]) for r in rows if r["camera"] == cam
+                             and r["lux"] == lux and r["water"] == water and r["distance"] == 1.0)
+                ax.plot([d for d, _ in sel], [100 * v for _, v in sel],
+                        "-" if lux > 1000 else "--", color=colours[cam], marker="o", ms=2,
+                        alpha=alpha, lw=lw,
+                        label=f"{cam}, {lux:g} lx" if water == list(WATERS)[0] and alpha == 1.0
+                        else None)
         ax.axhline(30, color="grey", lw=0.8, ls=":")
         ax.set(yscale="log", xlabel="depth (m)", title=f"{water} (C {WATERS[water][0]:g} mg m$^{{-3}}$, "
                f"a$_{{CDOM}}$ {WATERS[water][1]:g} m$^{{-1}}$)")
         ax.title.set_fontsize(8)
     axes[0].set_ylabel("C: 95 % half-width (% of C)")
     fig.legend(loc="outside lower center", ncol=3, fontsize=8)
-    fig.suptitle("Predicted precision of C, distance 1 m, exposure unknown (Cramér-Rao bound)")
+    fig.suptitle("Predicted precision of C, one photo, distance 1 m, exposure unknown "
+                 "(Cramér-Rao bound; default budget, faint: the camera alone)")
     save_figure(fig, "instrument", outdir)
     plt.close(fig)
 
@@ -327,69 +393,132 @@ def _budget_section(brows) -> list:
     pct = lambda v: "not bounded" if not np.isfinite(v) else f"±{100 * v:.0f} %"  # noqa: E731
     L = ["## The honest instrument: the camera alone against the uncertainty budget "
          "(default camera, 20 000 lx, distance 1 m, exposure unknown)", "",
-         "Every number above is the camera's own limit: photon and read noise, every other input "
-         "exact. A real measurement also depends on inputs known only approximately; the default "
-         "budget of the estimators (`sca.budget.DEFAULT_UNCERTAIN`: depth 0.2 m, distance 5 %, "
-         "eq 6's and eq 7's slopes 0.0025 nm⁻¹, channel balance 1 %, 1 % per patch; DECISIONS.md) "
-         "gives the honest 95 % half-widths below (`sca.precision` with and without "
-         "`uncertain={}`), and the source with the largest share of C's variance.", "",
+         "The camera alone is its own limit: photon and read noise, every other input exact. A "
+         "real measurement also depends on inputs known only approximately; the default budget "
+         "of the estimators (`sca.budget.DEFAULT_UNCERTAIN`: depth 0.2 m, distance 5 %, eq 6's "
+         "and eq 7's slopes 0.0025 nm⁻¹, channel balance 1 %, camera curves 1 nm, daylight "
+         "colour 30 mired, 1 % per patch; decision 0011-default-budget) gives the honest 95 % "
+         "half-widths below "
+         "(`sca.precision` with and without `uncertain={}`; c: the path's attenuation "
+         "coefficient at its worst standard band), and the source with the largest share of C's "
+         "variance.", "",
          "| water | depth | C, camera alone | C, with the budget | a_CDOM, camera alone | "
-         "a_CDOM, with the budget | limited by (share of var C) |", "|---|---|---|---|---|---|---|"]
+         "a_CDOM, with the budget | c, camera alone | c, with the budget | limited by (share of "
+         "var C) |", "|---|---|---|---|---|---|---|---|---|"]
     for b in brows:
         L.append(f"| {b['water']} | {b['depth']:g} m | {pct(b['chl_rel95_camera'])} | "
                  f"{pct(b['chl_rel95_budget'])} | {pct(b['cdom_rel95_camera'])} | "
-                 f"{pct(b['cdom_rel95_budget'])} | {b['limiting']} "
+                 f"{pct(b['cdom_rel95_budget'])} | {_pct(b['c_rel95_camera'])} | "
+                 f"{_pct(b['c_rel95_budget'])} | {b['limiting']} "
                  f"({100 * b['limiting_share']:.0f} %) |")
     L += ["", "A calibration photo measures the per-patch term of its camera and chart "
           "(`uw3p calibrate`: the profile's `patch_sd`), which replaces the budget's 1 %.", ""]
     return L
 
 
-def doc(rows, val, conn, brows=()) -> str:
+def _pct(v) -> str:
+    """'±12 %', '±0.5 %' (below 10 %: two digits) or 'not bounded'."""
+    if not np.isfinite(v):
+        return "not bounded"
+    return f"±{100 * v:.0f} %" if v >= 0.095 else f"±{100 * v:.2g} %"
+
+
+def _design_section(drows) -> list:
+    """What a dive buys: the designs of :func:`design_table`."""
+    names = {"chl": "C", "c": "c (every band)"}
+    L = ["## What a dive buys: designs (`sca.design`, `uw3p design`)", "",
+         f"The cheapest protocol of `sca.design`'s space (1-12 photos over a depth ladder in "
+         f"{DESIGN_DEPTHS_M[0]:g}-{DESIGN_DEPTHS_M[1]:g} m, from "
+         + " or ".join(f"{r:g}" for r in DESIGN_DISTANCES_M) + " m or both, with or without a "
+         "water sample's a_CDOM(440) (sd 0.0025 m⁻¹) and a Secchi depth) whose predicted 95 % "
+         "half-width meets the target; where none does, the most precise protocol and what "
+         "limits it. Default camera, 20 000 lx. The prediction is the joint estimate's bound, "
+         "widened where its interval spans path models the photos cannot tell apart "
+         "(`sca.protocols`); DESIGN.md checks it on dives an independent renderer made. The "
+         "camera alone (photon and read noise only) for contrast.", "",
+         "| water | target | budget | meets | protocol (or the best) | C | c (worst band) | "
+         "one photo: C, c | limited by |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in drows:
+        lim = r["limiting"] or "–"
+        if r["limiting"] and np.isfinite(r["without_limiting"]):
+            lim += f" (known exactly: {_pct(r['without_limiting'])})"
+        L.append(f"| {r['water']} | {names.get(r['target'], r['target'])} "
+                 f"±{100 * r['level']:g} % | {'default' if r['budget'] else 'camera alone'} | "
+                 f"{'yes' if r['meets'] else 'no'} | {r['protocol']} | {_pct(r['chl_rel95'])} | "
+                 f"{_pct(r['c_rel95'])} | {_pct(r['one_photo_chl'])}, {_pct(r['one_photo_c'])} | "
+                 f"{lim} |")
+    L += ["", "\"path model\": the bound alone would meet the target, but the photos cannot tell "
+          "beam attenuation from absorption along the path, and the estimate's interval spans "
+          "both; no number of photos in this space resolves it.", ""]
+    return L
+
+
+def doc(rows, val, conn, brows=(), drows=()) -> str:
     cams = list(dict.fromkeys(r["camera"] for r in rows))
     L = ["# INSTRUMENT — how well can a camera measure the water?", "",
-         "_Generated by `make reproduce-figures` (`python -m experiments.instrument`); do not "
-         "edit by hand. Method: `sca.precision`, the Cramér-Rao bound of C and a_CDOM(440) from "
-         "the sensor's noise model and the analytic Jacobian (the weighted estimator attains it "
-         "where no flag is raised: see the validation). 95 % half-widths in % of the value; the default sensor otherwise "
-         "(DECISIONS.md); exposure unknown (gain free) unless said._", "",
+         "_Generated by `make reproduce-figures` (alone: `python -m experiments.instrument --doc "
+         "INSTRUMENT.md`, after Fig 12 at the paper-like setting); do not "
+         "edit by hand. Method: `sca.precision`, the Cramér-Rao bound of C, a_CDOM(440) and the "
+         "path's attenuation coefficient c (443, 490, 555, 670 nm) from the sensor's noise model "
+         "and the analytic Jacobian, **with the default uncertainty budget** "
+         "(`sca.budget.DEFAULT_UNCERTAIN`: depth, distance, eq 6-7 slopes, camera balance and "
+         "curves, daylight colour, 1 % per patch; decision 0011-default-budget) unless a column "
+         "says \"camera "
+         "alone\": photon and read noise only, every other input exact (`uncertain={}`, "
+         "`uw3p design --camera-only`), the camera's own limit, shown for contrast. 95 % "
+         "half-widths in % of the value; the default sensor otherwise (decision "
+         "0019-sensor-defaults); exposure "
+         "unknown (gain free) unless said._", "",
          f"Cameras: {', '.join(cams)} (6-band: Gaussian bands at "
          f"{', '.join(f'{b:g}' for b in BANDS_NM)} nm, {FWHM_NM:g} nm FWHM, peak 1). Water types: "
          + "; ".join(f"{k}: C {v[0]:g} mg m⁻³, a_CDOM(440) {v[1]:g} m⁻¹" for k, v in WATERS.items())
          + ". Depths 1–30 m, distances 1 and 5 m, daylight 20 000 lx and dim 200 lx.", "",
          "## At which depths can C be measured? (distance 1 m)", "",
-         "| camera | light | water | ±30 %, exposure known | ±30 %, exposure unknown | "
-         "±100 %, exposure unknown | ±30 %, uncalibrated balance |", "|---|---|---|---|---|---|---|"]
+         "One photo, exposure unknown.", "",
+         f"| camera | light | water | c ±{100 * C_LEVEL:g} % (every band) | C ±100 % | C ±30 % | "
+         "C ±30 %, camera alone |", "|---|---|---|---|---|---|---|"]
     for cam, lux, water in itertools.product(cams, LIGHTS_LUX, WATERS):
         L.append(f"| {cam} | {lux:g} lx | {water} | " + " | ".join(
             format_ranges(depth_ranges(rows, cam, lux, water, 1.0, key, level))
-            for key, level in (("chl_rel95_known", 0.3), ("chl_rel95_free", 0.3),
-                               ("chl_rel95_free", 1.0), ("chl_rel95_channels", 0.3))) + " |")
+            for key, level in (("c_rel95_free_budget", C_LEVEL), ("chl_rel95_free_budget", 1.0),
+                               ("chl_rel95_free_budget", 0.3), ("chl_rel95_free", 0.3))) + " |")
     L += ["", f"Every depth of the grid ({', '.join(f'{d:g}' for d in DEPTHS_M)} m) at which the "
           "bound is within the level, as ranges of consecutive grid depths (\"–\": at none). "
-          "Precision does not always fall with depth: a longer path also carries more of the "
-          "water's signal, so a shallow chart can fail where a deeper one passes.", "",
+          "With the budget one photo measures the path's attenuation coefficient, not C: C and "
+          "a_CDOM trade off against each other and against the chart's and camera's errors "
+          "(the next table; a dive and a water sample: the designs below). Precision does not "
+          "always fall with depth: a longer path also carries more of the water's signal, so a "
+          "shallow chart can fail where a deeper one passes.", "",
           "## What an unknown exposure and an uncalibrated camera cost, and what fixing buys "
           "(coastal water, 10 m, distance 1 m)", "",
-          "| camera | light | C known exposure | C unknown exposure | C uncalibrated | a_CDOM unknown "
-          "exposure | C unknown exposure, a_CDOM fixed | C unknown exposure, backscatter fixed | "
-          "corr(C, a_CDOM) |", "|---|---|---|---|---|---|---|---|---|"]
+          "| camera | light | budget | C known exposure | C unknown exposure | C uncalibrated | "
+          "a_CDOM unknown exposure | c unknown exposure | C unknown exposure, a_CDOM fixed | "
+          "C unknown exposure, backscatter fixed | corr(C, a_CDOM) |",
+          "|---|---|---|---|---|---|---|---|---|---|---|"]
     for cam, lux in itertools.product(cams, LIGHTS_LUX):
         r = next(x for x in rows if x["camera"] == cam and x["lux"] == lux and x["water"] == "coastal"
                  and x["depth"] == 10.0 and x["distance"] == 1.0)
-        pct = lambda v: "not bounded" if not np.isfinite(v) else f"±{100 * v:.0f} %"  # noqa: E731
-        L.append(f"| {cam} | {lux:g} lx | {pct(r['chl_rel95_known'])} | {pct(r['chl_rel95_free'])} | "
-                 f"{pct(r['chl_rel95_channels'])} | {pct(r['cdom_rel95_free'])} | "
-                 f"{pct(r['chl_rel95_free_fix_cdom'])} | {pct(r['chl_rel95_free_fix_backscatter'])} | "
-                 f"{r['correlation_free']:+.2f} |")
+        for tag, label in (("_budget", "default"), ("", "camera alone")):
+            L.append(f"| {cam} | {lux:g} lx | {label} | {_pct(r['chl_rel95_known' + tag])} | "
+                     f"{_pct(r['chl_rel95_free' + tag])} | {_pct(r['chl_rel95_channels' + tag])} | "
+                     f"{_pct(r['cdom_rel95_free' + tag])} | {_pct(r['c_rel95_free' + tag])} | "
+                     f"{_pct(r['chl_rel95_free_fix_cdom' + tag])} | "
+                     f"{_pct(r['chl_rel95_free_fix_backscatter' + tag])} | "
+                     f"{r['correlation_free' + tag]:+.2f} |")
     L += ["", "Where |corr| is near 1, C and a_CDOM cannot be separated: the chart fixes one "
           "combination of them, and measuring a_CDOM separately (or fixing it) is what makes C "
-          "measurable. `uw3p design` gives these numbers for any condition.", "",
-          "## Validation: the bound against the estimator", "",
-          f"Spread of `sca.estimate_batch` (weighted fits with the sensor's sigma, exposure known) "
-          f"over {DRAWS} noise draws, divided by the bound (distance 1 m). Where the bound is "
-          "attained (no flag) the ratio should be near 1; at 200 lx the sensor model's sigma is "
-          "conservative for the darkest patches (DECISIONS.md), so ratios below 1 are expected.",
+          "measurable. `uw3p design` gives these numbers for any condition, and the protocol "
+          "that reaches a precision.", ""]
+    if drows:
+        L += _design_section(drows)
+    L += ["## Validation: the camera-only bound against the estimator", "",
+          f"Spread of `sca.estimate_batch` (weighted fits with the sensor's sigma, exposure known, "
+          f"the paper's exact model) over {DRAWS} noise draws, divided by the camera-only bound "
+          "(distance 1 m): noise draws test the noise's part of the bound; the budget's part "
+          "(errors fixed within a photo, drawn between dives) is checked on dives in DESIGN.md "
+          "and on single photos in HONESTY.md. Where the bound is attained (no flag) the ratio "
+          "should be near 1; at 200 lx the sensor model's sigma is conservative for the darkest "
+          "patches (decision 0008-trust-noise-fit-flags), so ratios below 1 are expected.",
           "", "| water | depth | light | sd C, bound | sd C, estimator | ratio C | ratio a_CDOM | "
           "flags |", "|---|---|---|---|---|---|---|---|"]
     for v in val:
@@ -442,8 +571,14 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, camera_csv=N
     plot(rows, outdir)
     conn = paper_connection(Path(outdir or "figures"), grid_name)
     brows = budget_table() if (grid_name or "paper") == "paper" else []
+    drows = design_table() if (grid_name or "paper") == "paper" else []
+    if drows:
+        dk = list(drows[0])
+        write_csv(figures_dir(outdir) / "instrument_designs.csv", dk,
+                  [[f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in dk]
+                   for r in drows], comment="python -m experiments.instrument: sca.design")
     if doc_path:
-        Path(doc_path).write_text(doc(rows, val, conn, brows), encoding="utf-8")
+        Path(doc_path).write_text(doc(rows, val, conn, brows, drows), encoding="utf-8")
     return rows
 
 

@@ -28,7 +28,7 @@ slightly with depth and with distance (:func:`~experiments.rules.verdict_rises_s
 r^2 of C and of a_CDOM each "between 1 and 0.7" over depth
 (:func:`~experiments.rules.verdict_r2_range`); r^2 of both falls with depth
 (:func:`~experiments.rules.verdict_trend`). Ranked by the number of criteria met, then by
-closeness to "2 %" and "0.7" (|ln(mean / 0.02)| + |ln(min r^2 / 0.7)|). Writes
+closeness to "2 %" and "0.7" (``|ln(mean / 0.02)| + |ln(min r^2 / 0.7)|``). Writes
 ``paper_like_search.csv`` and ``paper_like_search.png`` and returns the rows;
 :data:`experiments.grids.SETTINGS` ``['paper-like']`` is the setting this search ranks first
 (set by hand: a change of ranking shows in the table first).

@@ -30,8 +30,25 @@ Kinds of claim and their rule (each verdict is "yes", "partly" or "no"):
   the neighbouring sector, no otherwise (:func:`verdict_hue`); a change "from blue to green"
   (Fig 8) or "stronger green" (Fig 6 against Fig 5) also needs the hue to move towards the
   named colour (:func:`verdict_hue_change`).
-* **method** (Fig 11's colour correction): a stated comparison with two baselines, in
-  :mod:`experiments.report`.
+* **independence** ("does not depend on the specific medium"): the largest over the smallest
+  of the values per class (C classes, a_CDOM classes), yes within :data:`LEVEL_FACTOR`, partly
+  within its square (:func:`verdict_independent`).
+* **correction** (Fig 11: the estimated attenuation as "a good model for the ambient
+  illumination" for a von Kries correction): yes if the correction with the estimated k is no
+  worse than both model-free baselines (grey-world, white-patch) and within :data:`DE00_JND` of
+  the same correction with the true k (the control), partly if one of the two, no if neither
+  (:func:`verdict_correction`).
+* **ranked** (a real-camera number against two baselines, a strong and a weak one): yes if no
+  worse than the strong, partly if no worse than the weak, no otherwise
+  (:func:`verdict_ranked`).
+
+A verdict that a perfect estimator would get by construction says nothing about the paper's
+claim: a one-sided bound whose every value is at its ceiling as printed (r = 1.000) is marked
+not discriminating (:func:`discriminates_bound`) and not counted.
+
+Issue 39 (fourth pass) made every rule able to fail: Fig 9's "matches" is judged two-sided
+against the paper's own level (the level rule), Fig 11 lost its always-true "halved" half and
+gained the true-k control, and Figs 12-13 are judged on log10 values.
 
 These rules were unified in the third pass (issue 20), after the second pass's numbers were
 known; where the search's criteria and the report's rules differed, the search's thresholds were
@@ -49,7 +66,8 @@ import numpy as np
 __all__ = ["verdict_level", "verdict_at_most", "verdict_above", "verdict_r2_range",
            "verdict_trend", "verdict_rises_slightly", "verdict_comparison", "hue_of",
            "hue_name", "verdict_hue", "verdict_hue_stronger", "verdict_hue_change", "spearman_rounded", "worst",
-           "LEVEL_FACTOR", "R2_TOP", "R2_LOW_RANGE", "R2_DECIMALS", "SIG_DIGITS", "TREND_RHO",
+           "verdict_independent", "verdict_correction", "verdict_ranked", "discriminates_bound",
+           "DE00_JND", "BOUND_DECIMALS", "LEVEL_FACTOR", "R2_TOP", "R2_LOW_RANGE", "R2_DECIMALS", "SIG_DIGITS", "TREND_RHO",
            "SLIGHT_MAX_RATIO", "MUCH_MORE", "MIN_SATURATION", "HUES", "VERDICTS"]
 
 VERDICTS = ("yes", "partly", "no")
@@ -73,6 +91,12 @@ MUCH_MORE = 1.5
 MIN_SATURATION = 0.1
 #: The hue names, sector centres 0, 60, ..., 300 degrees
 HUES = ("red", "yellow", "green", "cyan", "blue", "magenta")
+#: A just-noticeable colour difference, CIEDE2000 units (Fig 11's control: the estimator's share
+#: of the error is negligible below it; e.g. Sharma, Wu & Dalal 2005, Color Res. Appl. 30:21)
+DE00_JND = 1.0
+#: Correlations are printed to this many decimals (a bound "above X" met by r = 1.000 as
+#: printed is met by construction)
+BOUND_DECIMALS = 3
 
 
 def worst(*verdicts) -> str:
@@ -103,6 +127,57 @@ def verdict_above(values, bound) -> str:
     """"Consistently above ``bound``": yes if every value is, no otherwise."""
     v = np.asarray(values, float)
     return "yes" if v.size and bool(np.all(v > bound)) else "no"
+
+
+def discriminates_bound(values, ceiling: float = 1.0, decimals: int = BOUND_DECIMALS) -> bool:
+    """False when every value is at the ceiling a perfect estimator reaches, as printed.
+
+    Parameters
+    ----------
+    values : array_like
+        The values a bound is judged on (e.g. Pearson's r per depth).
+    ceiling : float, optional
+        The value of a perfect estimate (default 1: r of an exact fit).
+    decimals : int, optional
+        The printed precision (default :data:`BOUND_DECIMALS`).
+
+    Returns
+    -------
+    bool
+        Whether the bound's verdict says anything a perfect estimator would not get anyway.
+    """
+    v = np.round(np.asarray(values, float), decimals)
+    return not (v.size and bool(np.all(v == round(ceiling, decimals))))
+
+
+def verdict_independent(values) -> str:
+    """"Does not depend on" the class: the largest over the smallest class value, yes within
+    LEVEL_FACTOR, partly within its square, no otherwise (or for a non-positive value)."""
+    v = np.asarray(values, float)
+    if v.size == 0 or not np.all(np.isfinite(v)) or not np.all(v > 0):
+        return "no"
+    f = float(v.max() / v.min())
+    return "yes" if f <= LEVEL_FACTOR else "partly" if f <= LEVEL_FACTOR ** 2 else "no"
+
+
+def verdict_correction(de_estimated, de_true, de_baselines) -> str:
+    """Fig 11: a von Kries correction with the estimated attenuation (mean ΔE00
+    ``de_estimated``) against the same with the true attenuation (``de_true``) and model-free
+    baselines (``de_baselines``): yes if no worse than every baseline and within DE00_JND of the
+    control, partly if one of the two, no if neither."""
+    if not (math.isfinite(de_estimated) and math.isfinite(de_true)):
+        return "no"
+    beats = bool(de_estimated <= min(de_baselines))
+    near = bool(de_estimated - de_true <= DE00_JND)
+    return "yes" if beats and near else "partly" if beats or near else "no"
+
+
+def verdict_ranked(value, strong, weak) -> str:
+    """A number where lower is better against a strong and a weak baseline: yes if no larger
+    than ``strong``, partly if no larger than ``weak``, no otherwise (and for a NaN)."""
+    if not math.isfinite(value):
+        return "no"
+    return "yes" if value <= strong else "partly" if value <= weak else "no"
 
 
 def verdict_r2_range(r2_by_depth) -> str:

@@ -1,9 +1,11 @@
 """The sweep runner shared by all estimation figures.
 
 Each condition (C, a_CDOM, depth, distance, seed, illuminance, exposure, the estimator's
-grid, mode) is simulated with :func:`forward.simulate_chart` in the 1 nm world and fitted with
-:func:`sca.estimate` (the paper's exact model, ``uncertain={}``) on the condition's estimation
-grid. Results are cached on disk, one JSON file per condition, written atomically (temporary
+grid, mode, world) is rendered -- by :func:`forward.simulate_chart` in the 1 nm world
+(``world='forward'``, the estimator's own code) or by the independent renderer
+(``world='independent'``, :func:`render_independent`: no code shared with ``forward``) -- and
+fitted with :func:`sca.estimate` (the paper's exact model, ``uncertain={}``) on the condition's
+estimation grid. Results are cached on disk, one JSON file per condition, written atomically (temporary
 file + ``os.replace``), so an interrupted run loses nothing and a rerun computes only what is
 missing. The cache key is the condition and :data:`FINGERPRINT`: the source of ``forward``,
 ``sca`` and this module, the data tables and the versions of the libraries the numbers come
@@ -36,7 +38,11 @@ from .grids import BASE_SEED
 __all__ = ["run", "condition", "key", "fit_condition", "pearson", "FINGERPRINT",
            "DEFAULT_CACHE", "DEFAULT_WORKERS", "SEED_MULTIPLIER", "ORPHAN_CHECK_S",
            "RRMSE_BANDS_NM", "rrmse_bands", "estimation_grid", "rrmse_on_grid", "q_eq19",
-           "FINGERPRINT_PACKAGES", "WORKER_EXIT_S"]
+           "FINGERPRINT_PACKAGES", "WORKER_EXIT_S", "render_independent", "WORLDS"]
+
+#: The renderers of a condition's chart: ``forward`` (the estimator's own code) or the
+#: independent renderer (:mod:`experiments.independent_world`)
+WORLDS = ("forward", "independent")
 
 DEFAULT_CACHE = Path(os.environ.get("UW3P_CACHE", "cache"))
 #: Worker processes when not given (at most the machine's cores): the reference machine's two
@@ -59,7 +65,8 @@ def _code_fingerprint() -> str:
     h = hashlib.sha256()
     root = Path(__file__).resolve().parents[1]
     files = [p for pkg in ("forward", "sca") for p in sorted((root / pkg).glob("*.py"))]
-    files += [Path(__file__).resolve()] + sorted((root / "data").glob("*.csv"))
+    files += [Path(__file__).resolve(), Path(__file__).with_name("independent_world.py")]
+    files += sorted((root / "data").glob("*.csv"))
     for path in files:
         h.update(str(path.relative_to(root)).encode())
         h.update(path.read_bytes())
@@ -76,15 +83,48 @@ FINGERPRINT = _code_fingerprint()
 
 
 def condition(chl, cdom, depth, distance, replicate=0, *, illuminance_lux=20000.0,
-              exposure="capped", mode="safeguarded", estimation_step_nm=1.0) -> dict:
+              exposure="capped", mode="safeguarded", estimation_step_nm=1.0, world="forward",
+              world_options=None) -> dict:
     """A condition dict with its noise seed derived from the condition and the replicate (not
-    from the estimation grid: the same chart is fitted on every grid)."""
+    from the estimation grid nor the world: the same seed is used on every grid and in both
+    worlds).
+
+    Parameters
+    ----------
+    chl, cdom, depth, distance : float
+        C (mg m^-3), a_CDOM(440) (m^-1), depth and distance (m).
+    replicate : int, optional
+        The noise replicate.
+    illuminance_lux : float, optional
+        Surface illuminance, lx.
+    exposure : {'capped', 'iset'}, optional
+        The sensor's exposure mode.
+    mode : str, optional
+        :func:`sca.estimate`'s mode.
+    estimation_step_nm : float, optional
+        The estimator's grid step, nm.
+    world : {'forward', 'independent'}, optional
+        The chart's renderer (:data:`WORLDS`).
+    world_options : dict, optional
+        The independent renderer's options (:class:`experiments.independent_world.WorldOptions`
+        fields; ``world='independent'`` only; default none).
+
+    Returns
+    -------
+    dict
+        The condition, with its ``seed``.
+    """
+    if world not in WORLDS:
+        raise ValueError(f"world: must be one of {WORLDS}, got {world!r}")
     c = dict(chl=float(chl), cdom=float(cdom), depth=float(depth), distance=float(distance),
              illuminance_lux=float(illuminance_lux), exposure=exposure, mode=mode,
              replicate=int(replicate), estimation_step_nm=float(estimation_step_nm))
     tag = json.dumps([c[k] for k in ("chl", "cdom", "depth", "distance", "illuminance_lux",
                                      "replicate")])
     c["seed"] = int(BASE_SEED * SEED_MULTIPLIER + zlib.crc32(tag.encode())) % (2**31)
+    if world != "forward":  # the forward world's keys (and so its cache) as before
+        c["world"] = world
+        c["world_options"] = dict(sorted((world_options or {}).items()))
     return c
 
 
@@ -117,29 +157,86 @@ def rrmse_on_grid(wl_hat, k_hat, wl, k) -> float:
     return rrmse_bands(wl_hat, k_hat, truth)
 
 
-def fit_condition(cond: dict) -> dict:
-    """Simulate (1 nm world) and fit (the condition's estimation grid) one condition; returns a
-    JSON-ready dict."""
+def render_independent(cond: dict) -> dict:
+    """The chart of ``cond`` rendered by the independent renderer with the sensor's photon budget.
+
+    The renderer (:func:`experiments.independent_world.render_chart`, the condition's
+    ``world_options``, its streams seeded by the condition's ``seed``) records values in model
+    units times an exposure factor x, 1.0 being the full well. x is the default sensor's
+    auto-exposure (:class:`forward.SensorSettings` at the condition's light and exposure mode):
+    the brightest noise-free value at ``target_fraction`` of the well, at most the longest
+    exposure's photon count (``exposure='capped'``), or at :data:`forward.sensor.
+    ISET_EXPOSURE_FRACTION` (``'iset'``); its photon and read noise are the sensor's (full well,
+    read noise, pixels per patch). Only these numbers come from ``forward``; the chart, the water,
+    the camera's response and the noise are the renderer's own. The recorded values are divided
+    by x (the known exposure), as ``forward.capture`` does.
+
+    Parameters
+    ----------
+    cond : dict
+        A condition of :func:`condition` with ``world='independent'``.
+
+    Returns
+    -------
+    dict
+        ``rgb`` (3, 24) model units; ``attenuation`` (q,) the true k and ``wavelengths`` (q,) its
+        grid (nm, the renderer's); ``backscatter`` (3,) the true veiling light, model units;
+        ``exposure`` x.
+    """
     import forward
-    import sca
+
+    from . import independent_world as iw
 
     sensor = forward.SensorSettings(illuminance_lux=cond["illuminance_lux"],
                                     exposure_mode=cond.get("exposure", "capped"))
-    sim = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], cond["distance"],
-                                 seed=cond["seed"], sensor=sensor)
+    opts = dict(cond.get("world_options") or {})
+    args = (cond["chl"], cond["cdom"], cond["depth"], cond["distance"])
+    probe = iw.render_chart(*args, rng=cond["seed"], noise=False, clip=None, **opts)
+    top = float(np.max(probe["expected"]))
+    full = sensor.full_well_e
+    if sensor.exposure_mode == "iset":
+        x = forward.sensor.ISET_EXPOSURE_FRACTION / top
+    else:
+        per_unit = forward.sensor.electrons_per_second(forward.chart_setup(), sensor)
+        x = min(sensor.target_fraction / top, per_unit * sensor.max_exposure_s / full)
+    out = iw.render_chart(*args, rng=cond["seed"], exposure=x, electrons_full_scale=full,
+                          read_noise_e=sensor.read_noise_e,
+                          pixels_per_patch=sensor.pixels_per_patch, clip=1.0, **opts)
+    return dict(rgb=out["rgb"] / x, attenuation=np.asarray(out["attenuation"]),
+                wavelengths=np.asarray(out["wavelengths"]),
+                backscatter=np.asarray(out["backscatter"]) / x, exposure=x)
+
+
+def fit_condition(cond: dict) -> dict:
+    """Render (the condition's world) and fit (the condition's estimation grid) one condition;
+    returns a JSON-ready dict."""
+    import forward
+    import sca
+
     wl_hat = estimation_grid(cond.get("estimation_step_nm", 1.0))
-    est = sca.estimate(sim.rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"],
+    if cond.get("world", "forward") == "independent":
+        w = render_independent(cond)
+        rgb, wl, k, s, exposure_s = (w["rgb"], w["wavelengths"], w["attenuation"],
+                                     w["backscatter"], float("nan"))
+    else:
+        sensor = forward.SensorSettings(illuminance_lux=cond["illuminance_lux"],
+                                        exposure_mode=cond.get("exposure", "capped"))
+        sim = forward.simulate_chart(cond["chl"], cond["cdom"], cond["depth"], cond["distance"],
+                                     seed=cond["seed"], sensor=sensor)
+        rgb, wl, k, s, exposure_s = (sim.rgb, sim.wavelengths, sim.attenuation, sim.backscatter,
+                                     sim.exposure_s)
+    est = sca.estimate(rgb, depth=cond["depth"], distance=cond["distance"], mode=cond["mode"],
                        wavelengths=wl_hat, uncertain={})
-    wl_hat = sim.wavelengths if wl_hat is None else wl_hat
+    wl_hat = forward.chart_setup().wavelengths if wl_hat is None else wl_hat
     return dict(
         cond,
         chl_hat=est.chl, cdom_hat=est.cdom, converged=est.converged, status=est.status,
         iterations=est.iterations, objective=est.objective,
-        rrmse_k=rrmse_on_grid(wl_hat, est.attenuation, sim.wavelengths, sim.attenuation),
-        attenuation=sim.attenuation.tolist(), attenuation_hat=est.attenuation.tolist(),
-        backscatter=sim.backscatter.tolist(), backscatter_hat=est.backscatter.tolist(),
-        rgb=sim.rgb.tolist(), exposure_s=sim.exposure_s,
-        wavelengths=sim.wavelengths.tolist(), wavelengths_hat=np.asarray(wl_hat).tolist(),
+        rrmse_k=rrmse_on_grid(wl_hat, est.attenuation, wl, k),
+        attenuation=np.asarray(k).tolist(), attenuation_hat=est.attenuation.tolist(),
+        backscatter=np.asarray(s).tolist(), backscatter_hat=est.backscatter.tolist(),
+        rgb=np.asarray(rgb).tolist(), exposure_s=exposure_s,
+        wavelengths=np.asarray(wl).tolist(), wavelengths_hat=np.asarray(wl_hat).tolist(),
     )
 
 

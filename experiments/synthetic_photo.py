@@ -22,8 +22,8 @@ import numpy as np
 import forward
 from measure.chart import LAYOUTS, ChartLayout, homography
 
-__all__ = ["Scene", "render_mosaic", "write_dng", "default_corners", "BLACK_LEVELS_DN",
-           "WHITE_LEVEL_DN"]
+__all__ = ["Scene", "render_mosaic", "mosaic_from_values", "write_dng", "default_corners",
+           "BLACK_LEVELS_DN", "WHITE_LEVEL_DN"]
 
 #: the RGGB Bayer pattern: channel of each position of the 2 x 2 tile
 RGGB = np.array([[0, 1], [1, 2]])
@@ -87,6 +87,38 @@ def render_mosaic(scene: Scene, corners, *, setup=None, water=None,
     s = sim.backscatter
     white_through = setup.sensitivities.T @ (setup.illuminant * sim.attenuation)
     frame = FRAME_REFLECTANCE * white_through + s
+    return mosaic_from_values(scene, corners, patches, frame, s, layout=layout)
+
+
+def mosaic_from_values(scene: Scene, corners, patches, frame, veil, *,
+                       layout: ChartLayout = LAYOUTS["patches"]) -> np.ndarray:
+    """The raw mosaic (height, width) uint16 of a chart whose patch values are given.
+
+    Parameters
+    ----------
+    scene : Scene
+        Size, exposure gain (DN per unit of ``patches``), black and white levels, noise,
+        vignetting and light gradient (its water fields are not used).
+    corners : array_like, (4, 2)
+        The patch grid's corners in pixels (next to patch 1, 6, 24, 19).
+    patches : array_like, (3, 24)
+        Each patch's value per channel (flat over the painted square), veiling light included.
+    frame : array_like, (3,)
+        The card between the patches, veiling light included.
+    veil : array_like, (3,)
+        The veiling light (also the open water around the card): the part of every value that
+        the light gradient does not modulate.
+    layout : measure.ChartLayout, optional
+        The chart's geometry (default the patch grid).
+
+    Returns
+    -------
+    numpy.ndarray, (height, width) uint16
+        RGGB mosaic in DN, black level added, rounded and clipped at the white level.
+    """
+    patches = np.asarray(patches, float)
+    frame = np.asarray(frame, float)
+    s = np.asarray(veil, float)
     H, W = scene.height, scene.width
     ys, xs = np.mgrid[0:H, 0:W].astype(np.float64)
     Wc, Hc = layout.size

@@ -9,6 +9,7 @@ the most sensitive channel).
 """
 
 from . import validate
+from .validate import InputError
 from .imaging import (
     PATH_MODELS,
     ChartSetup,
@@ -61,6 +62,7 @@ __all__ = [
     "CDOM_SLOPE",
     "CHL_TERMS",
     "DEFAULT_CAMERA",
+    "InputError",
     "LAMBDA_0_NM",
     "MODEL_RANGE_NM",
     "NAP_SLOPE",

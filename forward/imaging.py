@@ -1,7 +1,8 @@
 """Image formation: path attenuation k (eqs 3, 13, 14), veiling light (eq 2), camera response (eq 1).
 
 Lengths in m, wavelengths in nm. ``depth`` is the chart's depth below the surface, ``distance``
-the camera-to-chart distance (horizontal viewing, camera at the chart's depth); see DECISIONS.md.
+the camera-to-chart distance (horizontal viewing, camera at the chart's depth); see decision
+0013-geometry-path-length.
 """
 
 from __future__ import annotations
@@ -82,7 +83,7 @@ def path_length(depth, distance) -> np.ndarray:
 
     References
     ----------
-    Blasinski & Farrell, eqs 3, 13 and 14 (the path length d); DECISIONS.md ("Geometry").
+    Blasinski & Farrell, eqs 3, 13 and 14 (the path length d); decision 0013-geometry-path-length.
     """
     return length("depth", depth) + length("distance", distance)
 
@@ -131,8 +132,8 @@ def attenuation(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0, *
 
     References
     ----------
-    Blasinski & Farrell, eqs 3, 4, 13 and 14; DECISIONS.md ("Geometry", "Beam vs absorption
-    only").
+    Blasinski & Farrell, eqs 3, 4, 13 and 14; decision
+    0013-geometry-path-length.
     """
     wl = wavelength_grid(wavelengths)
     path_length(depth, distance)  # checks both lengths
@@ -194,8 +195,8 @@ def veiling_light(wavelengths=None, chl=1.0, cdom=0.1, depth=10.0, distance=5.0,
 
     References
     ----------
-    Blasinski & Farrell, eq 2 (which leaves rho_b unmodelled) and eq 4; DECISIONS.md ("Veiling
-    light / backscatter").
+    Blasinski & Farrell, eq 2 (which leaves rho_b unmodelled) and eq 4; decision
+    0016-veiling-light.
     """
     wl = wavelength_grid(wavelengths)
     i = illuminant_spd(illuminant, wl)

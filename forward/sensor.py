@@ -2,7 +2,7 @@
 
 The paper simulated its camera with ISET but does not publish the settings; the defaults here
 describe a consumer APS-C Bayer camera (pixel pitch of a 16 MP APS-C sensor, f/4 lens) and are
-listed, with their reasons, in DECISIONS.md.
+listed, with their reasons, in decision 0019-sensor-defaults.
 
 Signal chain for one patch and channel (model signal ``m`` from eq 1, in units where a white
 reflector in air gives 1 in the most sensitive channel):
@@ -60,7 +60,8 @@ ISET_EXPOSURE_FRACTION = 0.95
 
 @dataclass(frozen=True)
 class SensorSettings:
-    """Camera and scene-light settings (SI units in the names). Defaults: DECISIONS.md.
+    """Camera and scene-light settings (SI units in the names). Defaults: decision
+    0019-sensor-defaults.
 
     The defaults describe a consumer APS-C Bayer camera (pixel pitch of a 16 MP APS-C sensor,
     f/4 lens) in daylight. Immutable; every parameter is also an attribute.

@@ -149,12 +149,38 @@ class ChartSimulation:
         return json.dumps(self.to_dict(), indent=1)
 
 
+def _with_chart_physics(setup, terms, chl, cdom, depth, distance, in_water, scatter, tilt):
+    """The set-up with the opt-in chart physics of :mod:`forward.chart_physics` applied (the
+    set-up itself when none is asked for)."""
+    import dataclasses
+
+    from . import chart_physics as cp
+
+    if not isinstance(in_water, (bool, np.bool_)) or not isinstance(scatter, (bool, np.bool_)):
+        raise ValueError("chart_in_water, forward_scatter: expected True or False")
+    R, light = setup.reflectances, setup.illuminant
+    if in_water:
+        R = cp.in_water_reflectance(R)
+    if scatter:  # eq 12 with Table 1: the particles' backscattering (REALWATER.md)
+        bbp = terms.particle_scattering(chl)
+        R = cp.forward_scatter_reflectance(R, cp.forward_scatter_fraction(bbp, distance), distance)
+    if tilt is not None:
+        tilt = validate.scalar("chart_tilt_deg", tilt)
+        light = light * cp.tilted_chart_light(setup.wavelengths,
+                                              terms.beam_coefficient(chl, cdom), depth, tilt)
+    if R is setup.reflectances and light is setup.illuminant:
+        return setup
+    return dataclasses.replace(setup, reflectances=R, illuminant=light)
+
+
 def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: bool = True,
                    seed=None, wavelengths=None, illuminant=None, reflectances=None, basis=None,
                    weights=None, water: Water | None = None, cdom_slope: float | None = None,
                    path_model: str | None = None, backscatter: bool = True,
                    sensor: SensorSettings | None = None,
-                   setup: ChartSetup | None = None) -> ChartSimulation:
+                   setup: ChartSetup | None = None, chart_in_water: bool = False,
+                   forward_scatter: bool = False,
+                   chart_tilt_deg: float | None = None) -> ChartSimulation:
     """Simulate the camera's patch values of a chart at ``depth`` m seen from ``distance`` m.
 
     Parameters
@@ -184,10 +210,20 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     backscatter : bool, optional
         Include the veiling light of eq 2 (default True).
     sensor : forward.SensorSettings, optional
-        The sensor (defaults in DECISIONS.md).
+        The sensor (defaults: decision 0019-sensor-defaults).
     setup : forward.ChartSetup, optional
         Prebuilt P, i, R (:func:`forward.chart_setup`); replaces ``camera``, ``illuminant``,
         ``reflectances`` (``wavelengths``, if given, must be its grid).
+    chart_in_water : bool, optional
+        Opt-in (issue 39): the chart's reflectance under water
+        (:func:`forward.chart_physics.in_water_reflectance`, Saunderson with the binder's and
+        sea water's indices) instead of its reflectance in air (default False: the paper's).
+    forward_scatter : bool, optional
+        Opt-in: the blur of forward scattering on the patch means
+        (:func:`forward.chart_physics.forward_scatter_reflectance`; default False).
+    chart_tilt_deg : float, optional
+        Opt-in: the light on a chart tilted by this angle from horizontal towards the sun
+        (:func:`forward.chart_physics.tilted_chart_light`; default None: the paper's light).
 
     Returns
     -------
@@ -202,7 +238,18 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     References
     ----------
     Blasinski & Farrell, eqs 1-15 (k and the water of eqs 3-14, the chart model of eq 15, the
-    veiling light of eq 2 as in DECISIONS.md); the sensor after ISET (Farrell et al. 2012).
+    veiling light of eq 2 as in decision 0016-veiling-light); the sensor after ISET (Farrell et al.
+    2012).
+
+    Examples
+    --------
+    >>> import forward
+    >>> sim = forward.simulate_chart(2.0, 0.1, depth=5, distance=1, seed=0)
+    >>> sim.rgb.shape                      # 3 channels x 24 patches
+    (3, 24)
+    >>> i490 = int(abs(sim.wavelengths - 490).argmin())
+    >>> print(f"{sim.attenuation_coefficient[i490]:.3f}")   # the path's c(490), m^-1
+    0.130
     """
     chl = validate.scalar("chl", chl)
     cdom = validate.scalar("cdom", cdom)
@@ -216,6 +263,8 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     wl = setup.wavelengths
     terms = water.on_grid(wl, basis=basis, weights=weights)
     path_length(depth, distance)  # checks both lengths
+    setup = _with_chart_physics(setup, terms, chl, cdom, depth, distance, chart_in_water,
+                                forward_scatter, chart_tilt_deg)
     k = np.exp(-terms.optical_depth(chl, cdom, depth, distance)[0])
     c = terms.beam_coefficient(chl, cdom)
     if backscatter:

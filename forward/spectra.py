@@ -60,8 +60,8 @@ __all__ = [
 #: Model wavelength range in nm (inclusive); the basis and pure-water tables cover it.
 MODEL_RANGE_NM = (400.0, 700.0)
 #: Default grid: 400-700 nm in 1 nm steps (q = 301): the finest the data support, so that the
-#: simulator is a continuous world and the estimator's quadrature fits it (DECISIONS.md,
-#: "Spectral grid"). ``wavelengths=np.arange(400, 701, 10)`` gives the paper's coarse bands.
+#: simulator is a continuous world and the estimator's quadrature fits it (decision
+#: 0018-spectral-grid). ``wavelengths=np.arange(400, 701, 10)`` gives the paper's coarse bands.
 DEFAULT_STEP_NM = 1.0
 #: A camera's measured curves that stop inside the grid (the NPL 'Sigma SDMerill' ends at
 #: 680 nm) are taken as 0 beyond their last (or before their first) wavelength when every

@@ -1,14 +1,44 @@
 """Input checks shared by the forward model and the estimator.
 
-Every check raises :class:`ValueError` whose message starts with the argument's name, so a
-caller always learns *which* input is wrong and *why*.
+Every check raises :class:`InputError`, a :class:`ValueError` that carries the argument's name
+(``argument``) and the reason (``reason``); its message is ``"<argument>: <reason>"``, so a
+caller always learns *which* input is wrong and *why*, and the command line names its option
+from ``argument`` without reading the message.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["array", "nonnegative", "scalar", "real"]
+__all__ = ["InputError", "array", "nonnegative", "scalar", "real"]
+
+
+class InputError(ValueError):
+    """Bad input to a public function: a :class:`ValueError` naming the argument.
+
+    Parameters
+    ----------
+    argument : str
+        The argument's name as the function spells it (e.g. ``'depth'``, ``'rgb'``).
+    reason : str
+        Why the value is refused.
+
+    Examples
+    --------
+    >>> from forward.validate import InputError, scalar
+    >>> try:
+    ...     scalar("depth", -1.0)
+    ... except InputError as exc:
+    ...     print(exc.argument, "|", exc)
+    depth | depth: must be >= 0, got -1.0
+    """
+
+    def __init__(self, argument: str, reason: str):
+        self.argument, self.reason = str(argument), str(reason)
+        super().__init__(f"{self.argument}: {self.reason}")
+
+    def __reduce__(self):  # picklable across processes (Dask, multiprocessing)
+        return type(self), (self.argument, self.reason)
 
 
 def _is_complex(value) -> bool:
@@ -43,7 +73,7 @@ def real(name: str, value) -> None:
         If ``value`` holds complex numbers (even with a zero imaginary part).
     """
     if _is_complex(value):
-        raise ValueError(f"{name}: complex values are not accepted (the imaginary part would be "
+        raise InputError(name, "complex values are not accepted (the imaginary part would be "
                          "dropped); give real numbers")
 
 
@@ -76,16 +106,16 @@ def scalar(name: str, value, *, nonnegative: bool = True, positive: bool = False
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number, got {value!r}") from None
+        raise InputError(name, f"expected a number, got {value!r}") from None
     if arr.ndim != 0:
-        raise ValueError(f"{name}: expected a scalar, got an array of shape {arr.shape}")
+        raise InputError(name, f"expected a scalar, got an array of shape {arr.shape}")
     x = float(arr)
     if not np.isfinite(x):
-        raise ValueError(f"{name}: must be finite, got {x}")
+        raise InputError(name, f"must be finite, got {x}")
     if positive and x <= 0:
-        raise ValueError(f"{name}: must be > 0, got {x}")
+        raise InputError(name, f"must be > 0, got {x}")
     if nonnegative and x < 0:
-        raise ValueError(f"{name}: must be >= 0, got {x}")
+        raise InputError(name, f"must be >= 0, got {x}")
     return x
 
 
@@ -120,20 +150,20 @@ def array(name: str, value, *, shape=None, ndim=None, nonnegative: bool = False)
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a numeric array, got {type(value).__name__}") from None
+        raise InputError(name, f"expected a numeric array, got {type(value).__name__}") from None
     if ndim is not None and arr.ndim != ndim:
-        raise ValueError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
+        raise InputError(name, f"expected a {ndim}-D array, got shape {arr.shape}")
     if shape is not None:
         ok = arr.ndim == len(shape) and all(
             s is None or s == a for s, a in zip(shape, arr.shape)
         )
         if not ok:
             want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
-            raise ValueError(f"{name}: expected shape {want}, got {arr.shape}")
+            raise InputError(name, f"expected shape {want}, got {arr.shape}")
     if arr.size and not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: contains NaN or infinite values")
+        raise InputError(name, "contains NaN or infinite values")
     if nonnegative and arr.size and np.any(arr < 0):
-        raise ValueError(f"{name}: contains negative values (min {arr.min():g})")
+        raise InputError(name, f"contains negative values (min {arr.min():g})")
     return arr
 
 
@@ -162,7 +192,7 @@ def nonnegative(name: str, value, unit: str = "") -> np.ndarray:
     real(name, value)
     x = np.asarray(value, dtype=float)
     if x.size and not np.all(np.isfinite(x)):
-        raise ValueError(f"{name}: must be finite, got {value!r}")
+        raise InputError(name, f"must be finite, got {value!r}")
     if x.size and np.any(x < 0):
-        raise ValueError(f"{name}: must be >= 0{(' ' + unit) if unit else ''}, got {value!r}")
+        raise InputError(name, f"must be >= 0{(' ' + unit) if unit else ''}, got {value!r}")
     return x

@@ -6,7 +6,7 @@ thin wrappers of these functions.
 
 The public names are loaded on first use (PEP 562 module ``__getattr__``, as :mod:`sca`): one
 photo's measurement does not import the dive's machinery (Dask, the joint fit and scipy's
-optimisers and statistics) it does not use (DECISIONS.md, "Start-up").
+optimisers and statistics) it does not use (decision 0007-start-up).
 """
 
 from __future__ import annotations

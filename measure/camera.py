@@ -328,7 +328,7 @@ def patch_systematic(residuals, sigma, values, dof: int) -> float:
         return 0.0
     if excess(1.0) > 0:
         return 1.0
-    from scipy import optimize  # only a calibration needs it (start-up, DECISIONS.md)
+    from scipy import optimize  # only a calibration needs it (decision 0007-start-up)
 
     return float(optimize.brentq(excess, 0.0, 1.0, xtol=1e-6))
 

@@ -24,7 +24,7 @@ distance). Its shape in r is the simulator's single-scattering model
 (:func:`forward.veiling_light`, rho_b = i exp(-K depth) (b_b / c)(1 - exp(-c r))) projected on
 the camera's channels, V_c(r) = P^T rho_b(r), and anchored to the measurement:
 s_c(r) = s_c(r0) V_c(r) / V_c(r0). The model's b_b only enters as the spectral shape of the
-veil, not as its level (DECISIONS.md, "Per-pixel correction").
+veil, not as its level (decision 0047-per-pixel-correction).
 
 Far and unknown ranges: the correction along a range amplifies the direct signal (and its
 noise) by 1 / t_c(r). Ranges beyond ``max_range``, or beyond the range at which a channel's
@@ -66,8 +66,8 @@ __all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "SRGB_LUT_BITS", "TABLE_SIZE", "Correct
 #: turbid of the paper's waters (tests/test_correct.py)
 TABLE_SIZE = 512
 #: The largest factor by which the correction along the range may amplify a channel's direct
-#: signal, t_c(0) / t_c(r): beyond it the range is capped (DECISIONS.md, "Per-pixel
-#: correction": 16, 4 stops, held the far charts' ΔE00 of CORRECTION.md without amplifying
+#: signal, t_c(0) / t_c(r): beyond it the range is capped (decision
+#: 0048-correction-cap: 16, 4 stops, held the far charts' ΔE00 of CORRECTION.md without amplifying
 #: the open water's noise)
 MAX_GAIN = 16.0
 #: The cap is searched for up to this range, m (beyond it nothing of a photo is corrected)
@@ -396,6 +396,22 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     --------
     >>> out = correct_image("DIVE_03.dng", "results/DIVE_01/measurement.json",
     ...                     "DIVE_03_range.tif")  # doctest: +SKIP
+    Examples
+    --------
+    A photo measured, then corrected along a range map that runs from 1 m to 6 m across it:
+
+    >>> import tempfile, pathlib, numpy as np, measure
+    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> corners = default_corners(360, 240)
+    >>> photo = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,
+    ...                                       gain=30000, width=360, height=240, seed=2), corners),
+    ...                   folder / "reef.dng")
+    >>> m = measure.measure(photo, corners=corners, depth=5.0, distance=1.5)
+    >>> ranges = np.tile(np.linspace(1.0, 6.0, 360, dtype=np.float32), (240, 1))
+    >>> out = measure.correct_image(m.photo, m, ranges)
+    >>> out.srgb.shape, out.srgb.dtype
+    ((240, 360, 3), dtype('uint16'))
     """
     for name, v in (("white", white), ("white_linear", white_linear)):
         if not (math.isfinite(v) and 0 < v <= 1):

@@ -11,7 +11,7 @@ with its exposure gain refitted so that the chart's white patch keeps its lumina
 gain moves with the water). The spread is the CIEDE2000 colour difference (scikit-image's ``skimage.color.deltaE_ciede2000``,
 equal to colour-science's ``colour.delta_E(..., method="CIE 2000")``, tests/test_correct.py;
 scikit-image because a photo's measurement must not import colour-science, about 3 s:
-DECISIONS.md "Start-up") of the corrected colours from those of the fitted water:
+decision 0007-start-up) of the corrected colours from those of the fitted water:
 
 - of the chart's 24 patches at the chart's distance (median and largest over the patches, of
   the largest over the corners);

@@ -34,7 +34,7 @@ saturating at :data:`FULL_SHARE`, times the colour agreement R^2 of the chosen o
 chart is "not found" (:class:`ChartNotFound`) with fewer than :data:`MIN_PATCHES` squares on one
 lattice or a colour agreement below :data:`MIN_R2`.
 
-Candidates evaluated before writing this (see DECISIONS.md and
+Candidates evaluated before writing this (see decision 0035-chart-detection and
 ``python -m experiments.detect_eval``): colour-checker-detection's segmentation detector (its
 templated one needs scikit-learn) and OpenCV's ``mcc`` module (absent from the installed
 opencv-python build).

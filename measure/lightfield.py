@@ -3,7 +3,7 @@
 Vignetting and a light gradient multiply every patch's reflected light by a factor f_p that is
 the same in every channel (achromatic) and smooth over the chart. On synthetic photographs a
 3 % gradient across the chart already gives chi^2/dof ~ 70 and biases C by ~25 %
-(DECISIONS.md), so the field is modelled -- but only as far as the data support it:
+(decision 0033-light-field), so the field is modelled -- but only as far as the data support it:
 
     f_p = 1 + a x_p + b y_p [+ c (x_p^2 + y_p^2 - mean)]
 
@@ -19,7 +19,7 @@ batched fit, so a model takes a few fits, not the hundreds of a derivative-free 
 nested models none < plane < plane+radial are compared by the likelihood-ratio test (the noise
 is known, so Delta chi^2 is chi^2-distributed with the number of added parameters): a larger
 model is taken only when its p-value is below ``LIGHT_FIELD_ALPHA``. The intervals of C and
-a_CDOM are then conditional on the fitted field (DECISIONS.md).
+a_CDOM are then conditional on the fitted field (decision 0033-light-field).
 """
 
 from __future__ import annotations

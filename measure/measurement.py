@@ -26,6 +26,7 @@ from forward.water import resolve_water
 from sca.assess import BLOCKING
 from sca.auxiliary import auxiliary_observations
 from sca.budget import parse_sd
+from sca.budget_defaults import MEASURED_CHART_PATCH
 
 from .auxiliary import auxiliary_record
 from .camera import Profile, camera_setup, chart_digest, load_profile, read_chart_reflectance
@@ -248,12 +249,13 @@ def _fit(sample: PatchSample, setup, depth, distance, water, uncertain=None,
                         water=water, uncertain=uncertain, mode=mode, auxiliary=auxiliary or None)
 
 
-def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
+def budget_for(uncertain, profile, measured_chart: bool = False,
+               patch_floor: float | None = 0.0) -> dict:
     """The uncertainty budget of a measurement: ``uncertain`` as given, or the default
     (:data:`sca.budget.DEFAULT_UNCERTAIN`; with a measured chart its per-patch term is
     :data:`sca.budget_defaults.MEASURED_CHART_PATCH`) with the profile's own numbers where it
-    has them: its per-patch systematic error (``patch``) and the largest standard error of its
-    channel gains (``balance``).
+    has them: its per-patch systematic error (``patch``, never below ``patch_floor``) and the
+    largest standard error of its channel gains (``balance``).
 
     Parameters
     ----------
@@ -264,6 +266,13 @@ def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
     measured_chart : bool, optional
         The chart's own spectra were measured (``chart_reflectance``): the default per-patch
         term is what such a chart still leaves.
+    patch_floor : float or None, optional
+        The per-patch term underwater is at least this. Default 0: the calibration's value as it
+        is. None: the default budget's own (1 %, or
+        :data:`sca.budget_defaults.MEASURED_CHART_PATCH` with a measured chart), since the
+        calibration in air measures the chart's and the camera's part under the light in air,
+        not what only the light's path through water shows; not the default, for want of
+        evidence (decision 0053-patch-floor).
 
     Returns
     -------
@@ -274,12 +283,11 @@ def budget_for(uncertain, profile, measured_chart: bool = False) -> dict:
         return dict(uncertain)
     out = dict(sca.budget.DEFAULT_UNCERTAIN)
     if measured_chart:
-        from sca.budget_defaults import MEASURED_CHART_PATCH
-
         out["patch"] = MEASURED_CHART_PATCH
+    floor = out["patch"] if patch_floor is None else float(patch_floor)
     if profile is not None:
         if profile.patch_sd is not None and np.isfinite(profile.patch_sd):
-            out["patch"] = float(profile.patch_sd)
+            out["patch"] = max(float(profile.patch_sd), floor)
         se = np.asarray(profile.gains_se, float)
         if se.size and np.all(np.isfinite(se)):
             out["balance"] = float(np.max(se))
@@ -326,11 +334,13 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     """The paper's von Kries colour correction from the estimated attenuation.
 
     corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
-    (P^T i) / (P^T diag(i r) k) of a white's response in air to its response through the water
-    (r: the surface daylight's change of colour the fit found, where the budget has the
-    ``daylight`` term; the corrected white is that of the given illuminant), times one common
-    factor that puts the corrected white patch's brightest channel at
-    :data:`WHITE_TARGET` x ``full_scale``.
+    (P^T i) / ((1 + beta) (P_delta^T diag(i r) k)) of a white's response in air to its response
+    through the water as the fit found it (r: the surface daylight's change of colour, where the
+    budget has the ``daylight`` term; beta and delta: the camera's fitted channel balance and
+    curve shifts, where it has ``balance`` and ``camera_shift``, P_delta = P - delta dP/dlambda
+    to first order as :mod:`sca.model` takes them; the corrected white is that of the given
+    illuminant and the camera's nominal curves), times one common factor that puts the
+    corrected white patch's brightest channel at :data:`WHITE_TARGET` x ``full_scale``.
 
     Parameters
     ----------
@@ -357,13 +367,27 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     """
     P, i = setup.sensitivities, setup.illuminant
     light = i * estimate.attenuation
-    shift = (estimate.nuisance or {}).get("daylight")
+    nuisance = estimate.nuisance or {}
+    shift = nuisance.get("daylight")
     if shift:  # the surface light's colour as the fit found it (the budget's daylight term)
         from forward.daylight import DaylightTilt
 
         light = light * np.exp(DaylightTilt(setup.wavelengths,
                                             setup.daylight_cct).log_ratio(float(shift)))
-    vk = (P.T @ i) / (P.T @ light)
+    # the white through the water as the fit saw it: with the camera's fitted curve shifts (to
+    # first order, as sca.model takes them) and channel balance (the budget's camera terms), so
+    # that the correction inverts the whole colour path the fit found, not the water's part alone
+    P_fit = P
+    delta = nuisance.get("camera_shift")
+    if delta is not None:
+        from sca.model import curve_shift_derivative
+
+        P_fit = P + np.asarray(delta, float)[None, :] * curve_shift_derivative(P, setup.wavelengths)
+    through = P_fit.T @ light
+    balance = nuisance.get("balance")
+    if balance is not None:
+        through = through * (1.0 + np.asarray(balance, float))
+    vk = (P.T @ i) / through
     offset = np.asarray(estimate.backscatter, float)
     if white_value is not None:
         top = float(np.max(vk * (np.asarray(white_value, float) - offset)))
@@ -499,6 +523,24 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     ----------
     H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
     Electronic Imaging 2016, eqs 15-18 (the estimator), Fig 11 (the correction).
+
+    Examples
+    --------
+    A generated photo (a DNG of a chart at 5 m, seen from 1.5 m) measured as a user's would be:
+
+    >>> import tempfile, pathlib, measure
+    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> corners = default_corners(360, 240)
+    >>> photo = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,
+    ...                                       gain=30000, width=360, height=240, seed=2), corners),
+    ...                   folder / "reef.dng")
+    >>> m = measure.measure(photo, corners=corners, depth=5.0, distance=1.5)
+    >>> m.estimate.verdicts["c_490"]
+    'measured'
+    >>> lo, hi = m.estimate.quantity_intervals["c_490"]
+    >>> bool(lo < 0.130 < hi)     # the generated water's c(490), m^-1
+    True
     """
     if mode not in sca.MODES:  # before any work
         raise ValueError(f"mode: must be one of {sca.MODES}, got {mode!r}")

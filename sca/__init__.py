@@ -4,7 +4,7 @@ path, the batched variable-projection solver and the Cramér-Rao bound, all on o
 
 The public names are loaded on first use (PEP 562 module ``__getattr__``): ``import sca`` costs
 nothing, and ``sca.estimate`` imports cvxpy, ``sca.estimate_batch`` numba, each only when asked
-(the command line's start-up; DECISIONS.md "Start-up").
+(the command line's start-up; decision 0007-start-up).
 
 Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 """
@@ -18,6 +18,7 @@ _HOME = {
     "BatchEstimate": "batch", "estimate_batch": "batch",
     "Precision": "bound", "precision": "bound",
     "DEFAULT_UNCERTAIN": "budget_defaults",
+    "Design": "protocols", "design": "protocols",
     "PATH_MODEL_DELTA": "pathmodels",
     "FIXABLE": "fitspec", "FREEABLE": "fitspec",
     "MODES": "loop", "Estimator": "loop", "estimate": "loop",

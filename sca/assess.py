@@ -1,7 +1,7 @@
 """Is an estimate trustworthy? Goodness of fit, input sanity, intervals and the verdict.
 
-One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (DECISIONS.md,
-"Trust"):
+One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (decision
+0008-trust-noise-fit-flags):
 
 * **goodness of fit**: ``fit_rms`` = ||M - gain G - s|| / ||M||; with the noise known, chi^2 of
   the whitened residual on ``dof`` = m n - (free C, a_CDOM and any other free nonlinear
@@ -37,8 +37,8 @@ CONFIDENCE = 0.95
 MISFIT_P = 1e-3
 #: A known gain whose likelihood-ratio test against a free one (:func:`sca.batch.scale_test`)
 #: has a p-value below this is a ``scale-mismatch``: one in a hundred false alarms, since a
-#: missed wrong scale is fitted as another water with a confident interval (DECISIONS.md, "A
-#: known gain is tested").
+#: missed wrong scale is fitted as another water with a confident interval (decision
+#: 0008-trust-noise-fit-flags).
 SCALE_P = 0.01
 #: The grey row's white-black contrast must exceed this many standard deviations in at least
 #: one channel, else the chart is ``dark``.

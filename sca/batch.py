@@ -347,6 +347,17 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     Blasinski & Farrell, eqs 15-18; L. Kaufman, BIT 15 (1975) 49-57 (variable projection);
     D. W. Marquardt, J. SIAM 11 (1963) 431-441 (Levenberg-Marquardt); D. J. Venzon &
     S. H. Moolgavkar, Applied Statistics 37 (1988) 87-94 (profile-likelihood intervals).
+
+    Examples
+    --------
+    >>> import numpy as np, forward, sca
+    >>> sims = [forward.simulate_chart(c, 0.1, depth=5, distance=1, seed=s)
+    ...         for s, c in enumerate([0.5, 2.0])]
+    >>> rgb = np.stack([s.rgb for s in sims])
+    >>> sigma = np.stack([s.rgb_sigma for s in sims])
+    >>> est = sca.estimate_batch(rgb, depth=5, distance=1, sigma=sigma)
+    >>> est.chl.shape, est.verdicts["c_490"].tolist()
+    ((2,), ['measured', 'measured'])
     """
     t0 = time.perf_counter()
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)

@@ -8,8 +8,15 @@ information J^T diag(1 / sigma^2) J of the free parameters with the model functi
 Jacobian; the backscatter s_1..s_m is a free parameter (the estimators fit it) and is profiled
 out (:func:`sca.model.profiled_covariance`, the estimators' own covariance). The covariance
 bound is its inverse: the standard deviation of every free parameter (``sd``), the correlation
-of C and a_CDOM and (delta method) the expected RRMSE of the attenuation k (eq 19 on the paper's
-31 bands of 10 nm).
+of C and a_CDOM, (delta method) the expected RRMSE of the attenuation k (eq 19 on the paper's
+31 bands of 10 nm) and the standard deviation of every quantity the estimators derive
+(:mod:`sca.derived`: the path's attenuation coefficient at 443, 490, 555 and 670 nm, a_nw(440),
+K_d(490); ``quantity_sd``), sqrt(grad h^T Sigma grad h) with the bound's covariance Sigma in
+the parameters' own units (C in mg m^-3), as the estimators' intervals use theirs.
+
+The bound does not include the estimators' span over the path models the data cannot tell
+apart (their intervals are the union over the supported models): :func:`sca.design` (:mod:`sca.protocols`)
+predicts it.
 
 ``gain``: 'known' (the exposure is known: data in model units), 'free' (one unknown scalar
 gain: a photograph's exposure) or 'channels' (an unknown gain per channel: a camera whose R:G:B
@@ -42,7 +49,7 @@ from .metrics import RRMSE_BANDS_NM
 from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
                     profiled_information)
 
-__all__ = ["GAINS", "Z95", "Precision", "precision"]
+__all__ = ["GAINS", "Z95", "Precision", "precision", "quantity_sd"]
 
 GAINS = ("known", "free", "channels")
 #: The 97.5 % point of the standard normal (95 % two-sided).
@@ -92,8 +99,22 @@ class Precision:
     limiting : list of str or str
         The source with the largest share of C's variance per condition ('noise' without a
         budget).
+    quantities : dict
+        name -> value of every derived quantity of :data:`sca.derived.QUANTITIES` at the
+        condition (m^-1; a dive's at its photos' median depth and distance, as the joint
+        estimate reports them).
+    quantity_sd : dict
+        name -> its Cramér-Rao standard deviation (m^-1; delta method with the bound's
+        covariance; ``inf`` where the covariance is).
+    fitted : dict
+        A dive's: 'path_model' (the model fitted), 'chl', 'cdom' (its optimum on the
+        noise-free photos: the truth for the water's own model), 'objective' (its chi^2
+        there: 0, or the noncentrality of another model's misfit) and 'converged';
+        ``quantities`` are then at that optimum. {} for single photos.
     chl_rel95, cdom_rel95 : ndarray or float
         (Properties) 1.96 sd / value of C and of a_CDOM.
+    quantity_rel95 : dict
+        (Property) name -> 1.96 sd / value of every derived quantity.
     """
 
     chl: np.ndarray
@@ -112,6 +133,20 @@ class Precision:
     uncertain: dict = field(default_factory=dict)
     budget: dict = field(default_factory=dict)
     limiting: list = field(default_factory=list)
+    quantities: dict = field(default_factory=dict)
+    quantity_sd: dict = field(default_factory=dict)
+    fitted: dict = field(default_factory=dict)
+
+    @property
+    def quantity_rel95(self) -> dict:
+        """name -> 95 % half-width of each derived quantity relative to its value (1.96 sd /
+        value; floats for scalar conditions)."""
+        out = {}
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for k, v in self.quantities.items():
+                r = Z95 * np.asarray(self.quantity_sd[k], float) / np.asarray(v, float)
+                out[k] = float(r) if np.ndim(r) == 0 else r
+        return out
 
     @property
     def chl_rel95(self) -> np.ndarray:
@@ -133,7 +168,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
               reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
               water: Water | None = None, gain: str = "known", fix=None, free=(),
               setup: ChartSetup | None = None, uncertain=None, dive: bool = False,
-              auxiliary=None) -> Precision:
+              auxiliary=None, path_model: str | None = None) -> Precision:
     """The Cramér-Rao bound of C, a_CDOM(440) and any free parameter for every condition.
 
     Parameters
@@ -176,6 +211,12 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         Auxiliary measurements planned (:func:`sca.auxiliary.auxiliary_observations`: 'cdom',
         'secchi', 'kd'; their values are the condition's, their sds as given): their
         information is added (for a dive, once).
+    path_model : str, optional
+        With ``dive=True`` only: the photos (made with the water's own path model) fitted with
+        this path model of :data:`forward.water.PATH_MODELS` instead; the bound is then at
+        its optimum (``fitted``: the values its estimate tends to and its chi^2 on the
+        noise-free photos). What the estimators' span over path models the data cannot tell
+        apart costs (:func:`sca.design` (:mod:`sca.protocols`)). Default: the water's own.
 
     Returns
     -------
@@ -186,14 +227,24 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     ------
     ValueError
         For an unknown ``gain``, a ``fix`` that is not a dict or holds 'chl', negative
-        conditions, a sensor that is not a ``forward.SensorSettings``, or a water whose
-        phytoplankton basis has z > 1.
+        conditions, a sensor that is not a ``forward.SensorSettings``, a water whose
+        phytoplankton basis has z > 1, or a ``path_model`` without ``dive=True``.
 
     References
     ----------
     S. M. Kay, Fundamentals of Statistical Signal Processing: Estimation Theory (1993), ch. 3.
+
+    Examples
+    --------
+    >>> import sca
+    >>> p = sca.precision(2.0, 0.1, depth=5, distance=1)
+    >>> print(f"C: sd {p.chl_sd:.1f} mg m^-3; limited by {p.limiting!r}")
+    C: sd 1.7 mg m^-3; limited by 'patch'
     """
     scalar = all(np.ndim(v) == 0 for v in (chl, cdom, depth, distance))
+    if path_model is not None and not dive:
+        raise ValueError("path_model: the bound under another path model is a dive's "
+                         "(dive=True)")
     if gain not in GAINS:
         raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
     if fix is not None and not isinstance(fix, dict):
@@ -248,7 +299,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     sigma_photon, saturation, _, _ = noise_model(M0, setup, sensor)
     if dive:
         return _dive(chl, cdom, depth, distance, setup, spec.water, uncertain, sigma_photon, s,
-                     gain, fix, auxiliary)
+                     gain, fix, auxiliary, path_model)
     sigma = budget.noise_sd(M0, sigma_photon)
     J = pred.jacobian.reshape(N, m, n, -1)
     if gain == "channels":  # one gain per channel: d M0 / d g_c = M0 in channel c
@@ -266,6 +317,8 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     for dh in _observed(auxiliary, spec.water, params, columns):  # (N, p) whitened rows
         F[:, :dh.shape[1], :dh.shape[1]] += dh[:, :, None] * dh[:, None, :]
     cov = covariance_from_information(F)
+    qv, qsd = quantity_sd(spec.water, {**params, "chl": np.maximum(chl, CHL_DERIVATIVE_FLOOR)},
+                          cov, list(columns) + [None] * (cov.shape[-1] - len(columns)))
     sd_all = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     sd = {nm: sd_all[:, j] for j, nm in enumerate(names)}
     if gain == "free":
@@ -297,7 +350,8 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
                     flags=flags, gain=gain, fixed=fix, sd=sd,
                     uncertain={} if budget.exact else dict(budget.sd), budget=shares,
                     limiting=[limiting_source({k: v[i] for k, v in shares["chl"]["shares"].items()})
-                              if shares.get("chl") else "noise" for i in range(N)])
+                              if shares.get("chl") else "noise" for i in range(N)],
+                    quantities=qv, quantity_sd=qsd)
     if scalar:
         for name in ("chl", "cdom", "depth", "distance", "chl_sd", "cdom_sd", "correlation",
                      "rrmse"):
@@ -309,7 +363,55 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
                            "shares": {a: float(b[0]) for a, b in v["shares"].items()}}
                       for k_, v in shares.items()}
         out.limiting = out.limiting[0]
+        out.quantities = {k_: float(v[0]) for k_, v in qv.items()}
+        out.quantity_sd = {k_: float(v[0]) for k_, v in qsd.items()}
     return out
+
+
+def quantity_sd(water, params, cov, names):
+    """The value and the standard deviation of every derived quantity (:data:`sca.derived.
+    QUANTITIES`) by the delta method: sqrt(grad h^T Sigma grad h).
+
+    Parameters
+    ----------
+    water : forward.Water
+        The water model (its path model gives the path's coefficient).
+    params : dict
+        'chl' (mg m^-3), 'cdom' (m^-1), 'depth' and 'distance' (m) and any water coefficient
+        held at another value than the water's, each (N,).
+    cov : array_like, (N, p, p) or (p, p)
+        The parameters' covariance in their own units (C in mg m^-3).
+    names : sequence of str or None, (p,)
+        The name of each column of ``cov`` (None, or a repeated name such as a per-photo
+        geometry held by the caller, for a column no quantity depends on).
+
+    Returns
+    -------
+    values, sds : dict
+        name -> (N,) arrays (m^-1); the sd is ``inf`` where the covariance is not finite.
+    """
+    from .derived import quantity_values
+
+    cov = np.asarray(cov, float)
+    N = np.size(np.atleast_1d(params["chl"]))
+    cov = np.broadcast_to(cov, (N,) + cov.shape[-2:])
+    finite = np.isfinite(cov).all(axis=(1, 2))
+    cov = np.where(finite[:, None, None], cov, 0.0)
+    counts = {n: list(names).count(n) for n in names if n is not None}
+    wrt = tuple(n for n, k in counts.items() if k == 1)  # a repeated name: held by the caller
+    values, sds = {}, {}
+    with np.errstate(divide="ignore", invalid="ignore"):  # a path of 0 m: no quantity
+        derived = quantity_values(water, params, wrt)
+    for q, (value, derivs) in derived.items():
+        value = np.broadcast_to(np.asarray(value, float), (N,)).copy()
+        grad = np.zeros((N, cov.shape[-1]))
+        for j, n in enumerate(names):
+            if n in wrt and n in derivs:
+                grad[:, j] = derivs[n]
+        var = np.einsum("np,npq,nq->n", grad, cov, grad)
+        values[q] = value
+        sds[q] = np.where(finite, np.sqrt(np.maximum(var, 0.0)), np.inf)
+    return values, sds
 
 
 def _observed(auxiliary, water, params, columns) -> list:
@@ -327,7 +429,7 @@ def _observed(auxiliary, water, params, columns) -> list:
 
 
 def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, gain, fix,
-          auxiliary=None):
+          auxiliary=None, path_model=None):
     """The joint bound of one water from the N photos (:func:`sca.joint.dive_precision`)."""
     from .joint import dive_precision
 
@@ -338,7 +440,7 @@ def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, 
         raise ValueError("dive: one water: chl and cdom must be the same for every photo")
     d = dive_precision(float(chl[0]), float(cdom[0]), depth=depth, distance=distance,
                        sigma=sigma_photon, setup=setup, water=water, uncertain=uncertain,
-                       backscatter=s, auxiliary=auxiliary)
+                       backscatter=s, auxiliary=auxiliary, path_model=path_model)
     flags = ("near-bound-chl",) * bool(Z95 * d["chl_sd"] >= chl[0]) + \
         ("near-bound-cdom",) * bool(Z95 * d["cdom_sd"] >= cdom[0])
     return Precision(chl=float(chl[0]), cdom=float(cdom[0]), depth=depth, distance=distance,
@@ -346,7 +448,11 @@ def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, 
                      rrmse=np.nan, attained=not flags, flags=flags, gain=gain, fixed={},
                      sd={"chl": d["chl_sd"], "cdom": d["cdom_sd"]},
                      uncertain=dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain),
-                     budget={}, limiting="")
+                     budget={}, limiting="", quantities=d["quantities"],
+                     quantity_sd=d["quantity_sd"],
+                     fitted={"path_model": path_model or water.path_model, "chl": d["chl"],
+                             "cdom": d["cdom"], "objective": d["objective"],
+                             "converged": d["converged"]})
 
 
 def _shares(J, M0, columns, gain, free_s, sigma, sigma_photon, prior):

@@ -39,6 +39,7 @@ from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
 from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
+from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .derived import derived_from_fit, verdict
 from .diveproblem import PATCH, DiveProblem
@@ -53,6 +54,7 @@ __all__ = [
     "HETEROGENEITY_ALPHA",
     "JOINT_MAX_ITER",
     "PATCH_CORRELATION",
+    "PATH_FIT_MAX_ITER",
     "JointEstimate",
     "dive_precision",
     "estimate_joint",
@@ -61,11 +63,19 @@ __all__ = [
 #: Level of the heterogeneity test (one water or not) and of each photo's test against the rest
 #: (Bonferroni over the photos).
 HETEROGENEITY_ALPHA = 0.01
-#: Default correlation of the per-patch systematic error between photos: 1, the same chart
-#: (reflectance tolerance and ageing) and the same camera in every photo (DECISIONS.md).
-PATCH_CORRELATION = 1.0
+#: Default correlation of the per-patch systematic error between photos: the chart's share of
+#: the default per-patch variance, (CHART_PATCH / patch)^2 = 0.49. The chart's reflectance
+#: tolerance is the same in every photo; the camera curves' error and the daylight's spectrum
+#: act through the light at the chart, which changes with each photo's path, and are each
+#: photo's own (decision 0054-patch-correlation; 1 before issue 37).
+PATCH_CORRELATION = (CHART_PATCH / DEFAULT_UNCERTAIN["patch"]) ** 2
 #: Levenberg-Marquardt iterations of a joint fit (its tolerance is the package's LM_TOL).
 JOINT_MAX_ITER = 300
+#: Levenberg-Marquardt iterations of another path model's fit to a design's noise-free photos
+#: (:func:`dive_precision`'s ``path_model``): a supported model converges in a few (about 10);
+#: a rejected one may crawl along C = 0 for hundreds, its chi^2 far above
+#: :data:`sca.pathmodels.PATH_MODEL_DELTA` all the way.
+PATH_FIT_MAX_ITER = 60
 #: The largest per-photo relative scatter the joint fit adds beyond the budget (10 %: the
 #: calibration refuses a camera above PATCH_SD_MAX = 3 %; a dive's photos that scatter more
 #: than this are not one measurement).
@@ -195,12 +205,12 @@ def _problem(d: _Dive, groups) -> DiveProblem:
     return prob
 
 
-def _solve(prob: DiveProblem, theta0, hold=None):
+def _solve(prob: DiveProblem, theta0, hold=None, max_iter: int = JOINT_MAX_ITER):
     """The penalised least-squares optimum from ``theta0`` (p,) (``hold``: columns held);
     (theta, f, converged)."""
     f_exact = 1e-30 * np.einsum("ij,ij->", prob.W2 * prob.M, prob.M)
     theta, f, _, code = levenberg_marquardt(
-        prob, np.asarray(theta0, float)[None], max_iter=JOINT_MAX_ITER, tol=LM_TOL,
+        prob, np.asarray(theta0, float)[None], max_iter=max_iter, tol=LM_TOL,
         f_exact=np.array([f_exact]), hold=None if hold is None else np.asarray(hold)[None])
     return theta[0], float(f[0]), bool(code[0] <= 2)
 
@@ -415,8 +425,9 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     path_models : sequence of str, optional
         Path models to compare (default: every candidate where a budget applies).
     patch_correlation : float, optional
-        Correlation of the per-patch systematic error between photos (default 1: the same
-        chart and camera).
+        Correlation of the per-patch systematic error between photos (default
+        :data:`PATCH_CORRELATION`: the chart's part shared, the light's part each photo's own;
+        1: all of it shared, the rule before issue 37).
     start : dict, optional
         Per-photo starting values 'chl', 'cdom', 'gain', 'backscatter' ((N,), (N, m); data
         units); default: each photo's own fit.
@@ -625,7 +636,7 @@ def _heterogeneity(fit, prob, theta, f_joint, names) -> dict:
 # --------------------------------------------------------------------------- the bound
 def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | None = None,
                    uncertain=None, patch_correlation: float = PATCH_CORRELATION,
-                   gain=None, backscatter=None, auxiliary=None) -> dict:
+                   gain=None, backscatter=None, auxiliary=None, path_model=None) -> dict:
     """The Cramér-Rao bound of C and a_CDOM(440) from N photographs of one water.
 
     Parameters
@@ -648,12 +659,32 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     auxiliary : dict, optional
         Auxiliary measurements planned (:func:`sca.auxiliary.auxiliary_observations`; their
         values do not matter, their sds do).
+    path_model : str, optional
+        Fit the noise-free photos (made with ``water``'s own path model) with this path model
+        of :data:`forward.water.PATH_MODELS` instead: the result is then at that model's
+        optimum (the values its estimate tends to) with its covariance there. Default: the
+        water's own (the bound at the truth).
 
     Returns
     -------
     dict
-        'chl_sd', 'cdom_sd' (the bound's standard deviations), 'correlation', 'n_photos'.
+        'chl_sd', 'cdom_sd' (the bound's standard deviations), 'correlation', 'n_photos';
+        'chl', 'cdom' (the truth, or ``path_model``'s optimum) and 'objective' (its chi^2 on
+        the noise-free photos: 0, or the noncentrality of ``path_model``'s misfit), 'converged'
+        (False: that fit stopped after :data:`PATH_FIT_MAX_ITER` iterations);
+        'quantities' and 'quantity_sd' (name -> value and sd of every derived quantity of
+        :mod:`sca.derived` at the photos' median depth and distance, as the joint estimate
+        reports them; :func:`sca.bound.quantity_sd`).
+
+    Raises
+    ------
+    ValueError
+        For an unknown ``path_model``.
     """
+    from forward.water import COEFFICIENT_PARAMS, PATH_MODELS
+
+    from .bound import quantity_sd
+
     depth = np.atleast_1d(np.asarray(depth, float))
     distance = np.atleast_1d(np.asarray(distance, float))
     N = max(depth.size, distance.size)
@@ -671,20 +702,41 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
         {"chl": chl, "cdom": cdom, "depth": depth[i], "distance": distance[i], "gain": gain[i],
          "backscatter": s[i]}, jacobian=False).values.reshape(m, n) for i in range(N)])
     sigma = np.broadcast_to(np.asarray(sigma, float), M0.shape)
-    d = _dive(M0, sigma, setups, water, depth, distance, priors, geo, p_shared, p_indep,
+    if path_model is not None and path_model not in PATH_MODELS:
+        raise ValueError(f"path_model: expected one of {PATH_MODELS}, got {path_model!r}")
+    fitted = water if path_model in (None, water.path_model) else dataclasses.replace(
+        water, path_model=path_model)
+    d = _dive(M0, sigma, setups, fitted, depth, distance, priors, geo, p_shared, p_indep,
               reduce=False, auxiliary=planned(auxiliary, water, {"chl": np.array([chl]),
                                                                  "cdom": np.array([cdom])}))
     prob = _problem(d, np.zeros(N, int))
     theta = _starts(d, prob, {"chl": np.full(N, float(chl)), "cdom": np.full(N, float(cdom))})
+    objective = 0.0
+    converged = True
+    if fitted is not water:  # the other model's optimum on the noise-free photos
+        theta, objective, converged = _solve(prob, theta, max_iter=PATH_FIT_MAX_ITER)
     H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H[0]
     # the covariance of C itself (not u): dC/du on C's row and column
     k, c = int(prob.layout["chl"][0]), int(prob.layout["cdom"][0])
+    e0 = prob.models[0].e0
+    at = {"chl": float(chl_from_u(theta[k], e0)), "cdom": float(theta[c])}
     cov = covariance_from_information(H)
     scale = np.ones(H.shape[0])
-    scale[k] = float(du_chain(chl, prob.models[0].e0))
+    scale[k] = float(du_chain(at["chl"], e0))
     cov = cov * scale[:, None] * scale[None, :]
+    params = {n: np.atleast_1d(np.asarray(v, float))
+              for n, v in prob.params(np.zeros(1, np.int64), theta[None]).items()
+              if n in COEFFICIENT_PARAMS}
+    params.update({"chl": np.array([at["chl"]]), "cdom": np.array([at["cdom"]]),
+                   "depth": np.array([np.median(depth)]),
+                   "distance": np.array([np.median(distance)])})
+    held = [None if n in ("depth", "distance") else n for n in prob.names]  # at the median
+    qv, qsd = quantity_sd(fitted, params, cov, held)
+    out = {**at, "objective": float(objective), "converged": converged, "n_photos": N,
+           "quantities": {q: float(v[0]) for q, v in qv.items()},
+           "quantity_sd": {q: float(v[0]) for q, v in qsd.items()}}
     if not np.all(np.isfinite(cov[[k, c]][:, [k, c]])):  # a direction the data do not determine
-        return {"chl_sd": np.inf, "cdom_sd": np.inf, "correlation": np.nan, "n_photos": N}
+        return {**out, "chl_sd": np.inf, "cdom_sd": np.inf, "correlation": np.nan}
     sd_c, sd_a = float(np.sqrt(cov[k, k])), float(np.sqrt(cov[c, c]))
-    return {"chl_sd": sd_c, "cdom_sd": sd_a, "correlation": float(cov[k, c] / (sd_c * sd_a)),
-            "n_photos": N}
+    return {**out, "chl_sd": sd_c, "cdom_sd": sd_a,
+            "correlation": float(cov[k, c] / (sd_c * sd_a))}

@@ -56,11 +56,11 @@ LM_MU_MIN, LM_MU_MAX = 1e-12, 1e12
 #: A pivot, not the determinant: the determinant of a unit-diagonal matrix of p strongly but
 #: not fatally correlated columns (C with the budget's bio-optical scales, say) falls below any
 #: fixed threshold as p grows, and the diagonal fallback then crawls along the valley and stops
-#: short of the optimum (DECISIONS.md, "The defaults after real water").
+#: short of the optimum (decision 0043-lm-singular-pivot).
 SINGULAR_PIVOT = 1e-12
 #: The relative decrease (and predicted decrease) at which a fit stops (the batch's default
 #: ``tol`` and the one-chart 'lm' mode's; 1e-10 left one flat, almost black chart 1e-9 above the
-#: DPP loop's objective, DECISIONS.md).
+#: DPP loop's objective, decision 0028-batched-solver).
 LM_TOL = 1e-12
 
 

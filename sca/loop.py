@@ -5,7 +5,7 @@ Taylor expansions around x_t (the Jacobian of :meth:`sca.model.ChartModel.predic
 resulting QP (:mod:`sca.subproblem`) is solved, and its solution becomes x_{t+1}; the loop
 repeats until the objective, evaluated with the true nonlinear k, no longer decreases.
 
-Three modes (DECISIONS.md):
+Three modes (decision 0026-loop-modes):
 
 * ``mode="paper"`` -- the literal loop: full Taylor steps, stop at the first step that does not
   decrease the objective (the previous point is returned).
@@ -97,7 +97,7 @@ GRADIENT_VANISHES = 1e-300
 #: The start grid's objective is evaluated in blocks of at most about this many (point,
 #: wavelength) values (~0.5 MB per temporary array), so that a block's temporaries stay in a
 #: core's L2 cache: at 1 nm the 513-point grid in one piece spent ~1.3 ms more per fit moving
-#: memory (DECISIONS.md, "The start grid in blocks"). The blocks change a point's value by
+#: memory (decision 0025-start-point). The blocks change a point's value by
 #: rounding at most (BLAS's kernel for a block's last rows) and not the best point.
 GRID_BLOCK_VALUES = 60_000
 #: ... and of at least this many points: :func:`forward.WaterTerms.path_coefficient` adds the
@@ -771,8 +771,8 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     mode : {'safeguarded', 'paper', 'lm'}
         The safeguarded loop (default), the paper's literal loop, or 'lm': the batch's engine
         on this chart (variable projection and Levenberg-Marquardt, :mod:`sca.lm`; no cvxpy),
-        which reaches the loop's optimum wherever the loop converges (DECISIONS.md,
-        "Start-up"); the verdict, intervals and budget are the same ``assess``'s.
+        which reaches the loop's optimum wherever the loop converges (decision
+        0007-start-up); the verdict, intervals and budget are the same ``assess``'s.
     max_iter : int
         Maximum number of convex subproblems (Levenberg-Marquardt iterations with 'lm').
     tol : float
@@ -836,6 +836,17 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
     Optimization, 2nd ed., Springer (2006), Algorithm 4.1 (the trust region of
     ``mode='safeguarded'``); D. J. Venzon & S. H. Moolgavkar, "A method for computing
     profile-likelihood-based confidence intervals", Applied Statistics 37 (1988) 87-94.
+
+    Examples
+    --------
+    >>> import forward, sca
+    >>> sim = forward.simulate_chart(2.0, 0.1, depth=5, distance=1, seed=0)
+    >>> est = sca.estimate(sim.rgb, depth=5, distance=1, sigma=sim.rgb_sigma)
+    >>> est.verdicts["c_490"], est.verdicts["chl"]
+    ('measured', 'upper bound')
+    >>> lo, hi = est.quantity_intervals["c_490"]
+    >>> print(f"c(490) = {est.quantities['c_490']:.2f} m^-1, 95 % [{lo:.2f}, {hi:.2f}]")
+    c(490) = 0.13 m^-1, 95 % [0.12, 0.15]
     """
     kw = dict(depth=depth, distance=distance, camera=camera, illuminant=illuminant,
               reflectances=reflectances, wavelengths=wavelengths, basis=basis, fix=fix,

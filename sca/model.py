@@ -34,8 +34,30 @@ from .projection import linear_part_stats
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
+           "check_names", "curve_shift_derivative", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
            "du_chain"]
+
+def curve_shift_derivative(P, wavelengths) -> np.ndarray:
+    """d P(lambda - delta) / d delta at delta = 0, i.e. -dP/dlambda (q, m): the camera curves'
+    shift to first order, P(lambda - delta) ~ P + delta (-dP/dlambda) (the budget's
+    ``camera_shift``; the one place this term is computed).
+
+    Parameters
+    ----------
+    P : array_like, (q, m)
+        Sensitivities on ``wavelengths``.
+    wavelengths : array_like, (q,)
+        Their grid, nm.
+
+    Returns
+    -------
+    numpy.ndarray, (q, m)
+        -dP/dlambda, per nm (zeros on a one-node grid).
+    """
+    P = np.asarray(P, float)
+    wl = np.asarray(wavelengths, float)
+    return -np.gradient(P, wl, axis=0) if wl.size > 1 else 0 * P
+
 
 #: Geometry of the path (eqs 3, 14), m.
 GEOMETRY = ("depth", "distance")
@@ -60,7 +82,7 @@ SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
 PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA + LIGHT
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
-#: cvxpy loop: both are infinite at C = 0 (DECISIONS.md).
+#: cvxpy loop: both are infinite at C = 0 (decision 0024-sca-loop).
 CHL_DERIVATIVE_FLOOR = 1e-6
 #: Profile upper ends beyond these are open (``inf``): C in mg m^-3, a_CDOM(440) in m^-1 (far
 #: beyond natural waters: Mobley 1994 lists C up to ~100, a_CDOM(440) up to ~10), lengths in m.
@@ -387,7 +409,7 @@ class ChartModel:
             model, factor = self._dt_source
             return model.Dt / factor
         P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
-        dP = -np.gradient(P, self.wavelengths, axis=0) if self.wavelengths.size > 1 else 0 * P
+        dP = curve_shift_derivative(P, self.wavelengths)
         return np.ascontiguousarray(
             (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
 

@@ -301,18 +301,29 @@ class Problem:
 
     def _observe(self, obs: Observation, idx, params, chain, ev: Evaluation, grad: bool):
         """An auxiliary measurement's term ((h - y) / sd)^2, its half gradient and
-        Gauss-Newton matrix, added to ``ev`` (units without a measurement add nothing)."""
+        Gauss-Newton matrix, added to ``ev`` (units without a measurement add nothing).
+
+        Where a unit holds G waters (a dive fitted with a (C, a_CDOM) per group of photos:
+        'chl' and 'cdom' repeat G times), h is (k, G) and the measurement is of each of them:
+        one term per group, its derivatives on that group's columns (a name of one column,
+        a shared nuisance, takes every group's)."""
         y, sd = obs.value[idx], obs.sd[idx]
         have = np.isfinite(y)
         if not have.any():
             return
+        k = len(idx)
         h, dh = obs.function(params, self.free if grad else ())
-        r = np.where(have, (np.asarray(h, float) - y) / np.where(have, sd, 1.0), 0.0)
-        ev.f = ev.f + r * r
+        h = np.asarray(h, float).reshape(k, -1)  # (k, G)
+        r = np.where(have[:, None], (h - y[:, None]) / np.where(have, sd, 1.0)[:, None], 0.0)
+        ev.f = ev.f + np.einsum("kg,kg->k", r, r)
         if grad:
-            J = np.zeros((len(idx), len(self.names)))
-            for j, n in enumerate(self.names):
-                if n in dh:
-                    J[:, j] = np.where(have, np.asarray(dh[n], float) * chain[:, j] / sd, 0.0)
-            ev.g = ev.g + J * r[:, None]
-            ev.H = ev.H + J[:, :, None] * J[:, None, :]
+            J = np.zeros((k, h.shape[1], len(self.names)))
+            G = h.shape[1]
+            for n in dh:
+                cols = self.columns(n)
+                d = np.broadcast_to(np.asarray(dh[n], float).reshape(k, -1), h.shape)
+                for g in range(G):
+                    for j in ([cols[g]] if G > 1 and len(cols) == G else cols):
+                        J[:, g, j] = np.where(have, d[:, g] * chain[:, j] / sd, 0.0)
+            ev.g = ev.g + np.einsum("kgp,kg->kp", J, r)
+            ev.H = ev.H + np.einsum("kgp,kgq->kpq", J, J)

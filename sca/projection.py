@@ -118,8 +118,9 @@ _linear_serial, _linear_many = twins(_linear_all)
 #: 'arcp' or 'nsz': with them the compiler may reorder a sum or replace a division as it sees
 #: fit, and it saw fit differently when a kernel and its callees were compiled in one process
 #: than when they were loaded from numba's cache, so the same chart gave results differing in
-#: the last bits between a process's first run and the next (DECISIONS.md, "The batched
-#: solver"). Every sum is therefore accumulated in the order the source writes it; the
+#: the last bits between a process's first run and the next (decision
+#: 0029-deterministic-compiled-sums). Every sum is therefore accumulated in the order the source
+#: writes it; the
 #: Gauss-Newton matrix's sums over a chart's values (one per pair of columns) keep four
 #: partial sums, the others (per channel, and the objective's) one. Not 'nnan'/'ninf': a
 #: non-finite value compares as IEEE says.

@@ -17,7 +17,7 @@ The rule is **certified twice**: on independent validation snapshots when it is 
 ``error``, the largest relative error; ``tests/test_quadrature.py`` holds it below
 :data:`CERTIFIED_ERROR`), and at every fit's optimum by the estimators, which compare the reduced
 prediction with the full grid's and refit on the full grid where they differ by more than
-:data:`CERTIFY_SIGMA` of a patch's standard deviation (DECISIONS.md, "Spectral quadrature").
+:data:`CERTIFY_SIGMA` of a patch's standard deviation (decision 0003-spectral-quadrature).
 
 A rule depends only on the setup's numbers (P, i, R, grid), the paper's water and this module's
 settings: it is cached by their content (never by object identity), in-process and on disk
@@ -49,7 +49,8 @@ __all__ = ["CACHE_ENV", "CERTIFIED_ERROR", "CERTIFY_SIGMA", "QUADRATURE_STEP_NM"
            "quadrature_rule", "reduction_error"]
 
 #: Spacing of the quadrature's nodes, nm (every 5th point of the 1 nm grid). Measured on
-#: validation snapshots of :data:`SNAPSHOT_DOMAIN` (DECISIONS.md): 10 nm leaves 1e-2 relative
+#: validation snapshots of :data:`SNAPSHOT_DOMAIN` (decision 0003-spectral-quadrature): 10 nm
+#: leaves 1e-2 relative
 #: error, 6 nm 2.5e-4, 5 nm 5e-5, 3 nm 5e-6.
 QUADRATURE_STEP_NM = 5.0
 #: Snapshots of k per path model for the fit of the weights (and as many for validation).

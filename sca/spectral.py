@@ -15,8 +15,9 @@ residual of each band, no linear unknowns), so :func:`fit_spectrum` fits C and a
 the package's one Levenberg-Marquardt (:mod:`sca.lm`) and its profile-likelihood intervals
 (:mod:`sca.intervals`), the nuisance parameters carrying Gaussian priors as in :mod:`sca.budget`.
 
-The error model of one spectrum, fixed before any comparison with in-situ data (DECISIONS.md,
-"Real water"): independent relative errors per band, sqrt(sigma_rel^2 + model_error^2), with
+The error model of one spectrum, fixed before any comparison with in-situ data (decision
+0041-nomad-kd-evidence): independent relative errors per band, sqrt(sigma_rel^2 + model_error^2),
+with
 sigma_rel = 5 % (a radiometric K_d from a profile) and ``model_error`` = 15 % (the accuracy of
 K_d ~ (a + b_b) / mu_d against radiative transfer, the middle of the 10-20 % range of Gordon
 1989 and Lee et al. 2005), and the nuisances: ``cdom_slope`` and ``nap_slope`` with the

@@ -14,7 +14,7 @@ Cost: the default run keeps the attacks that fail before anything is measured an
 reuse one dive measured once for the whole run (:func:`measured`: restored in its own place for
 each test, one test at a time across xdist workers); the attacks that measure photos of their
 own, interrupt or kill runs, or start clusters are marked ``adversarial`` (``make
-test-adversarial``; the default run deselects them).
+test-adversarial``; ``make test`` deselects them).
 """
 
 import contextlib
@@ -873,7 +873,7 @@ def test_ctrl_c_mid_run_exits_130_with_a_summary_and_the_rerun_finishes(tmp_path
 @pytest.mark.xfail(strict=False, reason="a Ctrl-C in CPython's own start (its io and site "
                    "imports, the first ~20-40 ms, more on a loaded machine) prints CPython's "
                    "KeyboardInterrupt traceback before any of uw3p's code runs; uw3p's own "
-                   "imports and argument parsing are covered (the console script uw3p:console: "
+                   "imports and argument parsing are covered (the console script uw3p.console:main: "
                    "'uw3p: interrupted', exit 130). Not strict: whether a delay lands in "
                    "CPython's window depends on the machine's speed and load")
 @adversarial

@@ -82,7 +82,7 @@ def test_estimate_round_trip_and_json(tmp_path):
     # Exactly 0: the file has sd columns (noise known) and is noise-free, and at C = 2,
     # a_CDOM = 0.3 the paper's literal loop reaches the exact fit (4 full Taylor steps), so the
     # estimate converges with no flags and is reliable. (Paper mode exits 1 only where its full
-    # step overshoots, e.g. C = 1, a_CDOM = 0.1: DECISIONS.md, "Paper mode vs safeguarded mode".)
+    # step overshoots, e.g. C = 1, a_CDOM = 0.1: decision 0026-loop-modes.)
     assert code == 0, out + err
     assert "chl (C)" in out and "budget of C" in out
     assert "reliable         True" in out and "mode paper" in out

@@ -111,6 +111,7 @@ def test_two_basis_functions_with_a_free_slope_keep_eq16_and_eq17():
 _NEW_UNKNOWN = r'''
 import dataclasses, numpy as np
 import forward.water as fw
+import forward.water.functions, forward.water.grid, forward.water.model, forward.water.terms
 
 # a developer adds an unknown to forward.Water: a field, its term of c(x) beside its
 # derivative, and its name among the coefficients; nothing else is edited
@@ -122,10 +123,18 @@ def _extra_term(x, wrt):
     flat = np.ones_like(x.terms.wavelengths)
     return [(x.get("b_extra"), flat)], ({"b_extra": [(1.0, flat)]} if "b_extra" in wrt else {})
 
-fw.COEFFICIENT_PARAMS = fw.COEFFICIENT_PARAMS + ("b_extra",)
+# what editing the definitions does: every module of forward.water that binds a name sees
+# the new one (the field in model.py, the term and its name in terms.py)
+def _define(name, value):
+    for mod in (fw, fw.model, fw.terms, fw.grid, fw.functions):
+        if hasattr(mod, name):
+            setattr(mod, name, value)
+
+_define("COEFFICIENT_PARAMS", fw.COEFFICIENT_PARAMS + ("b_extra",))
 fw.PATH_TERMS["beam"] = fw.PATH_TERMS["beam"] + (_extra_term,)
 fw.PATH_LEGS["beam"] = ((fw.PATH_TERMS["beam"], "path"),)
-fw.Water, fw.PAPER_WATER = Water, Water()
+_define("Water", Water)
+_define("PAPER_WATER", Water())
 
 import forward, sca
 from sca.joint import estimate_joint

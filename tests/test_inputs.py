@@ -579,3 +579,25 @@ def test_the_short_camera_calibrates_and_measures_from_the_command_line(tmp_path
     assert code in (0, 1), err
     assert "//" not in out and f"{tmp_path / 'res' / 'measurement.json'}" in out
     assert "taken as 0 from 680 nm" in err
+
+
+def test_input_errors_carry_the_arguments_name():
+    """Bad input is a forward.InputError: a ValueError with the argument's name and the reason
+    as attributes (the command line names its option from them, not from the message), and it
+    survives a trip to another process."""
+    import pickle
+
+    import forward
+    from uw3p.common import option_message
+
+    with pytest.raises(forward.InputError) as info:
+        forward.simulate_chart(1.0, 0.1, depth=-2, distance=1)
+    exc = info.value
+    assert isinstance(exc, ValueError) and exc.argument == "depth"
+    assert str(exc) == f"depth: {exc.reason}" and "must be >= 0" in exc.reason
+    back = pickle.loads(pickle.dumps(exc))
+    assert (type(back), back.argument, back.reason) == (type(exc), exc.argument, exc.reason)
+    assert option_message(exc, {"depth": "--depth"}) == f"--depth: {exc.reason}"
+    # the name comes from the attribute even where the reason holds a colon
+    odd = forward.InputError("max_iter", "expected a count: got 'x'")
+    assert option_message(odd, {"max_iter": "--max-iter"}) == "--max-iter: expected a count: got 'x'"

@@ -212,9 +212,9 @@ def test_linear_tiff_input(tmp_path, files, corners, profile):
                         profile=profile)
     assert m.photo.kind == "rgb"
     # demosaiced pixels are correlated, so the standard errors from the pixel spread are
-    # optimistic; the estimate must still hold the truth or not claim to
-    e = m.estimate
-    assert (_inside(e.chl_ci, 2.0) and _inside(e.cdom_ci, 0.1)) or not m.reliable
+    # optimistic: the fit's chi^2 says so, and the photo is not called reliable (never a
+    # confident answer on standard errors that are too small)
+    assert not m.reliable and "misfit" in m.flags, m.flags
     # with the exact model (photon noise only) the point estimate is close too
     x = measure.measure(path, corners=corners, depth=UW["depth"], distance=UW["distance"],
                         profile=profile, uncertain={}).estimate

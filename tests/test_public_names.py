@@ -1,5 +1,6 @@
 """Every public name the documents and the code use exists (issue 35): the ``package.name``
-references in the Markdown documents' code (README.md, DECISIONS.md and the reports), the
+references in the Markdown documents' code (README.md, CHANGELOG.md, the reports and the
+documentation site's pages, the decision records among them), the
 ``package.name`` attributes the code itself reads from a package it imported, and each
 package's ``__all__`` with its lazy exports (``_HOME``)."""
 
@@ -66,7 +67,10 @@ def _problems(pairs):
 
 
 def test_every_name_the_documents_use_exists():
-    pairs = [(f"{path.name}:{line}", name) for path in sorted(ROOT.glob("*.md"))
+    docs = [p for p in sorted((ROOT / "docs").rglob("*.md")) if "_build" not in p.parts
+            and p.parts[len(ROOT.parts) + 1] not in ("gallery", "reports", "generated")]
+    pairs = [(f"{path.relative_to(ROOT)}:{line}", name)
+             for path in sorted(ROOT.glob("*.md")) + docs
              for line, name in _documented_names(path.read_text(encoding="utf-8"))]
     assert len({name for _, name in pairs}) > 100  # the parser found the documents' names
     problems = _problems(pairs)

@@ -255,7 +255,7 @@ def test_start_grid_blocks_change_only_rounding(monkeypatch):
     # the start grid's objective is evaluated in cache-sized blocks (sca.loop.GRID_BLOCK_VALUES,
     # at least GRID_BLOCK_MIN_POINTS points each): every block size gives the numbers of the
     # grid in one piece, to BLAS's rounding, and the same best point (the start)
-    from forward.water import _FEW_CHARTS
+    from forward.water.terms import _FEW_CHARTS
     assert sca.loop.GRID_BLOCK_MIN_POINTS >= _FEW_CHARTS  # below it the terms add another way
     sim = forward.simulate_chart(2.0, 0.3, 10.0, 3.0, seed=4)
     chl, cdom = (v.ravel() for v in np.meshgrid(sca.loop.INIT_CHL, sca.loop.INIT_CDOM,

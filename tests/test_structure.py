@@ -104,8 +104,13 @@ def test_layers_import_only_downwards_and_no_private_modules():
 
 
 def test_console_script_is_above_forward():
-    text = (ROOT / "pyproject.toml").read_text()
-    assert 'uw3p = "uw3p:console"' in text  # uw3p.cli.main behind a quiet Ctrl-C
+    import tomllib
+
+    scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
+    assert scripts == {"uw3p": "uw3p.console:main"}  # uw3p.cli.main behind a quiet Ctrl-C
+    module, _, func = scripts["uw3p"].partition(":")
+    assert callable(getattr(importlib.import_module(module), func))
+    assert module.split(".")[0] not in ("forward", "sca", "measure")  # the top layer
     assert not (ROOT / "forward" / "cli.py").exists()
 
 
@@ -208,7 +213,7 @@ def test_results_do_not_depend_on_whether_numbas_cache_was_warm(tmp_path):
     them too would add half a minute to ``make test``. With
     reassociation among the kernels' fast-math flags they did not: the compiler ordered the
     sums differently when it compiled a kernel with its callees than in the code it cached
-    (DECISIONS.md, "The batched solver")."""
+    (decision 0029-deterministic-compiled-sums)."""
     import os
 
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"), OPENBLAS_NUM_THREADS="1")
@@ -216,3 +221,102 @@ def test_results_do_not_depend_on_whether_numbas_cache_was_warm(tmp_path):
                            capture_output=True, text=True).stdout for _ in range(2)]
     assert any((tmp_path / "numba").rglob("*.nbi")), "the first run cached nothing"
     assert runs[0] == runs[1]
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _project_imports(path: Path, modules: set, top_level_only: bool = False) -> set:
+    """The project modules a file imports, anywhere in it (functions included) or at its top
+    level only, never under ``if TYPE_CHECKING:`` (annotations only)."""
+    me = _module_name(path)
+    package = me if path.name == "__init__.py" else me.rpartition(".")[0]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    skip = {id(n) for node in ast.walk(tree) if isinstance(node, ast.If)
+            and "TYPE_CHECKING" in ast.unparse(node.test) for n in ast.walk(node)}
+    found = set()
+    nodes = tree.body if top_level_only else ast.walk(tree)
+    for node in nodes:
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name in modules}
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[:len(package.split(".")) - (node.level - 1)]
+                base = ".".join(up + ([node.module] if node.module else []))
+            for a in node.names:
+                full = f"{base}.{a.name}"
+                found.add(full if full in modules else base)
+    return (found & modules) - {me}
+
+
+#: Circles of imports made by imports inside functions (each module still imports at load time
+#: only downwards): known debts, listed so that a new circle fails. ``forward.water.model``'s
+#: ``Water.on_grid`` builds its evaluator from ``forward.water.grid``, which is built on the
+#: model; the others are to be cut (issue 40).
+KNOWN_CIRCLES = {
+    frozenset({"forward.water.model", "forward.water.grid"}),
+    frozenset({"sca.model", "sca.quadrature"}),
+    frozenset({"sca.batch", "sca.pathmodels"}),
+    frozenset({"sca.bound", "sca.joint"}),
+    frozenset({"experiments.batch_profile", "experiments.benchmark"}),
+    frozenset({"experiments.batch_profile", "experiments.benchmark",
+               "experiments.benchmark_report"}),
+    frozenset({"experiments.benchmark", "experiments.benchmark_report",
+               "experiments.quadrature_check"}),
+    frozenset({"experiments.stopwatch", "experiments.compare_commits"}),
+    frozenset({"experiments.batch_profile", "experiments.benchmark",
+               "experiments.joint_bench"}),
+    frozenset({"measure.correct", "measure.measurement", "measure.correct_uncertainty"}),
+    frozenset({"measure.correct", "measure.measurement", "measure.detect", "measure.output"}),
+    frozenset({"measure.output", "measure.correct_output"}),
+    frozenset({"experiments.realwater.nomad", "experiments.realwater.empirical",
+               "experiments.realwater.biooptical"}),
+    frozenset({"experiments.realwater.nomad", "experiments.realwater.empirical"}),
+}
+
+
+def _graph(top_level_only: bool):
+    files = {_module_name(p): p for pkg in LAYERS for p in (ROOT / pkg).rglob("*.py")}
+    modules = set(files)
+    return {m: _project_imports(p, modules, top_level_only) for m, p in files.items()}
+
+
+def _circles(graph) -> dict:
+    """Each circle of ``graph`` found by a depth-first walk: frozenset -> 'a -> b -> a'."""
+    circles = {}
+
+    def walk(node, path):
+        for nxt in sorted(graph[node]):
+            if nxt in path:
+                circle = path[path.index(nxt):]
+                circles.setdefault(frozenset(circle), " -> ".join(circle + [nxt]))
+            elif nxt not in done:
+                walk(nxt, path + [nxt])
+        done.add(node)
+
+    done = set()
+    for m in sorted(graph):
+        if m not in done:
+            walk(m, [m])
+    return circles
+
+
+def test_no_module_imports_itself_in_a_circle_at_load_time():
+    """No circle of the imports a module makes when it is loaded (its top level, not under
+    ``if TYPE_CHECKING:``): every file's dependencies run one way (issue 40)."""
+    circles = _circles(_graph(top_level_only=True))
+    assert not circles, "\n".join(circles.values())
+
+
+def test_no_new_circle_through_imports_inside_functions():
+    """Counting the imports inside functions too, the only circles are the known ones
+    (:data:`KNOWN_CIRCLES`); a cut one must leave the list (so the list stays true)."""
+    circles = _circles(_graph(top_level_only=False))
+    new = [text for key, text in circles.items() if key not in KNOWN_CIRCLES]
+    assert not new, "\n".join(new)
+    assert not KNOWN_CIRCLES - set(circles), sorted(map(sorted, KNOWN_CIRCLES - set(circles)))

@@ -4,18 +4,19 @@ Layers, each importing only those below it: ``forward`` (physics, sensor, render
 ``sca`` (estimators) <- ``experiments`` (figures, benchmarks) and ``uw3p`` (the ``uw3p``
 command).
 
-Modules: ``cli`` (``main``, the console entry point, and ``build_parser``), one ``cmd_<name>``
+Modules: ``console`` (``main``, the console script: ``cli.main`` behind a quiet Ctrl-C), ``cli``
+(``main``, the command, and ``build_parser``), one ``cmd_<name>``
 module per subcommand (``simulate``, ``estimate``, ``calibrate``, ``measure``, ``design``,
 ``figures``, ``bench``; each with ``add_parser`` and ``run``), ``common`` (exit codes, shared
 options and output helpers) and ``patchfile`` (the patch-value CSV format).
 """
 
-__all__ = ["__version__", "console"]
+__all__ = ["__version__"]
 
 
 def __getattr__(name):
     """``__version__``, looked up when first asked for (importing this package stays instant:
-    the console script's Ctrl-C handling starts at once)."""
+    the console script's Ctrl-C handling, :mod:`uw3p.console`, starts at once)."""
     if name != "__version__":
         raise AttributeError(f"module 'uw3p' has no attribute {name!r}")
     from importlib import metadata
@@ -27,23 +28,3 @@ def __getattr__(name):
     globals()["__version__"] = version
     return version
 
-
-def console() -> int:
-    """The ``uw3p`` console script: :func:`uw3p.cli.main`, with a Ctrl-C while Python imports
-    the command's modules or parses its arguments ending as one during the command does
-    (``uw3p: interrupted``, exit status 130), not in a traceback.
-
-    Returns
-    -------
-    int
-        The exit status.
-    """
-    import sys
-
-    try:
-        from .cli import main
-
-        return main()
-    except KeyboardInterrupt:
-        sys.stderr.write("uw3p: interrupted\n")
-        return 130

@@ -3,7 +3,7 @@
     uw3p simulate --chl 1 --cdom 0.1 --depth 10 --distance 5 [--out sim.json|m.csv]
     uw3p estimate m.csv --depth 10 --distance 5 [--json] [--attenuation k.csv] [--gain free]
     uw3p estimate --batch charts.csv --distance 5 [--json] [--attenuation k.csv]
-    uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--camera ...]
+    uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%] [--plan dive.csv]
     uw3p calibrate AIR.dng --corners "x1,y1 x2,y2 x3,y3 x4,y4" --out profile.json
     uw3p measure UW.dng --profile profile.json --depth 5 --distance 1.5 --corners "..." --out DIR
     uw3p correct PHOTO.dng --water DIR/measurement.json --range map.tif --out CORRECTED
@@ -12,8 +12,9 @@
     uw3p --version
 
 Exit status: 0 success (``estimate``, ``measure``: every estimate is reliable; ``calibrate``: the
-profile fits; ``design``: C measurable to ±30 % at 95 %), 1 an estimate is not reliable or did not converge (its flags say why; ``design``:
-C not measurable to ±30 %), 2 bad input (the message names the argument
+profile fits; ``design``: a protocol meets every target, by default C to ±30 % at 95 %), 1 an
+estimate is not reliable or did not converge (its flags say why; ``design``: no protocol
+searched meets the targets), 2 bad input (the message names the argument
 or file; an unknown option or subcommand with the closest valid one), 130 interrupted.
 ``estimate`` needs the noise (``red_sd,green_sd,blue_sd`` columns, as
 ``simulate`` writes them) to call an estimate reliable.
@@ -168,7 +169,7 @@ RENAMES = {"illuminance_lux": "--lux", "exposure_mode": "--exposure",
 def _message(args, exc) -> str:
     """The error message of ``exc`` in the command's terms (option names, the grid hint)."""
     options = getattr(args, "option_names", {})
-    msg = option_message(str(exc), options, RENAMES)
+    msg = option_message(exc, options, RENAMES)
     if "use a grid inside the data" in msg:
         msg += (" with --wl-min/--wl-max" if "wl_min" in options else
                 f" (uw3p {args.command} uses 400-700 nm: give curves that cover it, or that fall "

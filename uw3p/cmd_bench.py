@@ -65,7 +65,7 @@ def run(args, out, err) -> int:
     """
     import subprocess
 
-    # one BLAS thread (see the Makefile and DECISIONS.md); set before numpy is imported, so the
+    # one BLAS thread (see the Makefile); set before numpy is imported, so the
     # benchmark runs in its own process
     env = dict(os.environ)
     env.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -1,10 +1,22 @@
-"""``uw3p design``: how precisely can this camera measure C and CDOM here?
+"""``uw3p design``: which dive measures the water to the precision I need?
 
-    uw3p design --depth 15 --distance 1 --chl 1 --cdom 0.1 [--lux 20000] [--gain free]
-                [--camera ...]
+    uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%]
+                [--target a_CDOM=10%] [--target c=5%] [--lux 20000] [--camera ...]
+                [--sample-sd 0.0025] [--secchi-sd M] [--no-auxiliary] [--max-photos 12]
+                [--camera-only] [--plan dive.csv]
 
-The Cramer-Rao bound of the chart model (``sca.precision``), said in words with a verdict.
-Exit status 0 when C is measurable to +-30 % at 95 % (:data:`DESIGN_GOOD`), 1 when it is not.
+A thin wrapper of :func:`sca.design` (:mod:`sca.protocols`): for a guessed water and the depths
+and distances a dive can use, the cheapest protocol (photos x depths x distances, with or
+without a water sample's a_CDOM(440) or a Secchi depth) whose predicted 95 % half-widths meet
+every target, what one photo gives, and where none does, the best protocol and what limits it.
+Predictions use the default uncertainty budget; ``--camera-only`` gives the camera's own limit
+(photon and read noise only), labelled as such. The advice ends with how to follow it: what to
+photograph and measure on the dive and the ``uw3p measure`` command that fits it (a dive: its
+folder, the metadata CSV ``--plan`` writes, ``--joint``; the auxiliary measurement as
+``--cdom-sample`` or ``--secchi``).
+
+Exit status: 0 when a protocol meets every target, 1 when none does, 2 for bad input (the
+message names the option).
 """
 
 from __future__ import annotations
@@ -15,15 +27,28 @@ from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_o
                      budget_text, camera_note, check_spectra_args, uncertain_from_args,
                      water_from_args, wavelengths_from_args)
 
-__all__ = ["NAME", "BUFFERED", "DESIGN_GOOD", "DESIGN_COARSE", "add_parser", "run"]
+__all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TARGET_NAMES",
+           "add_parser", "follow", "parse_target", "run", "write_plan"]
 
 #: The subcommand's name.
 NAME = "design"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: A measurement is "reliable" to the design tool when the 95 % half-width of C is at most
-#: this fraction of C, and "coarse" up to DESIGN_COARSE.
-DESIGN_GOOD, DESIGN_COARSE = 0.30, 1.00
+#: The target without ``--target``: C to +-30 % at 95 % (decision 0012-precision-bound).
+DEFAULT_TARGET = "C=30%"
+#: Relative precisions above this are said as "more than" it (digits there mean nothing).
+SAY_MAX = 10.0
+#: ``--target`` names -> :data:`sca.protocols.TARGETS` names ('C' is C, 'c' the attenuation
+#: coefficient; the others in any case; the Python names are accepted too).
+TARGET_NAMES = {"c": "c", "chl": "chl", "a_cdom": "cdom", "cdom": "cdom",
+                "c443": "c_443", "c490": "c_490", "c555": "c_555", "c670": "c_670",
+                "a_nw440": "a_nw_440", "a_nw": "a_nw_440", "kd490": "kd_490", "kd": "kd_490"}
+#: Columns of the metadata CSV ``--plan`` writes (:data:`measure.dive.metadata.METADATA_COLUMNS`).
+PLAN_COLUMNS = ("image", "depth_m", "distance_m")
+#: How each target is named in the output.
+LABELS = {"chl": "C", "cdom": "a_CDOM(440)", "c": "c (443-670 nm)", "c_443": "c(443)",
+          "c_490": "c(490)", "c_555": "c(555)", "c_670": "c(670)", "a_nw_440": "a_nw(440)",
+          "kd_490": "K_d(490)"}
 
 
 def add_parser(sub):
@@ -39,78 +64,238 @@ def add_parser(sub):
     argparse.ArgumentParser
         The subcommand's parser, its ``func`` default set to :func:`run`.
     """
-    p = sub.add_parser(NAME, help="how precisely can this camera measure C and CDOM here? "
-                                  "(the Cramer-Rao bound, sca.precision)")
+    p = sub.add_parser(NAME, help="which dive measures the water to the precision I need? "
+                                  "(photos x depths x distances, with or without a water "
+                                  "sample or a Secchi depth; sca.design)")
     p.add_argument("--chl", type=float, required=True,
-                   help="expected chlorophyll C, mg m^-3 (> 0: the precision is relative to it)")
-    p.add_argument("--cdom", type=float, required=True, help="expected a_CDOM(440), m^-1")
-    p.add_argument("--depth", type=float, required=True, help="chart depth, m")
-    p.add_argument("--distance", type=float, required=True, help="camera-to-chart distance, m")
-    p.add_argument("--lux", type=float, default=20000.0, help="surface illuminance, lx (default 20000)")
+                   help="expected chlorophyll C, mg m^-3 (> 0: the targets are relative to it)")
+    p.add_argument("--cdom", type=float, required=True,
+                   help="expected a_CDOM(440), m^-1 (> 0)")
+    p.add_argument("--depth", type=float, nargs="+", required=True, metavar="M",
+                   help="the chart depth, or the shallowest and deepest the dive can use, m")
+    p.add_argument("--distance", type=float, nargs="+", required=True, metavar="M",
+                   help="the camera-to-chart distance, or two distances the dive can use, m")
+    p.add_argument("--target", action="append", default=[], metavar="NAME=PCT",
+                   help="a 95 %% half-width to reach, in %% of the value: C, a_CDOM, c (the "
+                        "path's attenuation coefficient at 443, 490, 555 and 670 nm), c443, "
+                        "c490, c555, c670, a_nw440, kd490; repeatable (default "
+                        f"{DEFAULT_TARGET.replace('%', '%%')})")
+    p.add_argument("--max-photos", type=int, default=12, metavar="N",
+                   help="most photos of a protocol (default 12)")
+    p.add_argument("--sample-sd", type=float, default=None, metavar="SD",
+                   help="sd of a water sample's a_CDOM(440), m^-1 (default 0.0025)")
+    p.add_argument("--secchi-sd", type=float, default=None, metavar="SD",
+                   help="sd of a Secchi reading, m (default 10 %% of the depth the water "
+                        "predicts; the relation's own 20 %% scatter is added)")
+    p.add_argument("--no-auxiliary", action="store_true",
+                   help="photos only: no water sample, no Secchi depth")
+    p.add_argument("--camera-only", action="store_true",
+                   help="the camera's own limit: photon and read noise only, nothing else "
+                        "uncertain (the same as --exact; not what a real dive gets)")
+    p.add_argument("--lux", type=float, default=20000.0,
+                   help="surface illuminance, lx (default 20000)")
     p.add_argument("--exposure", default="capped", choices=["capped", "iset"],
                    help="auto-exposure model (default capped at 1/30 s)")
     p.add_argument("--gain", default="free", choices=["known", "free", "channels"],
-                   help="exposure known, unknown (default: a photograph), or unknown per channel "
-                        "(uncalibrated camera)")
+                   help="a single photo's exposure: unknown (default: a photograph), known, or "
+                        "unknown per channel (uncalibrated camera); a dive's photos each have "
+                        "their own unknown exposure")
+    p.add_argument("--plan", default=None, metavar="CSV",
+                   help="write the protocol's photos as a dive's metadata CSV (image, depth_m, "
+                        "distance_m; the image names are placeholders to replace with the "
+                        "photos' file names) for uw3p measure --metadata")
     add_setup_options(p)
     add_budget_options(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, option_names={"chl": "--chl", "cdom": "--cdom",
+                                           "depth": "--depth", "distance": "--distance",
+                                           "max_photos": "--max-photos",
+                                           "sample_sd": "--sample-sd",
+                                           "secchi_sd": "--secchi-sd", "targets": "--target",
+                                           "plan": "--plan"})
     return p
 
 
-#: Relative precisions above this are said as "more than" it (digits there mean nothing).
-SAY_MAX = 10.0
+def parse_target(text: str) -> tuple:
+    """One ``--target`` as (name, relative half-width).
+
+    Parameters
+    ----------
+    text : str
+        ``NAME=PCT``, e.g. ``C=30%`` or ``a_CDOM=10`` (per cent, the sign optional).
+
+    Returns
+    -------
+    tuple
+        (a name of :data:`sca.protocols.TARGETS`, fraction).
+
+    Raises
+    ------
+    ValueError
+        Naming ``--target`` for a malformed entry, an unknown name or a value not > 0.
+    """
+    name, sep, value = text.partition("=")
+    key = name.strip()
+    if not sep or not key:
+        raise ValueError(f"--target: expected NAME=PCT such as C=30%, got {text!r}")
+    key = {"C": "chl", "c": "c"}.get(key, key.lower())  # C is chlorophyll, c attenuation
+    if key not in TARGET_NAMES and key not in LABELS:
+        raise ValueError(f"--target: unknown name {name.strip()!r}; choose from C, a_CDOM, c, "
+                         "c443, c490, c555, c670, a_nw440, kd490")
+    try:
+        pct = float(value.strip().rstrip("%").strip())
+    except ValueError:
+        raise ValueError(f"--target: {name.strip()}'s value must be a percentage like 30%, "
+                         f"got {value!r}") from None
+    if not (math.isfinite(pct) and pct > 0):
+        raise ValueError(f"--target: {name.strip()}'s value must be > 0 %, got {value!r}")
+    return TARGET_NAMES.get(key, key), pct / 100.0
 
 
 def _pm(rel):
     """A relative 95 % half-width in words: '±12 %', 'more than ±1000 %', 'not bounded'."""
     if not math.isfinite(rel):
         return "not bounded"
-    return f"more than ±{100 * SAY_MAX:.0f} %" if rel > SAY_MAX else f"±{100 * rel:.0f} %"
+    if rel > SAY_MAX:
+        return f"more than ±{100 * SAY_MAX:.0f} %"
+    return f"±{100 * rel:.0f} %" if rel >= 0.095 else f"±{100 * rel:.2g} %"
 
 
-def _c_to(rel):
-    """'C to ±12 %' or 'C is still not bounded'."""
-    return f"C to {_pm(rel)}" if math.isfinite(rel) else "C is still not bounded"
+def _gives(pred, targets) -> str:
+    """'C ±21 %, a_CDOM(440) ±5 %, c (443-670 nm) ±4 %': the targets first, then C, a_CDOM and
+    c if not targets."""
+    names = list(targets) + [k for k in ("chl", "cdom", "c") if k not in targets]
+    return ", ".join(f"{LABELS[k]} {_pm(pred.rel95[k])}" for k in names)
 
 
-def _rel95(p, name):
-    """The relative 95 % half-width of C or a_CDOM, or None at a true value of 0."""
-    value = float(getattr(p, name))
-    return None if value == 0 else float(getattr(p, f"{name}_rel95"))
+def _span(pred) -> str:
+    if len(pred.span) < 2:
+        return ""
+    return (" (the intervals span the path models " + " and ".join(pred.span) +
+            ": the photos cannot tell them apart; the bound alone: "
+            f"C {_pm(pred.bound_rel95['chl'])})")
+
+
+def _aux_text(d) -> str:
+    return (f"a water sample's a_CDOM(440) sd {d.auxiliary_sd['sample']:.3g} m^-1, "
+            f"a Secchi depth sd {d.auxiliary_sd['secchi']:.2g} m")
+
+
+def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
+    """How to follow a protocol: what to do on the dive and the ``uw3p measure`` command that
+    measures it as the design predicted (the joint fit of a dive with the auxiliary
+    measurement fused).
+
+    Parameters
+    ----------
+    protocol : sca.protocols.Protocol
+        The protocol to follow.
+    auxiliary_sd : dict
+        'sample' (m^-1) and 'secchi' (m): the sds the design assumed (:class:`sca.Design`).
+    plan : str, optional
+        The metadata CSV's name in the command (default ``dive.csv``).
+
+    Returns
+    -------
+    list of str
+        Output lines ('follow it ...'); the command's placeholders (DIVE/, PHOTO.dng, A, Z)
+        are explained on the last line.
+    """
+    import shlex
+
+    photos = ", ".join(f"{d:g} m from {r:g} m" for d, r in protocol.photos)
+    todo = [f"photograph the chart at {photos}"]
+    opts, said = "", []
+    if "sample" in protocol.auxiliary:
+        sd = auxiliary_sd["sample"]
+        todo.append(f"measure a water sample's a_CDOM(440) (sd {sd:.2g} m^-1 or better)")
+        opts += f" --cdom-sample A:{sd:.2g}"
+        said.append("A the sample's a_CDOM(440) in m^-1")
+    if "secchi" in protocol.auxiliary:
+        sd = auxiliary_sd["secchi"]
+        todo.append(f"read a Secchi depth (sd {sd:.2g} m or better)")
+        opts += f" --secchi Z:{sd:.2g}"
+        said.append("Z the Secchi depth in m")
+    if protocol.n_photos == 1:
+        (d, r), = protocol.photos
+        cmd = (f"uw3p measure PHOTO.dng --profile profile.json --depth {d:g} --distance {r:g}"
+               f"{opts} --out results/")
+        said.insert(0, "PHOTO.dng the photo")
+    else:
+        cmd = (f"uw3p measure DIVE/ --metadata {shlex.quote(plan or 'dive.csv')} "
+               f"--profile profile.json --joint{opts} --out results/")
+        said.insert(0, f"DIVE/ the photos' folder, {plan or 'dive.csv'} one row per photo: "
+                       f"{','.join(PLAN_COLUMNS)}" + ("" if plan else " (--plan writes it)"))
+    return [f"follow it        on the dive: {'; '.join(todo)}",
+            f"  then           {cmd}",
+            f"  where          {'; '.join(said)}; profile.json from uw3p calibrate"]
+
+
+def write_plan(path: str, protocol) -> None:
+    """Write ``protocol``'s photos as a dive's metadata CSV (:data:`PLAN_COLUMNS`; the image
+    names PHOTO_01.dng, ... are placeholders for the photos' file names).
+
+    Parameters
+    ----------
+    path : str
+        The CSV file to write.
+    protocol : sca.protocols.Protocol
+
+    Raises
+    ------
+    ValueError
+        Naming ``--plan`` when the file cannot be written.
+    """
+    import csv
+
+    try:
+        with open(path, "w", encoding="utf-8", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(PLAN_COLUMNS)
+            for i, (d, r) in enumerate(protocol.photos, 1):
+                w.writerow([f"PHOTO_{i:02d}.dng", f"{d:g}", f"{r:g}"])
+    except OSError as exc:
+        raise ValueError(f"--plan: cannot write {path}: {exc.strerror or exc}") from None
 
 
 def run(args, out, err) -> int:
-    """Say how precisely C and a_CDOM(440) can be measured, and what would help.
+    """Say which protocol reaches the targets, what one photo gives, and what limits it.
 
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options: ``chl`` (mg m^-3), ``cdom`` (m^-1), ``depth`` (m), ``distance`` (m),
-        ``lux`` (surface illuminance, lx), ``exposure``, ``gain`` and the setup options.
+        Parsed options: ``chl`` (mg m^-3), ``cdom`` (m^-1), ``depth`` and ``distance`` (one or
+        two values, m), ``target`` (``NAME=PCT`` strings), ``max_photos``, ``sample_sd``,
+        ``secchi_sd``, ``no_auxiliary``, ``camera_only``, ``plan`` (a CSV path or None),
+        ``lux``, ``exposure``, ``gain`` and the setup and budget options.
     out : text stream
-        The 95 % precision of C and a_CDOM(440), the expected RRMSE of k, what fixing a_CDOM or
-        knowing the exposure buys, and a verdict.
+        The budget, the targets, what one photo gives, the protocol (or the best one and its
+        limit), the camera's own limit for contrast, a verdict and, where a protocol meets the
+        targets, how to follow it (:func:`follow`).
     err : text stream
         A note when the camera's curves stop inside the grid.
 
     Returns
     -------
     int
-        ``EXIT_OK`` when the 95 % half-width of C is at most :data:`DESIGN_GOOD` of C, else
-        ``EXIT_NOT_RELIABLE``.
+        ``EXIT_OK`` when a protocol meets every target, else ``EXIT_NOT_RELIABLE``.
 
     Raises
     ------
     ValueError
-        Bad input (``--chl`` not > 0, ``--lux`` not > 0, ...); the message names the option.
+        Bad input (``--chl`` not > 0, ``--lux`` not > 0, a malformed ``--target``, three
+        depths, ...); the message names the option.
     """
     import forward
-    from sca import precision
+    from sca import design
+    from sca.protocols import AUXILIARY_OPTIONS, SAMPLE_SD
 
+    for opt, values in (("--depth", args.depth), ("--distance", args.distance)):
+        if len(values) > 2:
+            raise ValueError(f"{opt}: give one value or two (m), got {len(values)}")
     if not args.chl > 0:
         raise ValueError(f"--chl: must be > 0 (the precision is relative to C; give the "
                          f"smallest C you need to measure), got {args.chl:g}")
+    targets = dict(parse_target(t) for t in (args.target or [DEFAULT_TARGET]))
     check_spectra_args(args)
     try:
         sensor = forward.SensorSettings(illuminance_lux=args.lux, exposure_mode=args.exposure)
@@ -118,74 +303,99 @@ def run(args, out, err) -> int:
         raise ValueError(str(exc).replace("illuminance_lux", "--lux", 1)) from None
     wl = wavelengths_from_args(args)
     err.write(camera_note(args.camera, wl))
+    uncertain = {} if args.camera_only else uncertain_from_args(args)
     kw = dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
-              wavelengths=wl, water=water_from_args(args), sensor=sensor,
-              uncertain=uncertain_from_args(args))
-    cond = dict(chl=args.chl, cdom=args.cdom, depth=args.depth, distance=args.distance)
-    p = precision(**cond, gain=args.gain, **kw)
-    fixed = precision(**cond, gain=args.gain, fix={"cdom": None}, **kw)
-    known = precision(**cond, gain="known", **kw) if args.gain != "known" else p
-    rel, rel_fix = _rel95(p, "chl"), _rel95(fixed, "chl")
-    cdom_rel = _rel95(p, "cdom")
-    gains = {"known": "exposure known (data in model units)",
-             "free": "exposure unknown, camera's channel balance calibrated",
-             "channels": "exposure and channel balance unknown (uncalibrated camera)"}
-    cdom_text = (f"±{1.96 * float(p.cdom_sd):.3g} m^-1 (95 %, absolute: a_CDOM(440) = 0)"
-                 if cdom_rel is None else f"{_pm(cdom_rel)} (95 %; sd {p.cdom_sd:.3g} m^-1)")
-    rrmse = float(p.rrmse)
-    lines = [f"camera {args.camera}, {args.lux:g} lx at the surface, chart at {args.depth:g} m "
-             f"seen from {args.distance:g} m; C = {args.chl:g} mg m^-3, a_CDOM(440) = "
-             f"{args.cdom:g} m^-1; {gains[args.gain]}",
-             f"C                {_pm(rel)} (95 %; sd {p.chl_sd:.3g} mg m^-3)",
-             f"a_CDOM(440)      {cdom_text}",
-             "attenuation k    " + (f"expected RRMSE (eq 19) {rrmse:.2g}" if math.isfinite(rrmse)
-                                    else "expected RRMSE (eq 19) not defined: the chart does "
-                                         "not bound C and a_CDOM here")]
-    if args.depth + args.distance == 0:
+              wavelengths=wl, water=water_from_args(args), sensor=sensor)
+    depth = args.depth[0] if len(args.depth) == 1 else tuple(args.depth)
+    distance = args.distance[0] if len(args.distance) == 1 else tuple(args.distance)
+    d = design(args.chl, args.cdom, depth=depth, distance=distance, targets=targets,
+               max_photos=args.max_photos,
+               auxiliary=("none",) if args.no_auxiliary else AUXILIARY_OPTIONS,
+               sample_sd=SAMPLE_SD if args.sample_sd is None else args.sample_sd,
+               secchi_sd=args.secchi_sd, gain=args.gain, uncertain=uncertain, **kw)
+    lo, hi = d.depth_range
+    depths = f"{lo:g} m" if lo == hi else f"{lo:g}-{hi:g} m"
+    gains = {"known": "one photo's exposure known", "free": "each photo's exposure unknown",
+             "channels": "one photo's exposure and channel balance unknown"}
+    lines = [f"water guessed    C = {args.chl:g} mg m^-3, a_CDOM(440) = {args.cdom:g} m^-1",
+             f"dive             depths {depths}, distances "
+             + ", ".join(f"{r:g}" for r in d.distances) + f" m; camera {args.camera}, "
+             f"{args.lux:g} lx at the surface; {gains[args.gain]}",
+             "budget           " + ("camera only: photon and read noise, nothing else "
+                                    "uncertain (--camera-only; a real dive does worse)"
+                                    if d.camera_only else
+                                    "the default uncertainty budget" +
+                                    (" (as changed by the options)" if uncertain != _default()
+                                     else "")),
+             "target           " + ", ".join(f"{LABELS[k]} ±{100 * v:g} %"
+                                             for k, v in targets.items()) + " (95 %)"]
+    if hi + max(d.distances) == 0:
         lines.append("the light crosses no water (depth and distance 0): the chart cannot "
                      "tell anything about the water")
-    corr = float(p.correlation)
-    if abs(corr) > 0.95:
-        lines.append(f"C and a_CDOM are hard to separate here (correlation {corr:+.2f}): the "
-                     "chart fixes a combination of them better than either.")
-    lines.append(f"with a_CDOM measured separately, {_c_to(rel_fix)}")
-    if args.gain != "known":
-        lines.append(f"with the exposure known, {_c_to(_rel95(known, 'chl'))}")
-    if p.budget:
-        shares = budget_text(p.budget, "chl")
-        lines.append(f"budget of C      {shares} of the variance; {p.limiting} limits the "
-                     "instrument here" if shares else
+    one = d.one_photo
+    depth1, dist1 = one.protocol.photos[0]
+    lines.append(f"one photo        at {depth1:g} m from {dist1:g} m: {_gives(one, targets)}"
+                 + _span(one))
+    single = d.one_photo_budget
+    if single is not None and single.budget:
+        shares = budget_text(single.budget, "chl")
+        lines.append(f"budget of C      {shares} of the variance; {single.limiting} limits the "
+                     "instrument here" if shares and math.isfinite(single.chl_sd) else
                      "budget of C      not defined: C is not bounded here")
-        budget = kw["uncertain"]
-        if p.limiting in budget and p.limiting != "patch":
-            better = dict(budget)
-            sd = budget[p.limiting]
-            better[p.limiting] = (f"{float(str(sd).rstrip('%')) / 4:g}%" if isinstance(sd, str)
-                                  else sd / 4)
-            q = precision(**cond, gain=args.gain, **{**kw, "uncertain": better})
-            lines.append(f"with {p.limiting} known 4x better (sd {better[p.limiting]}), C to "
-                         f"{_pm(float(q.chl_rel95))}")
-        elif p.limiting == "patch":
-            lines.append("a calibration photo in air (uw3p calibrate) measures the per-patch "
-                         "term of this camera and chart; --uncertain patch=SD uses it")
-        camera_only = precision(**cond, gain=args.gain, **{**kw, "uncertain": {}})
-        lines.append(f"the camera alone (photon and read noise only, --exact): "
-                     f"{_c_to(_rel95(camera_only, 'chl'))}")
-    if p.flags:
-        lines.append("caveats: " + ", ".join(p.flags) + " (the bound may not be attained)")
-    at = f"at {args.depth:g} m with this camera"
-    if rel <= DESIGN_GOOD:
-        verdict = f"{at}, C is measurable to {_pm(rel)}: a reliable measurement is possible."
-    elif rel_fix <= DESIGN_GOOD:
-        verdict = (f"{at}, C is measurable to {_pm(rel)}; fix a_CDOM (measure it separately) to "
-                   f"reach {_pm(rel_fix)}.")
-    elif rel <= DESIGN_COARSE:
-        verdict = (f"{at}, C is measurable only coarsely ({_pm(rel)}); move closer, shoot "
-                   "shallower or in brighter light.")
-    elif math.isfinite(rel):
-        verdict = f"{at}, C cannot be measured ({_pm(rel)}): the chart does not constrain it."
+    if not d.camera_only:
+        from sca import precision
+
+        alone = precision(args.chl, args.cdom, depth=depth1, distance=dist1, gain=args.gain,
+                          uncertain={}, **kw)
+        lines.append(f"the camera alone (photon and read noise only, --camera-only): one photo, "
+                     f"C {_pm(float(alone.chl_rel95))}")
+    searched = (f"{d.bounds} bounds over up to {args.max_photos} photos, "
+                + ("photos only" if args.no_auxiliary else _aux_text(d)))
+    if d.meets:
+        p = d.protocol
+        lines += [f"protocol         {p.protocol.describe()}",
+                  f"  predicted      {_gives(p, targets)}{_span(p)}"]
+        lines.append("verdict          " + (
+            f"{p.protocol.describe()} reaches "
+            + ", ".join(f"{LABELS[k]} {_pm(p.rel95[k])}" for k in targets)
+            + " at 95 %: a reliable measurement is possible; the cheapest protocol of those "
+            f"searched ({searched})."))
+        lines += follow(p.protocol, d.auxiliary_sd, args.plan)
+        if d.camera_only:
+            lines.append("  note           a camera-only design: uw3p measure fits with the "
+                         "default budget, whose intervals are wider than predicted here")
     else:
-        verdict = f"{at}, C cannot be measured: the chart does not bound it."
-    lines.append("verdict          " + verdict)
+        b = d.best
+        lines += [f"best protocol    {b.protocol.describe()}",
+                  f"  predicted      {_gives(b, targets)}{_span(b)}"]
+        worst = max(targets, key=lambda k: b.rel95[k] / targets[k])
+        if d.limiting == "no water":
+            why = "the light crosses no water"
+        elif d.limiting == "path model":
+            why = ("limited by the path model: the photos cannot tell beam attenuation from "
+                   "absorption, and the estimate's interval spans both")
+        elif d.limiting == "noise":
+            why = "limited by the camera's noise: move closer, shoot shallower or in brighter light"
+        elif math.isfinite(d.without_limiting):
+            why = (f"limited by {d.limiting} (known exactly: {LABELS[worst]} "
+                   f"{_pm(d.without_limiting)})")
+        else:
+            why = f"limited by {d.limiting}"
+        lines.append(f"verdict          {LABELS[worst]} cannot be measured to "
+                     f"±{100 * targets[worst]:g} % here: no protocol searched ({searched}) "
+                     f"meets every target; the best gives {LABELS[worst]} {_pm(b.rel95[worst])}, "
+                     f"{why}.")
+    shown = d.protocol if d.meets else d.best
+    if args.plan:
+        write_plan(args.plan, shown.protocol)
+        lines.append(f"plan             {args.plan}: the {'' if d.meets else 'best '}protocol's "
+                     f"{shown.protocol.n_photos} photo(s) as the metadata CSV (replace the "
+                     "placeholder image names)")
     out.write("\n".join(lines) + "\n")
-    return EXIT_OK if rel <= DESIGN_GOOD else EXIT_NOT_RELIABLE
+    return EXIT_OK if d.meets else EXIT_NOT_RELIABLE
+
+
+def _default() -> dict:
+    from sca.budget_defaults import DEFAULT_UNCERTAIN
+
+    return dict(DEFAULT_UNCERTAIN)

@@ -426,8 +426,9 @@ def run(args, out, err) -> int:
                        uncertain=uncertain_from_args(args), auxiliary=aux or None, **setup)
     except ValueError as exc:
         msg = str(exc)
-        if msg.startswith(("rgb:", "sigma:")):
-            what, _, why = msg.partition(": ")
+        what = getattr(exc, "argument", None) or msg.partition(":")[0]
+        if what in ("rgb", "sigma"):
+            why = getattr(exc, "reason", None) or msg.partition(": ")[2]
             if "expected" in why and "shape" in why:  # in the file's orientation
                 raise ValueError(f"measurements: {args.measurements}: one row per patch and one "
                                  f"column per channel expected; {msg} (channels x patches)"

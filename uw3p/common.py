@@ -627,14 +627,15 @@ def plain(text: str) -> str:
     return text.replace("``", "")
 
 
-def option_message(message: str, options: dict, renames: dict | None = None) -> str:
-    """A library's error message said in the command's terms: a leading ``name:`` that is the
-    destination of a command-line option becomes the option (``depth:`` -> ``--depth:``).
+def option_message(message, options: dict, renames: dict | None = None) -> str:
+    """A library's error said in the command's terms: the argument that is the destination of a
+    command-line option becomes the option (``depth:`` -> ``--depth:``).
 
     Parameters
     ----------
-    message : str
-        The ``ValueError`` text, ``"<argument>: <why>"``.
+    message : forward.InputError, ValueError or str
+        The error: an :class:`forward.InputError` names its argument (``argument``); the text of
+        any other (``"<argument>: <why>"``, the package's convention) is read for it.
     options : dict
         Option destination -> option string, e.g. {'depth': '--depth', 'max_iter':
         '--max-iter'}.
@@ -647,9 +648,14 @@ def option_message(message: str, options: dict, renames: dict | None = None) -> 
     str
         The message, its leading argument renamed where one matches.
     """
-    head, sep, rest = message.partition(":")
-    if not sep or " " in head.strip():
-        return message
-    key = head.strip()
+    argument = getattr(message, "argument", None)
+    text = str(message)
+    if argument is not None:
+        key, rest = argument, " " + message.reason
+    else:
+        head, sep, rest = text.partition(":")
+        if not sep or " " in head.strip():
+            return text
+        key = head.strip()
     new = (renames or {}).get(key) or options.get(key)
-    return f"{new}:{rest}" if new else message
+    return f"{new}:{rest}" if new else text

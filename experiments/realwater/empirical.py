@@ -246,7 +246,8 @@ def _limits(cf: dict) -> str:
             "the scatter as its prior sd), and Pope & Fry's (1997) pure-water absorption "
             "(0.0064 m⁻¹ at 440 nm against Smith & Baker's 0.0145), read at run time from the "
             "NASA OBPG table in `../shared/realdata` (not shipped). Both change the paper's "
-            "physics (DECISIONS.md), which is not this prior's to change, and were fixed "
+            "physics (decision 0041-nomad-kd-evidence), which is not this prior's to change, and "
+            "were fixed "
             "before the odd rows were scored; they show where the remaining error lies.")
     return text + "\n"
 

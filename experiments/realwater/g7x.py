@@ -29,6 +29,19 @@ What is done (:func:`run`), each number with the command that produced it:
   the curves' measured channel balance).
 * **Captured vs model** panels (the paper's Figs 5-6 layout), sRGB through the camera's 3 x 3.
 * **Forward model vs PBRT/ISET** on the authors' simulated series at known depth.
+
+For REPRODUCTION.md's real-camera rows (issue 39, :mod:`experiments.realcamera`), each judged on
+data the fit did not see:
+
+* **Cross-validation** (:func:`cross_validate`): every patch predicted by fits that did not see
+  it (:data:`FOLDS`: one chart column per fold; a held-out value's weight ~0 in every fit), by
+  the model (the paper's; with measure's light field; with each optional physics of
+  :mod:`forward.chart_physics`, :data:`PHYSICS`) and by the affine and diagonal baselines.
+* **Held-out greys** (:func:`held_out_greys`): the correction of greys no method saw.
+* **The user's own path** (:func:`measure_path`): each chart drawn as a DNG with flat patches
+  (:func:`write_chart_dng`) and measured by the ``uw3p measure`` command
+  (:func:`measure_command`: the G7X curves, the default budget, depth told 9 +- 6 m, distance
+  1 +- 0.5 m).
 """
 
 from __future__ import annotations
@@ -50,6 +63,25 @@ from ..common import save_figure, style
 
 __all__ = [
     "CLIP_LEVEL",
+    "DNG_FILL",
+    "DNG_SIZE",
+    "FOLDS",
+    "HELD_GREYS",
+    "HELD_OUT_SIGMA",
+    "PHYSICS",
+    "TILTS_DEG",
+    "TOLD_DEPTH_M",
+    "TOLD_DEPTH_SD_M",
+    "TOLD_DISTANCE_M",
+    "TOLD_DISTANCE_SD_M",
+    "cross_validate",
+    "cv_baselines",
+    "cv_fits",
+    "held_out_greys",
+    "measure_command",
+    "measure_path",
+    "write_chart_dng",
+    "write_curves_csv",
     "COMMAND",
     "DEPTHS_M",
     "DISTANCES_M",
@@ -511,6 +543,9 @@ def _markdown(n) -> str:
         "likelihood-ratio test: " + ", ".join(f"{k} {v}" for k, v in n["light_fields"].items())
         + " charts).",
         "",
+        "In-sample fits (each fitted to all 24 patches; REPRODUCTION.md gives the same error on "
+        "patches the fit did not see):",
+        "",
         "| fit | parameters | χ²/dof (photon + per-patch noise) | systematic error beyond photon noise |",
         "|---|---|---|---|",
         (f"| model, beam, no light field (the paper's) | 6 + depth | {_fmt(c['beam, no field'])} | "
@@ -538,7 +573,10 @@ def _markdown(n) -> str:
         "",
         ("**Grey correction** (mean angle of patches 19–22 from the camera's white of air "
         "under D65, the target of every correction; 0° = perfectly neutral after the camera's "
-        "D65 white balance):"),
+        "D65 white balance). In-sample: the greys are judged on the chart that was fitted. "
+        "REPRODUCTION.md's real-camera rows judge them on held-out greys, give the model's "
+        "cross-validated residual against the baselines and measure the charts through "
+        "`uw3p measure` (`experiments/realcamera.py`):"),
         "",
         "| method | angle (°) |",
         "|---|---|",
@@ -562,3 +600,380 @@ def _markdown(n) -> str:
         f"{sim['slope_bg']:+.4f} m⁻¹ (0 if both describe the same pure water)."),
     ]
     return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- the user's own path
+#: The depth and distance told to ``uw3p measure`` for every G7X chart, m, with their standard
+#: deviations (issue 39): the series spans "a few metres to ~20 m" (README), so 9 +- 6 m; a chart
+#: held or faced by a diver, 1 +- 0.5 m.
+TOLD_DEPTH_M, TOLD_DEPTH_SD_M = 9.0, 6.0
+TOLD_DISTANCE_M, TOLD_DISTANCE_SD_M = 1.0, 0.5
+#: The DNG of a G7X chart: frame size (pixels), the white's fraction of the raw range, and the
+#: photon noise of :func:`photon_sigma`'s assumptions (FULL_WELL_E electrons at the image maximum)
+DNG_SIZE = (400, 600)
+DNG_FILL = 0.9
+
+
+def write_curves_csv(path) -> Path:
+    """Write the G7X's measured quantal curves as the CSV ``uw3p --camera`` reads.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (a temporary folder: the data are not copied into the project).
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    wl, curves = load_curves()
+    lines = ["wavelength,red,green,blue"] + [f"{w:g},{r:.8g},{g:.8g},{b:.8g}"
+                                            for w, (r, g, b) in zip(wl, curves)]
+    Path(path).write_text("\n".join(lines) + "\n")
+    return Path(path)
+
+
+def write_chart_dng(rgb, path, seed: int = 0):
+    """A real chart's patch means as a RAW photograph: flat patches in a DNG.
+
+    Each patch is drawn flat with its measured mean (the frame and the water around the card
+    with the black patch's), exposed so that the image maximum reaches :data:`DNG_FILL` of the
+    14-bit range above the black level, with the photon noise that :func:`photon_sigma` assumes
+    (:data:`FULL_WELL_E` electrons at the maximum) and 2 DN of read noise
+    (:func:`experiments.synthetic_photo.mosaic_from_values`, ``write_dng``).
+
+    Parameters
+    ----------
+    rgb : array_like, (3, 24)
+        Patch means, fraction of the image maximum.
+    path : str or Path
+        The DNG to write.
+    seed : int, optional
+        The noise's seed.
+
+    Returns
+    -------
+    path : str
+        The file written.
+    corners : numpy.ndarray, (4, 2)
+        The patch grid's corners (pixels), as ``uw3p measure --corners`` takes them.
+    """
+    from ..synthetic_photo import (BLACK_LEVELS_DN, WHITE_LEVEL_DN, Scene, default_corners,
+                                   mosaic_from_values, write_dng)
+
+    rgb = np.asarray(rgb, float)
+    h, w = DNG_SIZE
+    span = WHITE_LEVEL_DN - max(BLACK_LEVELS_DN)
+    gain = DNG_FILL * span / float(rgb.max())
+    scene = Scene(width=w, height=h, gain=gain, electrons_per_dn=FULL_WELL_E / (gain * float(rgb.max())),
+                  read_noise_dn=2.0, seed=seed)
+    corners = default_corners(w, h)
+    black = rgb[:, 23]
+    mosaic = mosaic_from_values(scene, corners, rgb, black, np.zeros(3))
+    return write_dng(mosaic, path), corners
+
+
+def measure_command(dng, corners, curves_csv, out) -> list:
+    """The ``uw3p measure`` command line of one G7X chart (issue 39: the user's own path).
+
+    Parameters
+    ----------
+    dng : str
+        The chart's DNG (:func:`write_chart_dng`).
+    corners : array_like, (4, 2)
+        Its patch grid's corners, pixels.
+    curves_csv : str or Path
+        The G7X curves (:func:`write_curves_csv`; quantal).
+    out : str or Path
+        The output folder.
+
+    Returns
+    -------
+    list of str
+        The arguments after ``uw3p``: the G7X curves (``--quantal``), the default budget, depth
+        told :data:`TOLD_DEPTH_M` +- :data:`TOLD_DEPTH_SD_M` m and distance
+        :data:`TOLD_DISTANCE_M` +- :data:`TOLD_DISTANCE_SD_M` m, no camera profile (none exists
+        for the authors' camera), no corrected TIFF.
+    """
+    c = " ".join(f"{x:.3f},{y:.3f}" for x, y in np.asarray(corners, float))
+    return ["measure", str(dng), "--camera", str(curves_csv), "--quantal",
+            "--depth", f"{TOLD_DEPTH_M:g}", "--depth-sd", f"{TOLD_DEPTH_SD_M:g}",
+            "--distance", f"{TOLD_DISTANCE_M:g}", "--distance-sd", f"{TOLD_DISTANCE_SD_M:g}",
+            "--corners", c, "--out", str(out), "--tiff", "none", "--overwrite"]
+
+
+def _measure_one(args):
+    """Render chart ``i`` as a DNG in ``folder`` and measure it with ``uw3p measure`` (the
+    command, in its own process); the numbers of its measurement.json that the row needs."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    i, rgb, folder, curves_csv = args
+    folder = Path(folder)
+    dng, corners = write_chart_dng(rgb, folder / f"chart{i:02d}.dng", seed=i)
+    out = folder / f"chart{i:02d}"
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    done = subprocess.run([sys.executable, "-m", "uw3p", *measure_command(dng, corners, curves_csv, out)],
+                          capture_output=True, text=True, env=env, check=False)
+    if not (out / "measurement.json").exists():
+        raise RuntimeError(f"uw3p measure of chart {i} wrote nothing (exit {done.returncode}): "
+                           f"{done.stderr.strip()[-500:]}")
+    j = json.loads((out / "measurement.json").read_text())
+    e = j["estimate"]
+    return {"exit": done.returncode, "reliable": bool(e["reliable"]), "flags": list(e["flags"]),
+            "chl": e["chl"], "cdom": e["cdom"], "chi2_dof": e["chi2_dof"],
+            "nuisance": e.get("nuisance", {}), "rgb": j["patches"]["rgb"],
+            "gains": j["correction"]["gains"], "offset": j["correction"]["offset"]}
+
+
+def measure_path(charts, folder, workers: int = 2) -> list:
+    """Every chart through the user's own path: a DNG with flat patches, ``uw3p measure``.
+
+    Parameters
+    ----------
+    charts : array_like, (N, 3, 24)
+        The real charts' patch means.
+    folder : str or Path
+        A scratch folder (DNGs, the curves' CSV and measure's outputs; a temporary folder: the
+        data are not copied into the project).
+    workers : int, optional
+        Commands run at once (default 2).
+
+    Returns
+    -------
+    list of dict
+        Per chart: ``exit`` (the command's status), ``reliable``, ``flags``, ``chl``, ``cdom``,
+        ``chi2_dof``, ``nuisance``, the sampled ``rgb`` (3, 24) and the correction's ``gains``
+        and ``offset`` (3,).
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    curves_csv = write_curves_csv(folder / "canon_g7x_quantal.csv")
+    jobs = [(i, np.asarray(rgb, float), str(folder), str(curves_csv)) for i, rgb in enumerate(charts)]
+    if workers > 1:  # each measurement is its own process: threads only wait for them
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            return list(pool.map(_measure_one, jobs))
+    return [_measure_one(job) for job in jobs]
+
+
+# --------------------------------------------------------------------------- cross-validation
+#: Leave-patches-out folds: fold f holds out the chart's column f (patches f, f + 6, f + 12,
+#: f + 18: one patch of each row, one grey among them), so every patch is predicted once by a
+#: fit that did not see it
+FOLDS = tuple(tuple(range(f, 24, 6)) for f in range(6))
+#: A held-out value's standard error, times the largest value: its weight in every fit is ~0
+HELD_OUT_SIGMA = 1e6
+#: The greys the held-out grey correction is judged on (0-based: neutral 8, 6.5, 5); the fits
+#: behind it see every other patch, the white among them (white-patch uses it too)
+HELD_GREYS = (19, 20, 21)
+#: The physics options judged (:mod:`forward.chart_physics`), each with its literature values
+PHYSICS = ("in-water reflectance", "forward scattering", "tilted chart")
+#: The chart tilts (degrees from horizontal, towards the sun) among which a fold's training
+#: patches choose for the tilted-chart option (the photographs' tilts are not recorded)
+TILTS_DEG = (0.0, 30.0, 60.0, 90.0)
+
+
+def _held_sigma(sigma, held):
+    s = np.array(sigma, float, copy=True)
+    s[:, list(held)] = HELD_OUT_SIGMA * float(np.max(sigma))
+    return s
+
+
+def _batch_profile(rgb, sigmas, setup, depths=DEPTHS_M) -> list:
+    """The free-gain exact-model fits of one chart under several weightings (one per fold) at
+    every depth, in one batch (:func:`sca.estimate_batch`): per weighting the best depth by
+    chi^2 (held-out patches weigh nothing).
+
+    Returns
+    -------
+    list of dict
+        Per weighting: ``chi2``, ``depth``, ``predicted`` (3, 24), ``chl``, ``cdom``.
+    """
+    rgb = np.asarray(rgb, float)
+    nd, nf = len(depths), len(sigmas)
+    sig = np.repeat(np.asarray(sigmas, float), nd, axis=0)
+    b = sca.estimate_batch(np.repeat(rgb[None], nd * nf, axis=0),
+                           depth=np.tile(np.asarray(depths, float), nf),
+                           distance=np.full(nd * nf, DISTANCE_M), sigma=sig, setup=setup,
+                           gain="free", intervals=False, uncertain={}, path_models=("beam",))
+    G = np.einsum("lc,nl,lj->ncj", setup.sensitivities, setup.illuminant[None] * b.attenuation,
+                  setup.reflectances)
+    pred = b.gain[:, None, None] * G + np.asarray(b.backscatter, float)[:, :, None]
+    chi2 = np.sum(((rgb[None] - pred) / sig) ** 2, axis=(1, 2)).reshape(nf, nd)
+    out = []
+    for f in range(nf):
+        j = f * nd + int(np.argmin(chi2[f]))
+        out.append({"chi2": float(chi2.ravel()[j]), "depth": float(np.tile(depths, nf)[j]),
+                    "predicted": pred[j], "chl": float(b.chl[j]), "cdom": float(b.cdom[j]),
+                    "setup": setup})
+    return out
+
+
+def _physics_setups(option, setup, chl, cdom, depth):
+    """The set-ups of one physics option at a fitted water (C, a_CDOM, depth): the chart's
+    reflectance under water; its patch means blurred by forward scattering at the fitted C; the
+    light on a chart tilted by each of :data:`TILTS_DEG` at the fitted water and depth."""
+    import dataclasses
+
+    from forward import chart_physics as cp
+
+    if option == "in-water reflectance":
+        return [dataclasses.replace(setup, reflectances=cp.in_water_reflectance(setup.reflectances))]
+    wl = setup.wavelengths
+    if option == "forward scattering":
+        phi = cp.forward_scatter_fraction(forward.water.particle_scattering(wl, max(chl, 0.0)),
+                                          DISTANCE_M)
+        return [dataclasses.replace(setup, reflectances=cp.forward_scatter_reflectance(
+            setup.reflectances, phi, DISTANCE_M))]
+    if option == "tilted chart":
+        c = forward.Water().on_grid(wl).beam_coefficient(max(chl, 0.0), max(cdom, 0.0))
+        return [dataclasses.replace(setup, illuminant=setup.illuminant
+                                    * cp.tilted_chart_light(wl, c, depth, t)) for t in TILTS_DEG]
+    raise ValueError(f"option: must be one of {PHYSICS}, got {option!r}")
+
+
+def cv_fits(rgb, sigma, setup, folds=FOLDS, *, option=None, light_field=False) -> list:
+    """The model's fits of one chart with each fold's patches held out.
+
+    The paper's exact model with a free gain (:func:`sca.estimate_batch`), the depth profiled
+    over :data:`DEPTHS_M` on the training patches. With a physics ``option`` (:data:`PHYSICS`)
+    the fit is repeated once at the option's set-up for the water the plain fit found (the blur
+    and the tilted light depend on the water; for the tilt, the best of :data:`TILTS_DEG` by the
+    training chi^2). With ``light_field``, measure's light field
+    (:func:`measure.lightfield.fit_light_field`, the smallest the training patches support) at
+    the best geometry, then the depth profiled again with it.
+
+    Parameters
+    ----------
+    rgb, sigma : array_like, (3, 24)
+        Patch means and the fits' standard errors.
+    setup : forward.ChartSetup
+        The camera's set-up.
+    folds : sequence of sequences of int, optional
+        The held-out patches of each fit (default :data:`FOLDS`).
+    option : str, optional
+        One of :data:`PHYSICS`.
+    light_field : bool, optional
+        Model the light field.
+
+    Returns
+    -------
+    list of dict
+        Per fold: ``predicted`` (3, 24) model values (the held-out ones are predictions),
+        ``depth``, ``chl``, ``cdom``, ``setup`` (the fit's), ``chi2`` (training).
+    """
+    rgb = np.asarray(rgb, float)
+    sigs = [_held_sigma(sigma, held) for held in folds]
+    fits = _batch_profile(rgb, sigs, setup)
+    if option is not None:
+        new = []
+        for f, fit in enumerate(fits):
+            cands = [_batch_profile(rgb, [sigs[f]], s)[0]
+                     for s in _physics_setups(option, setup, fit["chl"], fit["cdom"], fit["depth"])]
+            new.append(min(cands, key=lambda x: x["chi2"]))
+        fits = new
+    if light_field:
+        for f, fit in enumerate(fits):
+            lf = fit_light_field(rgb, sigs[f], fit["setup"], fit["depth"], DISTANCE_M,
+                                 forward.Water())
+            if lf["model"] != "none":
+                fits[f] = _batch_profile(rgb, [sigs[f]], lf["setup"])[0]
+    return fits
+
+
+def cv_baselines(rgb, sigma, air, held) -> dict:
+    """The affine and diagonal baselines' predictions of the held-out patches (fitted on the
+    others, :func:`baselines`)."""
+    base = baselines(rgb, _held_sigma(sigma, held), air)
+    return {k: v["fitted"] for k, v in base.items()}
+
+
+def cross_validate(rgb, setup, *, options=(None,) + PHYSICS, light_field=True) -> dict:
+    """Leave-patches-out cross-validation of one chart: every patch predicted by fits that did
+    not see it (:data:`FOLDS`), by the model (with each physics option, without and with the
+    light field) and by the baselines.
+
+    Parameters
+    ----------
+    rgb : array_like, (3, 24)
+        A chart's patch means (fraction of the image maximum).
+    setup : forward.ChartSetup
+        The G7X's set-up.
+    options : sequence, optional
+        Physics options (None: the paper's model).
+    light_field : bool, optional
+        Also the paper's model with the light field (the options are judged without it).
+
+    Returns
+    -------
+    dict
+        name -> {'predicted' (3, 24), 'systematic' (the per-patch relative error beyond photon
+        noise of the held-out residuals, :func:`measure.camera.patch_systematic` with dof 72),
+        'rms' (relative RMS of the held-out residuals)}; names: 'model', 'model + light field',
+        'model + <option>', 'affine', 'diagonal'.
+    """
+    rgb = np.asarray(rgb, float)
+    sig_ph = photon_sigma(rgb)
+    patch = float(sca.budget.DEFAULT_UNCERTAIN["patch"])
+    sig = np.sqrt(sig_ph ** 2 + (patch * rgb) ** 2)
+    air = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)
+    variants = [(opt, lf) for opt in options for lf in ((False, True) if light_field and opt is None
+                                                      else (False,))]
+    preds = {}
+    for opt, lf in variants:
+        name = "model" + (f" + {opt}" if opt else "") + (" + light field" if lf else "")
+        p = np.zeros_like(rgb)
+        for held, fit in zip(FOLDS, cv_fits(rgb, sig, setup, option=opt, light_field=lf)):
+            p[:, list(held)] = fit["predicted"][:, list(held)]
+        preds[name] = p
+    for held in FOLDS:
+        for name, p in cv_baselines(rgb, sig, air, held).items():
+            preds.setdefault(name, np.zeros_like(rgb))[:, list(held)] = p[:, list(held)]
+    return {k: {"predicted": v, "systematic": patch_systematic(rgb - v, sig_ph, rgb, rgb.size),
+                "rms": float(np.linalg.norm(rgb - v) / np.linalg.norm(rgb))}
+            for k, v in preds.items()}
+
+
+def held_out_greys(rgb, setup) -> dict:
+    """The grey correction judged on greys no method saw (:data:`HELD_GREYS`).
+
+    The model (the paper's, with the light field as measure models it) is fitted to the other
+    21 patches; its von Kries correction (:func:`measure.correction`) is applied to the held-out
+    greys. White-patch takes its gains from the white (seen by every method); grey-world from
+    the mean of the same 21 patches against their mean in air.
+
+    Parameters
+    ----------
+    rgb : array_like, (3, 24)
+        A chart's patch means.
+    setup : forward.ChartSetup
+        The G7X's set-up.
+
+    Returns
+    -------
+    dict
+        method -> the mean angle (degrees) of the held-out greys from the white of air:
+        'model', 'grey-world', 'white-patch'.
+    """
+    rgb = np.asarray(rgb, float)
+    sig_ph = photon_sigma(rgb)
+    sig = np.sqrt(sig_ph ** 2 + (float(sca.budget.DEFAULT_UNCERTAIN["patch"]) * rgb) ** 2)
+    fit = cv_fits(rgb, sig, setup, [HELD_GREYS], light_field=True)[0]
+    train = [j for j in range(24) if j not in HELD_GREYS]
+    est = sca.estimate(rgb, depth=fit["depth"], distance=DISTANCE_M,
+                       sigma=_held_sigma(sig, HELD_GREYS), gain="free", setup=fit["setup"],
+                       uncertain={}, mode="lm")
+    gains, offset = correction(est, setup, rgb[:, WHITE_PATCH])
+    air = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)
+    corrected = {
+        "model": gains[:, None] * (rgb - offset[:, None]),
+        "grey-world": (air[:, train].mean(axis=1) / rgb[:, train].mean(axis=1))[:, None] * rgb,
+        "white-patch": (air[:, WHITE_PATCH] / rgb[:, WHITE_PATCH])[:, None] * rgb,
+    }
+    return {k: float(np.mean(_angle(v[:, list(HELD_GREYS)], setup.white_response)))
+            for k, v in corrected.items()}

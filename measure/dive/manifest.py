@@ -11,7 +11,8 @@ it: they change no photo's results, and the run's own files follow the run that 
 The defaults given for every photo (``--depth``, ``--distance``, ``--corners``) are: a rerun with
 another default is refused like one with another option (a metadata row edited redoes its photo
 only). A folder that holds no photo's results (a run that measured nothing, or was interrupted
-before its first photo) refuses nothing: its run.json is replaced.
+before its first photo) refuses nothing: its run.json is replaced (the caller, measure.dive.run,
+asks :func:`measure.dive.plan.holds_results`).
 """
 
 from __future__ import annotations
@@ -27,8 +28,7 @@ import numpy as np
 from .files import atomic
 from .names import MANIFEST
 
-__all__ = ["FILE_OPTIONS", "HASH_CHUNK_BYTES", "check_manifest", "file_digest", "holds_results",
-           "manifest",
+__all__ = ["FILE_OPTIONS", "HASH_CHUNK_BYTES", "check_manifest", "file_digest", "manifest",
            "manifest_digest", "write_manifest"]
 
 #: Options of ``measure.measure`` that may name a file (recorded by its content's hash)
@@ -169,26 +169,6 @@ def _differences(old: dict, new: dict) -> list:
     return out
 
 
-def holds_results(root: Path) -> bool:
-    """Whether the output folder holds a photo's results (a folder with its marker).
-
-    Parameters
-    ----------
-    root : pathlib.Path
-
-    Returns
-    -------
-    bool
-    """
-    from ..output import read_marker
-
-    try:
-        return any(p.is_dir() and not p.name.startswith(".") and read_marker(p) is not None
-                   for p in root.iterdir())
-    except OSError:
-        return False
-
-
 def check_manifest(root: Path, content: dict, overwrite: bool) -> None:
     """Refuse a run whose options differ from those of the run that wrote ``root``.
 
@@ -208,8 +188,8 @@ def check_manifest(root: Path, content: dict, overwrite: bool) -> None:
         ``--out``), or run.json cannot be read.
     """
     path = root / MANIFEST
-    if overwrite or not path.exists() or not holds_results(root):
-        return  # nothing to replace: a run that measured nothing blocks no rerun
+    if overwrite or not path.exists():
+        return
     try:
         old = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:

@@ -27,7 +27,8 @@ from ..output import read_marker, result_owner
 from .manifest import file_digest
 from .summary import CORRECTED, summary_row
 
-__all__ = ["complete_files", "correction_range", "photo_key", "plan_photo", "resolve_inputs"]
+__all__ = ["complete_files", "correction_range", "holds_results", "photo_key", "plan_photo",
+           "resolve_inputs"]
 
 
 def correction_range(inputs: dict):
@@ -161,6 +162,24 @@ def complete_files(out: Path, marker: dict) -> bool:
         if name in sizes and size != sizes[name]:
             return False
     return True
+
+
+def holds_results(root: Path) -> bool:
+    """Whether the output folder holds a photo's results (a folder with its marker).
+
+    Parameters
+    ----------
+    root : pathlib.Path
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        return any(p.is_dir() and not p.name.startswith(".") and read_marker(p) is not None
+                   for p in root.iterdir())
+    except OSError:
+        return False
 
 
 def _record(out: Path):

@@ -42,7 +42,7 @@ from .ifdo import write_ifdo
 from .manifest import FILE_OPTIONS, check_manifest, manifest, manifest_digest, write_manifest
 from .metadata import exif_info, read_metadata
 from .names import LOCK_FILE, NOT_UTF8, RUN_FILES, dive_files, output_names
-from .plan import plan_photo
+from .plan import holds_results, plan_photo
 from .plot import plot_survey
 from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
 from .survey import survey_dataset, write_survey
@@ -312,6 +312,32 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     KeyboardInterrupt
         Ctrl-C before the photos are measured (while the folder is checked and the photos
         hashed): nothing was written. Ctrl-C later ends the run with ``interrupted`` set.
+
+    Examples
+    --------
+    Two generated photos of one water at two depths, told in a metadata CSV, measured into a
+    results folder and fitted as one water (depths and distances taken as exact, ``uncertain={}``,
+    to keep the example quick; a real dive keeps the default budget):
+
+    >>> import tempfile, pathlib, measure
+    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> dive = pathlib.Path(tempfile.mkdtemp())
+    >>> corners = default_corners(360, 240)
+    >>> for name, depth in [("a.dng", 4.0), ("b.dng", 8.0)]:
+    ...     _ = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=depth, distance=1.5,
+    ...                                       gain=30000, width=360, height=240, seed=3), corners),
+    ...                   dive / name)
+    >>> _ = (dive / "dive.csv").write_text("image,depth_m,distance_m\\na.dng,4,1.5\\nb.dng,8,1.5\\n")
+    >>> res = measure.measure_dive(dive, out=dive / "results", metadata=dive / "dive.csv",
+    ...                            corners=corners, joint=True, scheduler="synchronous",
+    ...                            tiff="none", uncertain={}, light_field="none")
+    >>> res.code, [r["status"] for r in res.rows], [r["flags"] for r in res.rows]
+    (1, ['measured', 'measured'], ['uncalibrated-camera', 'uncalibrated-camera'])
+    >>> sorted(p.name for p in (dive / "results").glob("*.*") if not p.name.startswith("."))
+    ['ifdo.json', 'joint.json', 'run.json', 'summary.csv', 'survey.nc', 'survey.png']
+
+    Exit status 1: both photos measured, neither reliable, for the camera was not calibrated (a
+    profile from a photo of the chart in air, :func:`measure.calibrate`, removes the flag).
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
@@ -351,7 +377,8 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
 def _locked_run(root, photos, others, folder, meta, metadata, run, digest, options, defaults,
                 overwrite, outputs, joint, scheduler, progress, bar, figure, version, command):
     """The run, the output folder locked: check, plan, write run.json, measure, finish."""
-    check_manifest(root, run, overwrite)
+    # a folder that holds no photo's results (a run that measured nothing) refuses nothing
+    check_manifest(root, run, overwrite or not holds_results(root))
     names = output_names(photos, owner=lambda name: _owner(root / name))
     rows, records, jobs, conflicts, notes = {}, {}, [], [], []
     for p in photos:  # a Ctrl-C here stops the run with nothing written (KeyboardInterrupt)
