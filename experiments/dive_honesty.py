@@ -470,8 +470,6 @@ def _ci(ci) -> str:
 
 
 def _clean_section(c: dict) -> list[str]:
-    from sca.budget import DEFAULT_UNCERTAIN
-
     waters = "; ".join(f"{w}: C {v[0]:g} mg m^-3, a_CDOM(440) {v[1]:g} m^-1"
                        for w, v in CLEAN_WATERS.items())
     now, before = c["rules"]["now"], c["rules"]["before"]
@@ -490,9 +488,9 @@ def _clean_section(c: dict) -> list[str]:
         "`sca.joint.estimate_joint` with the budget `measure` gives a calibrated camera "
         "(`measure.budget_for`), under two rules: **before** (issue 37's state: the "
         "calibration's in-air per-patch term taken as the underwater one, all of it shared by "
-        "the photos) and **now** (the per-patch term underwater never below the budget's "
-        f"{100 * DEFAULT_UNCERTAIN['patch']:g} %, its chart part shared by the photos and the "
-        "rest each photo's own: decision 0054-patch-correlation). Each photo "
+        "the photos) and **now** (measure's default: the calibration's term as it is, its "
+        "chart part shared by the photos and the rest each photo's own: decisions "
+        "0053-patch-floor and 0054-patch-correlation). Each photo "
         "alone by `sca.estimate_batch` (the rule now). Coverage is tested two-sided but is not "
         "the criterion: this world is cleaner than the budget, so over-coverage is expected. "
         f"Seed {c['seed']}, {c['workers']} worker processes, {c['seconds']:.0f} s.",
