@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install test test-fast reproduce-figures real-data dive honesty design-check bench bench-slow docs test-release clean
+.PHONY: install test test-fast test-adversarial reproduce-figures real-data dive honesty design-check bench bench-slow docs test-release clean
 
 # each step of reproduce-figures timed into benchmarks/make_times.json (BENCHMARKS.md reads it)
 STOPWATCH = $(PY) -m experiments.stopwatch --json benchmarks/make_times.json
@@ -17,9 +17,10 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded)
+# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded);
+# not the tests marked release (make test-release) or adversarial (make test-adversarial)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release and not adversarial"
 
 # the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
 # (its kernels compiled afresh: a minute)
@@ -28,7 +29,12 @@ test-release: $(STAMP)
 
 # the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow and not release"
+	$(PY) -m pytest -q -m "not slow and not release and not adversarial"
+
+# the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
+# runs interrupted and killed, clusters started; about 10 min on 2 cores)
+test-adversarial: $(STAMP)
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m adversarial tests/test_adversarial_dive.py
 
 reproduce-figures: $(STAMP)
 	$(STOPWATCH) "reproduce-figures: figures" -- $(VENV)/bin/uw3p figures --out figures --report REPRODUCTION.md

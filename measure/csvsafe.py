@@ -5,7 +5,8 @@ begins with ``=``, ``+``, ``-`` or ``@`` as a formula, and tab or carriage retur
 one in; a file name or metadata cell such as ``=HYPERLINK(...)`` copied into summary.csv would
 run. :func:`neutralise` prefixes such a text cell with a single quote (the OWASP rule, "CSV
 Injection"), which every spreadsheet shows as text. Numbers stay numbers: a value that is not a
-string, or a string that parses as a finite float (``-1.5``, ``+2``), is not text.
+string, or a string that is a finite decimal number as a spreadsheet reads one (``-1.5``,
+``+2``, ``1e3``; not Python-only forms such as ``-1_0``), is not text.
 
 References
 ----------
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 
 __all__ = ["FORMULA_PREFIXES", "neutralise", "safe_row", "safe_writer"]
 
@@ -24,11 +26,14 @@ FORMULA_PREFIXES = ("=", "+", "-", "@", "\t", "\r")
 _FIRST = frozenset(FORMULA_PREFIXES)  # a set lookup: the batch CSV writes ~10^7 cells
 
 
+#: A number as a spreadsheet reads one (Python's float() also takes ``-1_0``, ``-inf``, spaces)
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
 def _is_number(text: str) -> bool:
-    try:
-        return math.isfinite(float(text))
-    except ValueError:
+    if not _NUMBER.fullmatch(text):
         return False
+    return math.isfinite(float(text))
 
 
 def neutralise(cell):

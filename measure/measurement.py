@@ -12,7 +12,9 @@ through the water.
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -431,6 +433,17 @@ def _fitted(est: sca.Estimate, setup, water, depth, distance) -> np.ndarray:
         mdl.m, mdl.n)
 
 
+def _same_camera(recorded: str, camera) -> bool:
+    """Whether a profile made for camera ``recorded`` (a name, a curves file as the user typed
+    it, or 'custom') fits ``camera``: a curves file given by another path to the same file
+    name (relative in calibrate, absolute in a dive) fits."""
+    name = camera if isinstance(camera, str) else "custom"
+    if recorded in ("custom", name):
+        return True
+    return isinstance(camera, (str, os.PathLike)) and forward.spectra.is_path(camera) \
+        and Path(recorded).name == Path(camera).name
+
+
 def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAMERA,
             quantal: bool = False, profile=None, illuminant=None, layout="patches",
             water: forward.Water | None = None, black_level=None,
@@ -590,7 +603,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         flags.append("uncalibrated-camera")
         notes.append("no camera profile: the curves' own channel balance was used (run uw3p "
                      "calibrate on a photo of the chart in air)")
-    elif profile.camera not in ("custom", camera if isinstance(camera, str) else "custom"):
+    elif not _same_camera(profile.camera, camera):
         raise ValueError(f"profile: made for camera {profile.camera!r}, not {camera!r}")
     elif not profile.reliable:
         flags.append("unreliable-profile")

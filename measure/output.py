@@ -406,6 +406,10 @@ def check_out(outdir, image, overwrite: bool = False) -> None:
     if not any(out.iterdir()):
         return
     owner = result_owner(out)
+    if owner is None and (out / "run.json").is_file():
+        raise ValueError(f"out: {out} holds a dive's results (run.json, one folder per photo); "
+                         "a photo's results go in a folder of their own: give a new or empty "
+                         "folder")
     if owner is None:
         raise ValueError(f"out: {out} exists and holds files that are not uw3p results; give a "
                          "new or empty folder")
@@ -561,8 +565,10 @@ def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) ->
     names += ["corrected.jpg", "corrected.png"]
     if report:
         names.append("report.png")
+    sizes = {n: (folder / n).stat().st_size for n in names}
     names.append(MARKER)
-    done = {"image": str(meas.photo.path), "version": version, "files": names} | (marker or {})
+    done = {"image": str(meas.photo.path), "version": version, "files": names,
+            "sizes": sizes} | (marker or {})
     (folder / MARKER).write_text(json.dumps(strict_json(done), indent=1, allow_nan=False)
                                  + "\n", encoding="utf-8")
     return names

@@ -173,6 +173,9 @@ def run(args, out, err) -> int:
         the argument or file.
     """
     check_spectra_args(args)
+    if not args.out:
+        raise ValueError("--out: empty (an unset shell variable?); give the output folder "
+                         "(created if missing)")
     src = Path(args.image)
     if not src.exists():
         raise ValueError(f"image: file not found: {src}")

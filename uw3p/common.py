@@ -455,6 +455,11 @@ def water_from_args(args):
     for opt, key in (("cdom_slope", "cdom_slope"), ("nap_slope", "nap_slope"), ("b_k", "b_k")):
         if getattr(args, opt) is not None:
             kw[key] = getattr(args, opt)
+    for opt in ("cdom_slope", "nap_slope"):  # eqs 6, 7: absorption falls with wavelength
+        value = getattr(args, opt)
+        if value is not None and not value > 0:
+            raise ValueError(f"--{opt.replace('_', '-')}: must be > 0 nm^-1 (the absorption "
+                             f"falls with wavelength, eqs 6-7), got {value:g}")
     try:
         return forward.Water(**kw)
     except ValueError as exc:

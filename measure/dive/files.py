@@ -112,7 +112,8 @@ def locked(root: Path):
     try:
         fd = os.open(root / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
-        raise ValueError(f"out: cannot write {root}: {_why(exc)}") from None
+        raise ValueError(f"out: cannot create the lock file {root / LOCK_FILE}: {_why(exc)}") \
+            from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

@@ -8,6 +8,11 @@ run's measurements of the water, a measured chart) and the outputs asked for (``
 CSV, a measured chart's spectra) is recorded by the SHA-256 of the file's content, so
 an edited file is noticed and a moved one is not. ``--joint`` and the survey figure are not in
 it: they change no photo's results, and the run's own files follow the run that wrote them.
+The defaults given for every photo (``--depth``, ``--distance``, ``--corners``) are: a rerun with
+another default is refused like one with another option (a metadata row edited redoes its photo
+only). A folder that holds no photo's results (a run that measured nothing, or was interrupted
+before its first photo) refuses nothing: its run.json is replaced (the caller, measure.dive.run,
+asks :func:`measure.dive.plan.holds_results`).
 """
 
 from __future__ import annotations
@@ -75,7 +80,7 @@ def _is_file(value) -> bool:
     return isinstance(value, (str, os.PathLike)) and os.path.isfile(value)
 
 
-def manifest(options: dict, tiff: str, report: bool, version: str) -> dict:
+def manifest(options: dict, tiff: str, report: bool, version: str, defaults=None) -> dict:
     """The run's options that change its results, as run.json records them.
 
     Parameters
@@ -88,11 +93,15 @@ def manifest(options: dict, tiff: str, report: bool, version: str) -> dict:
         report.png drawn.
     version : str
         uw3p's version.
+    defaults : dict, optional
+        The values given for every photo: ``depth``, ``distance`` (m), ``corners`` (a list of
+        four [x, y] or None).
 
     Returns
     -------
     dict
-        JSON-ready: ``version``, ``options`` (a file by ``{"sha256": ...}``) and ``outputs``.
+        JSON-ready: ``version``, ``options`` (a file by ``{"sha256": ...}``), ``outputs`` and
+        ``defaults``.
 
     Raises
     ------
@@ -108,7 +117,8 @@ def manifest(options: dict, tiff: str, report: bool, version: str) -> dict:
                 raise ValueError(f"{k}: cannot read {v}: {exc.strerror}") from None
         opts[k] = v
     return json.loads(json.dumps({"version": version, "options": opts,
-                                  "outputs": {"tiff": tiff, "report": bool(report)}},
+                                  "outputs": {"tiff": tiff, "report": bool(report)},
+                                  "defaults": dict(defaults or {})},
                                  sort_keys=True, default=_plain))
 
 
@@ -128,21 +138,34 @@ def manifest_digest(content: dict) -> str:
     return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
 
 
+#: What the refusal calls the defaults given for every photo
+_DEFAULT_NAMES = {"depth": "--depth", "distance": "--distance", "corners": "--corners"}
+
+
+def _changed(name: str, a, b, out: list) -> None:
+    """The differences of one entry in words; of a dict (the water model), its fields only."""
+    if a == b:
+        return
+    if isinstance(a, dict) and isinstance(b, dict):
+        if "sha256" in a and "sha256" in b:
+            out.append(f"{name}: the file's content changed")
+            return
+        for k in sorted(set(a) | set(b)):
+            _changed(f"{name}.{k}", a.get(k), b.get(k), out)
+        return
+    out.append(f"{name}: {a!r} -> {b!r}")
+
+
 def _differences(old: dict, new: dict) -> list:
     """What differs between two manifests, in words."""
     out = []
     if old.get("version") != new.get("version"):
         out.append(f"uw3p version {old.get('version')!r} -> {new.get('version')!r}")
-    for group in ("options", "outputs"):
+    for group in ("options", "outputs", "defaults"):
         a, b = old.get(group) or {}, new.get(group) or {}
         for k in sorted(set(a) | set(b)):
-            if a.get(k) == b.get(k):
-                continue
-            if isinstance(a.get(k), dict) and "sha256" in a[k] and isinstance(b.get(k), dict) \
-                    and "sha256" in b[k]:
-                out.append(f"{k}: the file's content changed")
-            else:
-                out.append(f"{k}: {a.get(k)!r} -> {b.get(k)!r}")
+            _changed(_DEFAULT_NAMES.get(k, k) if group == "defaults" else k, a.get(k), b.get(k),
+                     out)
     return out
 
 

@@ -5,13 +5,14 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import math
 import re
 from pathlib import Path
 
 __all__ = ["AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
-           "read_metadata"]
+           "read_metadata", "separator"]
 
 #: Required columns of the metadata CSV (``--metadata``): the image's file name relative to the
 #: folder, the chart's depth (m) and the camera-to-chart distance (m)
@@ -69,7 +70,9 @@ def read_metadata(path) -> dict:
     (a radiometer's K_d at <nm> nm, m^-1). An empty cell means "not given here": the EXIF depth
     or the default applies (corners: detected; a measurement: the run's, if any). A quoted
     cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
-    are ignored when their cells are empty.
+    are ignored when their cells are empty. The separator is the header line's
+    (:func:`separator`: comma, semicolon or tab); with a semicolon or tab, a number may have a
+    decimal comma. A row with fewer cells than the columns (a line cut short) is refused.
 
     Parameters
     ----------
@@ -82,7 +85,8 @@ def read_metadata(path) -> dict:
         image name -> {'depth_m', 'distance_m', 'depth_sd_m', 'distance_sd_m', 'range_m'
         (floats or None), 'corners' (str or None), 'range_map' (absolute path or None),
         'auxiliary' (the row's measurements in :mod:`sca.auxiliary`'s form, {} for none), 'line'
-        (int: the line the row starts on)}.
+        (int: the line the row starts on), 'raw_name' (the cell as written, unstripped: a
+        photo whose name begins with a space)}.
 
     Raises
     ------
@@ -96,15 +100,39 @@ def read_metadata(path) -> dict:
     p = Path(path)
     try:
         with open(p, encoding="utf-8-sig", newline="") as fh:
-            return _rows(p, fh)
+            text = fh.read()
     except (OSError, UnicodeDecodeError) as exc:
         raise ValueError(f"metadata: cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
             from None
+    return _rows(p, io.StringIO(text, newline=""), separator(text))
 
 
-def _rows(p: Path, fh) -> dict:
+def separator(text: str) -> str:
+    """The metadata CSV's separator: the first of comma, semicolon and tab its header line
+    holds (a spreadsheet's CSV in a locale whose decimal mark is a comma uses semicolons; one
+    saved as "Unicode text", tabs).
+
+    Parameters
+    ----------
+    text : str
+        The file's content.
+
+    Returns
+    -------
+    str
+    """
+    head = text.lstrip("\ufeff").split("\n", 1)[0]
+    return next((sep for sep in (",", ";", "\t") if sep in head), ",")
+
+
+#: Cells that are text, not numbers (a decimal comma is read in the others when the
+#: separator is not a comma)
+_TEXT_CELLS = ("image", "corners", "range_map")
+
+
+def _rows(p: Path, fh, sep: str = ",") -> dict:
     """The rows of an open metadata CSV (:func:`read_metadata`)."""
-    reader = csv.reader(fh)
+    reader = csv.reader(fh, delimiter=sep)
     try:
         header = [h.strip() for h in next(reader, [])]
         named = [(i, h) for i, h in enumerate(header) if h]
@@ -124,6 +152,7 @@ def _rows(p: Path, fh) -> dict:
         if repeated:
             raise ValueError(f"metadata: {p} line 1: column(s) {', '.join(repeated)} repeat")
         pairs = _auxiliary_pairs(p, names)
+        last = max(i for i, _ in named) + 1  # cells a row must have (trailing unnamed: no)
         rows = {}
         start = reader.line_num + 1
         for raw in reader:
@@ -131,12 +160,16 @@ def _rows(p: Path, fh) -> dict:
             where = f"metadata: {p} line {n}"
             if len(raw) > len(header):
                 raise ValueError(f"{where}: more cells than columns")
+            if len(raw) < last and any(v.strip() for v in raw):
+                raise ValueError(f"{where}: fewer cells ({len(raw)}) than columns ({last}): a "
+                                 "line cut short? (give empty cells for values not given)")
             raw = raw + [""] * (len(header) - len(raw))
             stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
             if stray:
                 raise ValueError(f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
                                  "column name in line 1")
-            cell = {h: raw[i] for i, h in named}
+            cell = {h: raw[i] if h in _TEXT_CELLS or sep == "," else raw[i].replace(",", ".")
+                    for i, h in named}
             if not any(v.strip() for v in cell.values()):
                 continue
             name = cell["image"].strip()
@@ -153,7 +186,8 @@ def _rows(p: Path, fh) -> dict:
                           "corners": cell.get("corners", "").strip() or None,
                           "range_m": _number(cell.get("range_m", ""), "range_m", where),
                           "range_map": _range_map(p, cell.get("range_map", ""), where),
-                          "auxiliary": _auxiliary(cell, pairs, where), "line": n}
+                          "auxiliary": _auxiliary(cell, pairs, where), "line": n,
+                          "raw_name": cell["image"]}
     except csv.Error as exc:
         raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
     return rows

@@ -1,7 +1,9 @@
 """The plan of a dive: each photo's inputs and their sources (:func:`resolve_inputs`), the key
 that says "same inputs" (:func:`photo_key`), and what to do with each photo (:func:`plan_photo`):
 measure it, skip it (complete with the same key), a summary row saying why not, or a conflict
-that refuses the run before it writes anything.
+that refuses the run before it writes anything. A folder is complete when its marker's key is
+the photo's and every file the marker lists is there at its size (:func:`complete_files`);
+``overwrite`` redoes every photo.
 
 The key is the content: the SHA-256 of the photo's bytes, its metadata row, its resolved inputs
 (depth, distance, their sds, corners, EXIF time) and the run's manifest (the options that
@@ -25,7 +27,8 @@ from ..output import read_marker, result_owner
 from .manifest import file_digest
 from .summary import CORRECTED, summary_row
 
-__all__ = ["correction_range", "photo_key", "plan_photo", "resolve_inputs"]
+__all__ = ["complete_files", "correction_range", "holds_results", "photo_key", "plan_photo",
+           "resolve_inputs"]
 
 
 def correction_range(inputs: dict):
@@ -135,6 +138,50 @@ def photo_key(photo: Path, row, inputs, run_digest: str) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
+def complete_files(out: Path, marker: dict) -> bool:
+    """Whether every file a result folder's marker lists is there, with the size it was written
+    with (where the marker records it): a folder that lost or truncated a file is redone.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The photo's result folder.
+    marker : dict
+        Its complete.json (:func:`measure.output.read_marker`).
+
+    Returns
+    -------
+    bool
+    """
+    sizes = marker.get("sizes") or {}
+    for name in marker.get("files") or ():
+        try:
+            size = (out / name).stat().st_size
+        except OSError:
+            return False
+        if name in sizes and size != sizes[name]:
+            return False
+    return True
+
+
+def holds_results(root: Path) -> bool:
+    """Whether the output folder holds a photo's results (a folder with its marker).
+
+    Parameters
+    ----------
+    root : pathlib.Path
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        return any(p.is_dir() and not p.name.startswith(".") and read_marker(p) is not None
+                   for p in root.iterdir())
+    except OSError:
+        return False
+
+
 def _record(out: Path):
     try:
         return json.loads((out / "measurement.json").read_text(encoding="utf-8"))
@@ -196,10 +243,12 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
         return None, summary_row(photo, plan, "error", error=(
             f"image: cannot read {photo}: {exc.strerror or exc}")), None
     marker = read_marker(out) if out.is_dir() else None
-    if marker is not None and marker.get("key") == key and marker.get("corrected"):
+    done = marker is not None and marker.get("key") == key and not overwrite \
+        and complete_files(out, marker)
+    if done and marker.get("corrected"):
         # a frame without a chart corrected with the dive's water: the run checks the water
         return None, summary_row(photo, plan, CORRECTED), None
-    if marker is not None and marker.get("key") == key:
+    if done:
         record = _record(out)
         if record is not None:
             return None, summary_row(photo, plan, "done earlier", record), None

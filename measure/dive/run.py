@@ -14,10 +14,17 @@ always describe one run).
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import difflib
 import json
+import math
 import os
+import posixpath
+import re
+import signal
+import socket
+import threading
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,25 +33,30 @@ import forward
 from forward.spectra import is_path
 
 from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
-from ..output import TIFF_MODES, read_marker, strict_json
+from ..chart import parse_corners
+from ..output import TIFF_MODES, read_marker, result_owner, strict_json
 from .chartless import correct_frames
 from .execute import execute
 from .files import atomic, clean_temp, locked
 from .ifdo import write_ifdo
 from .manifest import FILE_OPTIONS, check_manifest, manifest, manifest_digest, write_manifest
 from .metadata import exif_info, read_metadata
-from .names import dive_files, output_names
-from .plan import plan_photo
+from .names import LOCK_FILE, NOT_UTF8, RUN_FILES, dive_files, output_names
+from .plan import holds_results, plan_photo
 from .plot import plot_survey
 from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
 from .survey import survey_dataset, write_survey
 
-__all__ = ["DiveWarning", "DiveResult", "measure_dive"]
+__all__ = ["DiveWarning", "DiveResult", "check_scheduler", "measure_dive"]
 
 #: Statuses of rows that are not a photo of the folder (left out of survey.nc)
 NOT_PHOTOS = ("not an image", "no such photo")
 #: Conflicts listed in the refusal's message (the rest counted)
 MAX_CONFLICTS_SHOWN = 5
+#: Seconds to wait for a scheduler's address to accept a connection before the run starts
+SCHEDULER_CONNECT_S = 10
+#: A scheduler address without a protocol: host:port (Dask takes it as tcp://)
+_HOST_PORT = re.compile(r"^\[?[A-Za-z0-9_.:-]*\]?:\d+$")
 
 
 class DiveWarning(UserWarning):
@@ -122,6 +134,106 @@ def _conflicts(root: Path, conflicts: list) -> ValueError:
                       "--out")
 
 
+def _check_defaults(depth, distance, corners) -> None:
+    """Refuse a bad default depth, distance or corners up front (naming it)."""
+    for name, value, low in (("depth", depth, ">= 0"), ("distance", distance, "> 0")):
+        if value is None:
+            continue
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name}: must be a number (m), got {value!r}") from None
+        if not math.isfinite(x) or x < 0 or (low == "> 0" and x == 0):
+            raise ValueError(f"{name}: must be finite and {low} (m), got {value!r}")
+    if corners is not None:
+        parse_corners(corners)
+
+
+def check_scheduler(scheduler) -> None:
+    """Refuse a ``scheduler`` that is neither 'synchronous' nor an address, or whose TCP address
+    does not accept a connection (within :data:`SCHEDULER_CONNECT_S`), before the run writes
+    anything.
+
+    Parameters
+    ----------
+    scheduler : str or None
+
+    Raises
+    ------
+    ValueError
+        Naming ``scheduler``.
+    """
+    if scheduler is None or scheduler == "synchronous":
+        return
+    s = str(scheduler)
+    proto, sep, rest = s.partition("://")
+    if not sep:
+        if not _HOST_PORT.match(s):
+            near = difflib.get_close_matches(s, ["synchronous"], n=1)
+            raise ValueError(f"scheduler: {s!r} is neither 'synchronous' nor a Dask scheduler's "
+                             "address (tcp://host:port)"
+                             + (f"; did you mean {near[0]!r}?" if near else ""))
+        proto, rest = "tcp", s
+    if proto not in ("tcp", "tls"):
+        return  # another transport (ucx, inproc): Dask connects or says why
+    host, _, port = rest.split("/")[0].rpartition(":")
+    if not port.isdigit():
+        raise ValueError(f"scheduler: {s!r}: no port number (tcp://host:port)")
+    try:
+        socket.create_connection((host.strip("[]") or "localhost", int(port)),
+                                 timeout=SCHEDULER_CONNECT_S).close()
+    except OSError as exc:
+        raise ValueError(f"scheduler: cannot connect to {s}: "
+                         f"{getattr(exc, 'strerror', None) or exc or 'timed out'}") from None
+
+
+def _normal_name(name: str) -> str:
+    """A metadata row's image name as a photo's: ``./a.dng`` is ``a.dng``."""
+    norm = posixpath.normpath(name.replace("\\", "/")) if name else name
+    return norm if norm not in (".", "") else name
+
+
+def _match_rows(meta: dict, names) -> dict:
+    """The metadata rows keyed by the photo each names: a row's cell as written (a name with a
+    leading or trailing space) where that is a photo's name, else stripped, ``./`` removed."""
+    if meta is None:
+        return None
+    names = set(names)
+    out = {}
+    for name, row in meta.items():
+        raw = row.get("raw_name", name)
+        key = next((n for n in (raw, name, _normal_name(name)) if n in names), name)
+        if key in out:
+            raise ValueError(f"metadata: line {row['line']}: image {raw!r} names the photo of "
+                             f"line {out[key]['line']} again")
+        out[key] = row
+    return out
+
+
+@contextlib.contextmanager
+def _one_ctrl_c():
+    """While the block runs (the photos measured, then the run's files written): a Ctrl-C
+    raises KeyboardInterrupt until one has (it interrupts the measuring) or the measuring
+    ends (``state["armed"] = False``, set by the block); later ones are ignored, so the
+    summary, survey and joint of the run are written whole. Outside the main thread, nothing
+    changes."""
+    state = {"armed": True}
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def once(signum, frame):
+        if state["armed"]:
+            state["armed"] = False
+            raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, once)
+    try:
+        yield state
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=None,
                  corners=None, overwrite: bool = False, tiff: str = "compressed",
                  joint: bool = False, scheduler=None, progress=None, bar=None,
@@ -149,10 +261,11 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
         :func:`measure.dive.exif_info`) does not give them; a photo without either is an error
         row.
     corners : str or array_like, optional
-        Default corners (pixels); None: detected (where a row gives none).
+        Default corners (pixels); None: detected (where a row gives none). ``depth``,
+        ``distance`` and ``corners`` are recorded in run.json: a rerun with others is refused.
     overwrite : bool, optional
-        Run even when the folder holds results of other options or of other photos: those are
-        replaced.
+        Redo every photo (complete ones too), even when the folder holds results of other
+        options or of other photos: those are replaced.
     tiff : {'compressed', 'full', 'none'}, optional
         corrected.tiff (:func:`measure.write_outputs`).
     joint : bool, optional
@@ -188,8 +301,11 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     Raises
     ------
     ValueError
-        Naming the argument: no photos, a bad ``metadata`` file, a ``tiff`` not in
-        :data:`measure.output.TIFF_MODES`, an option's file that cannot be read; naming
+        Naming the argument, before anything is written: no photos, a bad ``metadata`` file,
+        a ``tiff`` not in :data:`measure.output.TIFF_MODES`, a ``depth``, ``distance`` or
+        ``corners`` out of range or unreadable, an unknown ``camera`` or ``illuminant``, an
+        option's file that cannot be read, an empty ``out``, a ``scheduler`` that is not
+        'synchronous' nor an address that accepts a connection (:func:`check_scheduler`); naming
         ``out``: it cannot be created or written, another run is writing it, or it holds
         results this run would replace (of other options, of another photo; without
         ``overwrite``) -- refused before anything is written.
@@ -225,13 +341,19 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     """
     if tiff not in TIFF_MODES:
         raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+    if not str(out):
+        raise ValueError("out: empty; give the output folder (created if missing)")
+    _check_defaults(depth, distance, corners)
+    check_scheduler(scheduler)
     metadata = None if metadata is None else Path(os.path.abspath(metadata))
     meta = read_metadata(metadata) if metadata is not None else None
     src = paths_or_folder
     folder = None
+    root = Path(os.path.abspath(out))
     if isinstance(src, (str, os.PathLike)) and Path(src).is_dir():
         folder = Path(os.path.abspath(src))
-        photos, others = dive_files(folder, exclude=[metadata] if metadata else [])
+        own = [root / n for n in RUN_FILES + (LOCK_FILE,)]  # --out the photos' folder itself
+        photos, others = dive_files(folder, exclude=([metadata] if metadata else []) + own)
     else:
         photos = [Path(os.path.abspath(p)) for p in ([src] if isinstance(
             src, (str, os.PathLike)) else src)]
@@ -239,10 +361,13 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     if not photos:
         raise ValueError(f"image: no RAW or TIFF files in {src} "
                          f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
+    meta = _match_rows(meta, [p.name for p in photos])
     options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
-    run = manifest(options, tiff, report, version)
+    _run_setup(options)  # a bad camera, illuminant, profile or chart: refused up front
+    run = manifest(options, tiff, report, version, defaults={
+        "depth": depth, "distance": distance,
+        "corners": None if corners is None else parse_corners(corners).tolist()})
     digest = manifest_digest(run)
-    root = Path(os.path.abspath(out))
     with locked(root):
         return _locked_run(root, photos, others, folder, meta, metadata, run, digest, options,
                            (depth, distance, corners), overwrite, (tiff, report), joint,
@@ -252,10 +377,9 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
 def _locked_run(root, photos, others, folder, meta, metadata, run, digest, options, defaults,
                 overwrite, outputs, joint, scheduler, progress, bar, figure, version, command):
     """The run, the output folder locked: check, plan, write run.json, measure, finish."""
-    from tqdm import tqdm
-
-    check_manifest(root, run, overwrite)
-    names = output_names(photos)
+    # a folder that holds no photo's results (a run that measured nothing) refuses nothing
+    check_manifest(root, run, overwrite or not holds_results(root))
+    names = output_names(photos, owner=lambda name: _owner(root / name))
     rows, records, jobs, conflicts, notes = {}, {}, [], [], []
     for p in photos:  # a Ctrl-C here stops the run with nothing written (KeyboardInterrupt)
         job, row, conflict = plan_photo(p, names[p], root, meta, exif_info(p), defaults,
@@ -279,6 +403,27 @@ def _locked_run(root, photos, others, folder, meta, metadata, run, digest, optio
         warnings.warn(text, DiveWarning, stacklevel=3)
     clean_temp(root)
     write_manifest(root, run)
+    with _one_ctrl_c() as ctrl_c:
+        return _measure_and_finish(root, photos, others_rows, extra, rows, records, jobs, notes,
+                                   scheduler, progress, bar, joint, options, version, command,
+                                   figure, outputs, ctrl_c)
+
+
+def _owner(folder: Path):
+    """The photo whose results ``folder`` holds (absolute), or None."""
+    if not folder.is_dir():
+        return None
+    owner = result_owner(folder)
+    return os.path.abspath(owner) if owner else None
+
+
+def _measure_and_finish(root, photos, others_rows, extra, rows, records, jobs, notes, scheduler,
+                        progress, bar, joint, options, version, command, figure, outputs,
+                        ctrl_c):
+    """Measure the jobs, then write the run's files (a first Ctrl-C interrupts the measuring;
+    the files are written whatever follows: ``ctrl_c`` disarmed, :func:`_one_ctrl_c`)."""
+    from tqdm import tqdm
+
     left = set()
     with tqdm(total=len(jobs), file=bar, desc="measuring", unit="photo",
               disable=bar is None or not jobs) as pbar:
@@ -293,6 +438,7 @@ def _locked_run(root, photos, others, folder, meta, metadata, run, digest, optio
                 progress(rows[p])
         if jobs:
             left = execute(jobs, scheduler, on_result)
+    ctrl_c["armed"] = False
     if scheduler is None or scheduler == "synchronous":
         clean_temp(root)  # the local workers are gone: what they left half-written
     for job in jobs:
@@ -332,10 +478,11 @@ def _unmatched_rows(folder, meta, photos, others) -> tuple:
     for p, why in others:
         if p.name in gone and meta is not None and p.name in meta:
             continue  # its metadata row says it (above)
-        if p.name in gone:
+        if p.name in gone or why == NOT_UTF8:
             notes.append(f"{p.name}: {why}")
-        others_rows.append(summary_row(p, {}, "no such photo" if p.name in gone
-                                       else "not an image", error=why))
+        status = "no such photo" if p.name in gone else "error" if why == NOT_UTF8 \
+            else "not an image"
+        others_rows.append(summary_row(p, {}, status, error=why))
     return others_rows, extra, notes
 
 
