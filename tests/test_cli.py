@@ -158,8 +158,8 @@ def _batch_file(path, truth, distance=2.0, ids=None):
         sim = forward.simulate_chart(c, a, d, distance, noise=False)
         rgb, sd = sim.rgb, sim.rgb_sigma
         cid = ids[j] if ids else str(j)
-        lines += [f"{cid},{p + 1},{rgb[0, p]!r},{rgb[1, p]!r},{rgb[2, p]!r},{d},"
-                  f"{sd[0, p]!r},{sd[1, p]!r},{sd[2, p]!r}" for p in range(24)]
+        lines += [f"{cid},{p + 1},{float(rgb[0, p])!r},{float(rgb[1, p])!r},{float(rgb[2, p])!r},{d},"
+                  f"{float(sd[0, p])!r},{float(sd[1, p])!r},{float(sd[2, p])!r}" for p in range(24)]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -191,7 +191,7 @@ def test_output_cut_short_by_reader_is_quiet(tmp_path):
     rgb = forward.simulate_chart(1.0, 0.1, 5.0, 2.0, noise=False).rgb
     lines = ["chart,patch,red,green,blue"]
     for j in range(1500):
-        lines += [f"c{j},{p + 1},{rgb[0, p]!r},{rgb[1, p]!r},{rgb[2, p]!r}" for p in range(24)]
+        lines += [f"c{j},{p + 1},{float(rgb[0, p])!r},{float(rgb[1, p])!r},{float(rgb[2, p])!r}" for p in range(24)]
     f = tmp_path / "big.csv"
     f.write_text("\n".join(lines) + "\n")
     cmd = " ".join(UW3P) + f" estimate --batch {f} --depth 5 --distance 2 --json | head -c 100"
