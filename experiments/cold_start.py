@@ -92,7 +92,7 @@ def run(frame=None) -> dict:
 
 def main(argv=None) -> int:
     """``python -m experiments.cold_start``: print both scenarios (and write JSON)."""
-    from .compare_commits import commit_of
+    from .common import commit_of
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--json", default=None)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import os
+import subprocess
 from pathlib import Path
 
 import matplotlib
@@ -12,7 +13,7 @@ from measure.csvsafe import safe_writer
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
 
-__all__ = ["figures_dir", "read_csv", "save_figure", "write_csv", "style", "percent_axis", "DPI",
+__all__ = ["WORKTREE", "commit_of", "figures_dir", "read_csv", "save_figure", "write_csv", "style", "percent_axis", "DPI",
            "MIN_FONT_PT"]
 
 
@@ -92,3 +93,22 @@ def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -
             w.writerow(row)
     os.replace(tmp, path)
     return path
+
+
+#: The repository the experiments run in (``git`` commands).
+_ROOT = Path(__file__).resolve().parents[1]
+#: ``commit_of``'s name of the working tree.
+WORKTREE = "WORKTREE"
+
+
+def commit_of(rev: str) -> str:
+    """The full hash of ``rev`` (``WORKTREE``: HEAD's, with '+changes' where the tree differs
+    from it)."""
+    if rev == WORKTREE:
+        head = commit_of("HEAD")
+        dirty = subprocess.run(["git", "-C", str(_ROOT), "status", "--porcelain",
+                                "--untracked-files=no"], check=True, capture_output=True,
+                               text=True).stdout.strip()
+        return head + ("+changes" if dirty else "")
+    return subprocess.run(["git", "-C", str(_ROOT), "rev-parse", "--verify", rev + "^{commit}"],
+                          check=True, capture_output=True, text=True).stdout.strip()

@@ -42,12 +42,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .common import WORKTREE, commit_of
+
 __all__ = ["WORKLOAD", "WORKLOADS", "WORKLOAD_DEFAULT", "WORKTREE", "export", "export_dir",
            "main", "run_once"]
 
 ROOT = Path(__file__).resolve().parents[1]
-#: The revision name that stands for this working tree as it is (not exported).
-WORKTREE = "WORKTREE"
 #: Charts in the batch rows (the 60 tiled).
 BATCH_CHARTS = 20000
 
@@ -120,19 +120,6 @@ print(json.dumps(out))
 LOWER_IS_BETTER = "CPU ms"
 #: name -> (workload source, its default batch sizes)
 WORKLOADS = {"exact": (WORKLOAD, (BATCH_CHARTS,)), "default": (WORKLOAD_DEFAULT, (1000, 120))}
-
-
-def commit_of(rev: str) -> str:
-    """The full hash of ``rev`` (``WORKTREE``: HEAD's, with '+changes' where the tree differs
-    from it)."""
-    if rev == WORKTREE:
-        head = commit_of("HEAD")
-        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain",
-                                "--untracked-files=no"], check=True, capture_output=True,
-                               text=True).stdout.strip()
-        return head + ("+changes" if dirty else "")
-    return subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--verify", rev + "^{commit}"],
-                          check=True, capture_output=True, text=True).stdout.strip()
 
 
 def export_dir() -> Path:

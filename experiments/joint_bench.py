@@ -182,7 +182,7 @@ def main(argv=None) -> int:
                    help="also count the evaluations of one joint fit by step")
     p.add_argument("--json", default=None)
     args = p.parse_args(argv)
-    from .compare_commits import commit_of
+    from .common import commit_of
 
     load, date = os.getloadavg()[0], time.strftime("%Y-%m-%d %H:%M:%S %Z")
     res = time_joint(args.photos, args.repeats, args.dives)

@@ -6,7 +6,7 @@ The command runs as given (its output passes through; its exit status is this on
 under ``NAME``: the command, wall-clock seconds, CPU seconds (user + system of the command and
 everything it waited for: ``resource.RUSAGE_CHILDREN``) and so how many of the cores it kept
 busy, its peak resident memory (the largest process), its exit status, the date, the commit
-(:func:`experiments.compare_commits.commit_of`) and the machine's 1-minute load average when it
+(:func:`experiments.common.commit_of`) and the machine's 1-minute load average when it
 started (the machine may be shared: a load above the number of cores means the command had
 less than the whole machine). ``make reproduce-figures`` times each of its steps with it.
 """
@@ -74,7 +74,7 @@ def write_json(path, data) -> None:
 
 def record(path, name: str, rec: dict) -> None:
     """Merge ``rec`` into the JSON file ``path`` under ``name`` (written whole or not at all)."""
-    from .compare_commits import commit_of
+    from .common import commit_of
 
     path = Path(path)
     try:

@@ -58,7 +58,7 @@ from .model import (
 )
 from .pathmodels import candidates, combine_batch
 from .projection import grid_best
-from .derived import derived_from_fit, quantity_names, verdict
+from .derived import derived_from_fit, quantity_names, verdicts_of
 from .quadrature import CERTIFY_SIGMA, reduction_error
 
 __all__ = [
@@ -487,14 +487,6 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         beam_attenuation_ci=out["c_ci"],
         verdicts=verdicts_of(chl_ci, cdom_ci, quantity_intervals),
     )
-
-
-def verdicts_of(chl_ci, cdom_ci, quantity_intervals) -> dict:
-    """name -> (N,) verdict (:func:`sca.derived.verdict`) of C, a_CDOM and every quantity."""
-    out = {"chl": verdict(chl_ci[:, 0], chl_ci[:, 1]),
-           "cdom": verdict(cdom_ci[:, 0], cdom_ci[:, 1])}
-    out.update({k: verdict(v[:, 0], v[:, 1]) for k, v in quantity_intervals.items()})
-    return out
 
 
 def _concatenate_budgets(parts):

@@ -43,6 +43,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
 from .assess import flag_tuples, input_flag_table
+from .derived import quantity_sd
 from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
@@ -366,52 +367,6 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         out.quantities = {k_: float(v[0]) for k_, v in qv.items()}
         out.quantity_sd = {k_: float(v[0]) for k_, v in qsd.items()}
     return out
-
-
-def quantity_sd(water, params, cov, names):
-    """The value and the standard deviation of every derived quantity (:data:`sca.derived.
-    QUANTITIES`) by the delta method: sqrt(grad h^T Sigma grad h).
-
-    Parameters
-    ----------
-    water : forward.Water
-        The water model (its path model gives the path's coefficient).
-    params : dict
-        'chl' (mg m^-3), 'cdom' (m^-1), 'depth' and 'distance' (m) and any water coefficient
-        held at another value than the water's, each (N,).
-    cov : array_like, (N, p, p) or (p, p)
-        The parameters' covariance in their own units (C in mg m^-3).
-    names : sequence of str or None, (p,)
-        The name of each column of ``cov`` (None, or a repeated name such as a per-photo
-        geometry held by the caller, for a column no quantity depends on).
-
-    Returns
-    -------
-    values, sds : dict
-        name -> (N,) arrays (m^-1); the sd is ``inf`` where the covariance is not finite.
-    """
-    from .derived import quantity_values
-
-    cov = np.asarray(cov, float)
-    N = np.size(np.atleast_1d(params["chl"]))
-    cov = np.broadcast_to(cov, (N,) + cov.shape[-2:])
-    finite = np.isfinite(cov).all(axis=(1, 2))
-    cov = np.where(finite[:, None, None], cov, 0.0)
-    counts = {n: list(names).count(n) for n in names if n is not None}
-    wrt = tuple(n for n, k in counts.items() if k == 1)  # a repeated name: held by the caller
-    values, sds = {}, {}
-    with np.errstate(divide="ignore", invalid="ignore"):  # a path of 0 m: no quantity
-        derived = quantity_values(water, params, wrt)
-    for q, (value, derivs) in derived.items():
-        value = np.broadcast_to(np.asarray(value, float), (N,)).copy()
-        grad = np.zeros((N, cov.shape[-1]))
-        for j, n in enumerate(names):
-            if n in wrt and n in derivs:
-                grad[:, j] = derivs[n]
-        var = np.einsum("np,npq,nq->n", grad, cov, grad)
-        values[q] = value
-        sds[q] = np.where(finite, np.sqrt(np.maximum(var, 0.0)), np.inf)
-    return values, sds
 
 
 def _observed(auxiliary, water, params, columns) -> list:

@@ -36,7 +36,7 @@ from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, NONWATER_ABSORPTION
 
 __all__ = ["BANDS_NM", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF", "QUANTITIES", "SPECTRUM_BLOCK",
            "VERDICTS", "delta_interval", "derived_from_fit", "describe", "quantity_names",
-           "quantity_values", "spectrum_values", "verdict"]
+           "quantity_sd", "quantity_values", "spectrum_values", "verdict", "verdicts_of"]
 
 #: The standard bands of the beam attenuation, nm (ocean-colour bands: SeaWiFS/MODIS 443, 490,
 #: 555, 670).
@@ -326,4 +326,56 @@ def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry
         c[sl] = val
         ci[sl] = delta_interval(val, grad, cov[sl])
     out["c"], out["c_ci"] = c, ci
+    return out
+
+
+def quantity_sd(water, params, cov, names):
+    """The value and the standard deviation of every derived quantity (:data:`sca.derived.
+    QUANTITIES`) by the delta method: sqrt(grad h^T Sigma grad h).
+
+    Parameters
+    ----------
+    water : forward.Water
+        The water model (its path model gives the path's coefficient).
+    params : dict
+        'chl' (mg m^-3), 'cdom' (m^-1), 'depth' and 'distance' (m) and any water coefficient
+        held at another value than the water's, each (N,).
+    cov : array_like, (N, p, p) or (p, p)
+        The parameters' covariance in their own units (C in mg m^-3).
+    names : sequence of str or None, (p,)
+        The name of each column of ``cov`` (None, or a repeated name such as a per-photo
+        geometry held by the caller, for a column no quantity depends on).
+
+    Returns
+    -------
+    values, sds : dict
+        name -> (N,) arrays (m^-1); the sd is ``inf`` where the covariance is not finite.
+    """
+    cov = np.asarray(cov, float)
+    N = np.size(np.atleast_1d(params["chl"]))
+    cov = np.broadcast_to(cov, (N,) + cov.shape[-2:])
+    finite = np.isfinite(cov).all(axis=(1, 2))
+    cov = np.where(finite[:, None, None], cov, 0.0)
+    counts = {n: list(names).count(n) for n in names if n is not None}
+    wrt = tuple(n for n, k in counts.items() if k == 1)  # a repeated name: held by the caller
+    values, sds = {}, {}
+    with np.errstate(divide="ignore", invalid="ignore"):  # a path of 0 m: no quantity
+        derived = quantity_values(water, params, wrt)
+    for q, (value, derivs) in derived.items():
+        value = np.broadcast_to(np.asarray(value, float), (N,)).copy()
+        grad = np.zeros((N, cov.shape[-1]))
+        for j, n in enumerate(names):
+            if n in wrt and n in derivs:
+                grad[:, j] = derivs[n]
+        var = np.einsum("np,npq,nq->n", grad, cov, grad)
+        values[q] = value
+        sds[q] = np.where(finite, np.sqrt(np.maximum(var, 0.0)), np.inf)
+    return values, sds
+
+
+def verdicts_of(chl_ci, cdom_ci, quantity_intervals) -> dict:
+    """name -> (N,) verdict (:func:`sca.derived.verdict`) of C, a_CDOM and every quantity."""
+    out = {"chl": verdict(chl_ci[:, 0], chl_ci[:, 1]),
+           "cdom": verdict(cdom_ci[:, 0], cdom_ci[:, 1])}
+    out.update({k: verdict(v[:, 0], v[:, 1]) for k, v in quantity_intervals.items()})
     return out

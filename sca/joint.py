@@ -674,7 +674,7 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
         (False: that fit stopped after :data:`PATH_FIT_MAX_ITER` iterations);
         'quantities' and 'quantity_sd' (name -> value and sd of every derived quantity of
         :mod:`sca.derived` at the photos' median depth and distance, as the joint estimate
-        reports them; :func:`sca.bound.quantity_sd`).
+        reports them; :func:`sca.derived.quantity_sd`).
 
     Raises
     ------
@@ -683,7 +683,7 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     """
     from forward.water import COEFFICIENT_PARAMS, PATH_MODELS
 
-    from .bound import quantity_sd
+    from .derived import quantity_sd
 
     depth = np.atleast_1d(np.asarray(depth, float))
     distance = np.atleast_1d(np.asarray(distance, float))

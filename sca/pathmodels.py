@@ -140,7 +140,7 @@ def combine_batch(results: dict):
         fields["beam_attenuation_ci"] = np.stack(
             [np.where(okq, cis[..., 0], np.inf).min(axis=0),
              np.where(okq, cis[..., 1], -np.inf).max(axis=0)], axis=-1)
-    from .batch import verdicts_of
+    from .derived import verdicts_of
 
     fields["verdicts"] = verdicts_of(fields["chl_ci"], fields["cdom_ci"], qi)
     fields["budget"] = {k: {"sd": pick([e.budget[k]["sd"] for e in ests]),

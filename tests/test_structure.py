@@ -262,12 +262,9 @@ def _project_imports(path: Path, modules: set, top_level_only: bool = False) -> 
 KNOWN_KNOTS = {
     frozenset({"forward.water.model", "forward.water.grid", "forward.water.terms"}),
     frozenset({"sca.model", "sca.quadrature"}),
-    frozenset({"sca.batch", "sca.pathmodels"}),
-    frozenset({"sca.bound", "sca.joint"}),
     frozenset({"experiments.batch_profile", "experiments.benchmark",
                "experiments.benchmark_report", "experiments.quadrature_check",
                "experiments.joint_bench"}),
-    frozenset({"experiments.stopwatch", "experiments.compare_commits"}),
     frozenset({"measure.correct", "measure.measurement", "measure.correct_uncertainty",
                "measure.detect", "measure.output", "measure.correct_output"}),
     frozenset({"experiments.realwater.nomad", "experiments.realwater.empirical",
