@@ -28,12 +28,14 @@ from forward.imaging import ChartSetup
 
 __all__ = [
     "CHART_PATCHES",
+    "HASH_CHUNK_BYTES",
     "MIN_CALIBRATION_PATCHES",
     "PATCH_SD_MAX",
     "Profile",
     "calibrate",
     "camera_setup",
     "chart_digest",
+    "file_digest",
     "load_profile",
     "own_balance",
     "patch_systematic",
@@ -110,6 +112,37 @@ def read_chart_reflectance(path, wavelengths=None, *, name: str = "chart_reflect
     return refl
 
 
+#: Files are hashed in chunks of this many bytes (a 50 MB RAW file is not read into memory
+#: at once; SHA-256 streams at several hundred MB/s, below a disk's or network's reading)
+HASH_CHUNK_BYTES = 1 << 20
+
+
+def file_digest(path) -> str:
+    """The SHA-256 of a file's content, read in chunks.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    str
+        Hex digest.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read.
+    """
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(HASH_CHUNK_BYTES), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
 def chart_digest(path) -> str:
     """The SHA-256 of a measured chart's file (what a profile and a measurement record).
 
@@ -122,9 +155,7 @@ def chart_digest(path) -> str:
     str
         Hex digest.
     """
-    import hashlib
-
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return file_digest(path)
 
 
 @dataclass

@@ -25,41 +25,15 @@ from pathlib import Path
 
 import numpy as np
 
+from ..camera import file_digest
 from .files import atomic
 from .names import MANIFEST
 
-__all__ = ["FILE_OPTIONS", "HASH_CHUNK_BYTES", "check_manifest", "file_digest", "manifest",
+__all__ = ["FILE_OPTIONS", "check_manifest", "file_digest", "manifest",
            "manifest_digest", "write_manifest"]
 
 #: Options of ``measure.measure`` that may name a file (recorded by its content's hash)
 FILE_OPTIONS = ("profile", "camera", "illuminant", "chart_reflectance")
-#: Files are hashed in chunks of this many bytes (a 50 MB RAW file is not read into memory
-#: at once; SHA-256 streams at several hundred MB/s, below a disk's or network's reading)
-HASH_CHUNK_BYTES = 1 << 20
-
-
-def file_digest(path) -> str:
-    """The SHA-256 of a file's content, read in chunks.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-
-    Returns
-    -------
-    str
-        Hex digest.
-
-    Raises
-    ------
-    OSError
-        The file cannot be read.
-    """
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(HASH_CHUNK_BYTES), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def _plain(x):
