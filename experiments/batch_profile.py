@@ -4,7 +4,7 @@
 
 Runs :func:`sca.estimate_batch` at its defaults (the default uncertainty budget, every path
 model, intervals, the 1 nm grid on the certified quadrature) on the noisy charts of ``make
-bench`` (:func:`experiments.benchmark.chart_set`, tiled to ``--charts``), once untimed (numba
+bench`` (:func:`experiments.chartset.chart_set`, tiled to ``--charts``), once untimed (numba
 and the quadrature's caches) and once counted: every call of the inference layer's objective
 (:meth:`sca.problem.Problem.evaluate`, the model function and the compiled variable projection)
 and every direct call of the model function (:meth:`sca.ChartModel.predict`) is timed and
@@ -160,7 +160,7 @@ def profile_default_batch(n_charts: int = 1000) -> dict:
     Parameters
     ----------
     n_charts : int, optional
-        Charts in the call: the noisy half of :func:`experiments.benchmark.chart_set`, tiled.
+        Charts in the call: the noisy half of :func:`experiments.chartset.chart_set`, tiled.
 
     Returns
     -------
@@ -171,7 +171,7 @@ def profile_default_batch(n_charts: int = 1000) -> dict:
     """
     import sca
 
-    from .benchmark import chart_set
+    from .chartset import chart_set
 
     conds, rgbs, sigmas = chart_set()
     noisy = np.array([c["noise"] for c in conds])

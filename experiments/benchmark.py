@@ -34,6 +34,7 @@ from sca.lsq import estimate_least_squares
 
 from .baselines import RebuildEstimator
 from .benchmark_report import write_outputs
+from .chartset import CDOMS, CHLS, DEPTHS, DISTANCES, SEED, chart_set
 from .sweep import rrmse_bands
 
 __all__ = ["chart_set", "run_single", "run_batch", "coverage", "equal_optimum", "machine",
@@ -50,10 +51,6 @@ SINGLE_RESOLUTIONS_NM = (10.0, 1.0)
 REBUILD_RESOLUTION_NM = 10.0
 #: ... and the default budget's rows (sca_budget, batch_budget) at the default grid only
 BUDGET_RESOLUTION_NM = 1.0
-CHLS = (1e-3, 0.05, 1.0, 20.0, 100.0)
-CDOMS = (0.0, 0.05, 0.5, 2.0)
-DEPTHS = (1.0, 10.0, 30.0)
-DISTANCES = (0.5, 5.0)
 METHODS = ("cvx_rebuild", "sca_paper", "sca_safeguarded", "scipy_least_squares",
            "batch_no_intervals", "batch", "sca_budget", "batch_budget")
 #: The uncertainty budget of each method: the paper's exact model, except the ``*_budget``
@@ -76,11 +73,6 @@ BATCH_REPEATS = 3
 #: The ``batch_budget`` rows: charts timed and runs (the default budget fits every chart under
 #: three path models with ten nuisance parameters: about 100x the exact model's work).
 BUDGET_BATCH_N, BUDGET_REPEATS = 120, 1
-#: Noise seeds of the chart set: SEED * 1000 + the chart's index
-SEED = 7
-#: Every GRID_STRIDE-th case of the chart grid is used (QUICK_GRID_STRIDE with --quick)
-GRID_STRIDE = 4
-QUICK_GRID_STRIDE = 8
 #: Relative errors of C and a_CDOM divide by max(truth, REL_ERR_FLOOR) (a_CDOM = 0 is a case)
 REL_ERR_FLOOR = 1e-3
 #: Coverage study: noise seeds COVERAGE_SEED + the chart's index; every QUICK_COVERAGE_STRIDE-th
@@ -103,21 +95,6 @@ OBJECTIVE_RTOL = 1e-9
 EXACT_OBJECTIVE = 1e-12
 #: Cases listed per noise setting where the two differ
 MAX_CASES_LISTED = 10
-
-
-def chart_set(quick=False):
-    """(conditions, rgb, sigma) in the 1 nm world; every GRID_STRIDE-th grid case
-    (QUICK_GRID_STRIDE if ``quick``), noise-free and noisy."""
-    grid = list(itertools.product(CHLS, CDOMS, DEPTHS, DISTANCES))
-    picked = grid[:: (QUICK_GRID_STRIDE if quick else GRID_STRIDE)]
-    conds, rgbs, sigmas = [], [], []
-    for noise in (False, True):
-        for i, (c, a, d, r) in enumerate(picked):
-            sim = forward.simulate_chart(c, a, d, r, noise=noise, seed=SEED * 1000 + i)
-            conds.append(dict(chl=c, cdom=a, depth=d, distance=r, noise=noise))
-            rgbs.append(sim.rgb)
-            sigmas.append(sim.rgb_sigma)
-    return conds, np.array(rgbs), np.array(sigmas)
 
 
 def _rel(est, truth):

@@ -150,7 +150,7 @@ def _figure(path: Path, photo, meas, scene, name):
     from PIL import Image
 
     import measure
-    from measure.correct_output import to_8bit
+    from measure.imagefiles import to_8bit
     from measure.output import srgb_preview
 
     wb = photo.data / _patches(photo.data, scene["charts"][0]["boxes"])[18]

@@ -6,7 +6,7 @@ and on the full 1 nm grid.
 Issue 36's criteria: every estimate within :data:`ESTIMATE_SE` of its own standard error of the
 same fit on the full grid (``quadrature="full"``), and every interval end within
 :data:`END_WIDTH` of the interval's width. On the charts of ``make bench``
-(:func:`experiments.benchmark.chart_set`: 60, half noise-free, half with the sensor's noise):
+(:func:`experiments.chartset.chart_set`: 60, half noise-free, half with the sensor's noise):
 
 * **the batch**: :func:`sca.estimate_batch` with its defaults (the default budget, every path
   model, intervals, 1 nm) and ``quadrature='reduced'`` (the default) against
@@ -108,7 +108,7 @@ def run(single_stride: int = SINGLE_STRIDE) -> dict:
     """
     import sca
 
-    from .benchmark import chart_set
+    from .chartset import chart_set
 
     conds, rgbs, sigmas = chart_set()
     depth = np.array([c["depth"] for c in conds])

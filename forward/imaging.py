@@ -24,6 +24,7 @@ from .spectra import (
 )
 from .daylight import D_SERIES_CCT
 from .water import DIFFUSE_TERMS, PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
+from forward.validate import InputError
 
 __all__ = [
     "PATH_MODELS",
@@ -325,7 +326,7 @@ def _build_setup(camera, illuminant, reflectances, wl, channel_gains=None) -> Ch
     if channel_gains is not None:
         g = np.asarray(channel_gains, dtype=float)
         if g.shape != (sens.shape[1],) or not np.all(np.isfinite(g)) or np.any(g <= 0):
-            raise ValueError(f"channel_gains: expected {sens.shape[1]} positive numbers, got "
+            raise InputError("channel_gains", f"expected {sens.shape[1]} positive numbers, got "
                              f"{channel_gains!r}")
         sens = sens * g
     i = illuminant_spd(illuminant, wl)
@@ -369,9 +370,9 @@ def resolve_setup(setup, camera=DEFAULT_CAMERA, illuminant=None, reflectances=No
     if setup is None:
         return chart_setup(camera, illuminant, reflectances, wavelengths)
     if not isinstance(setup, ChartSetup):
-        raise ValueError("setup: expected a forward.ChartSetup (from forward.chart_setup)")
+        raise InputError("setup", "expected a forward.ChartSetup (from forward.chart_setup)")
     if wavelengths is not None and not np.array_equal(np.asarray(wavelengths, float), setup.wavelengths):
-        raise ValueError("wavelengths: differ from the grid of the given setup")
+        raise InputError("wavelengths", "differ from the grid of the given setup")
     return setup
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from .imaging import ChartSetup
 from .spectra import cie_1931_cmfs, quadrature_weights
+from forward.validate import InputError
 
 __all__ = ["camera_to_xyz_matrix", "chart_image", "chart_xyz", "patch_srgb", "patches_image"]
 
@@ -112,7 +113,7 @@ def patch_srgb(sim, *, normalise: str = "exposure", encode: bool = True) -> np.n
     elif normalise == "max":
         cam = np.asarray(sim.rgb) / max(float(np.max(sim.rgb)), 1e-300)
     else:
-        raise ValueError(f"normalise: must be 'exposure', 'absolute' or 'max', got {normalise!r}")
+        raise InputError("normalise", f"must be 'exposure', 'absolute' or 'max', got {normalise!r}")
     xyz = (camera_to_xyz_matrix(sim.setup) @ cam).T
     rgb = colour.XYZ_to_sRGB(xyz, apply_cctf_encoding=encode)
     return np.clip(rgb, 0.0, 1.0)
@@ -171,7 +172,7 @@ def patches_image(srgb, *, rows: int = 4, cols: int = 6, patch_px: int = 20,
     """
     srgb = np.asarray(srgb, dtype=float)
     if srgb.shape[0] != rows * cols:
-        raise ValueError(f"rows, cols: {rows} x {cols} does not match {srgb.shape[0]} patches")
+        raise InputError("rows, cols", f"{rows} x {cols} does not match {srgb.shape[0]} patches")
     step = patch_px + gap_px
     img = np.zeros((rows * step + gap_px, cols * step + gap_px, 3))
     for p, colour_value in enumerate(srgb):

@@ -29,6 +29,7 @@ import numpy as np
 
 from . import validate
 from .spectra import cie_1931_cmfs, quadrature_weights
+from forward.validate import InputError
 
 __all__ = [
     "EXPOSURE_MODES",
@@ -120,19 +121,19 @@ class SensorSettings:
 
     def __post_init__(self):
         if self.exposure_mode not in EXPOSURE_MODES:
-            raise ValueError(f"exposure_mode: must be one of {EXPOSURE_MODES}, got {self.exposure_mode!r}")
+            raise InputError("exposure_mode", f"must be one of {EXPOSURE_MODES}, got {self.exposure_mode!r}")
         for name in ("illuminance_lux", "f_number", "optics_transmittance", "pixel_pitch_um",
                      "peak_quantum_efficiency", "full_well_e", "target_fraction", "max_exposure_s"):
             validate.scalar(name, getattr(self, name), positive=True)
         validate.scalar("read_noise_e", self.read_noise_e)
         if self.target_fraction > 1:
-            raise ValueError(f"target_fraction: must be in (0, 1], got {self.target_fraction}")
+            raise InputError("target_fraction", f"must be in (0, 1], got {self.target_fraction}")
         if self.optics_transmittance > 1 or self.peak_quantum_efficiency > 1:
-            raise ValueError("optics_transmittance, peak_quantum_efficiency: must be <= 1")
+            raise InputError("optics_transmittance, peak_quantum_efficiency", "must be <= 1")
         if int(self.adc_bits) != self.adc_bits or not 1 <= self.adc_bits <= 24:
-            raise ValueError(f"adc_bits: must be an integer in 1..24, got {self.adc_bits}")
+            raise InputError("adc_bits", f"must be an integer in 1..24, got {self.adc_bits}")
         if int(self.pixels_per_patch) != self.pixels_per_patch or self.pixels_per_patch < 1:
-            raise ValueError(f"pixels_per_patch: must be a positive integer, got {self.pixels_per_patch}")
+            raise InputError("pixels_per_patch", f"must be a positive integer, got {self.pixels_per_patch}")
 
     def to_dict(self) -> dict:
         """The settings as a dict (JSON-ready).

@@ -12,6 +12,7 @@ from .imaging import ChartSetup, camera_response, path_length, resolve_setup, ve
 from .sensor import SensorSettings, capture
 from .spectra import DEFAULT_CAMERA
 from .water import Water, resolve_water
+from forward.validate import InputError
 
 __all__ = ["ChartSimulation", "simulate_chart"]
 
@@ -157,7 +158,7 @@ def _with_chart_physics(setup, terms, chl, cdom, depth, distance, in_water, scat
     from . import chart_physics as cp
 
     if not isinstance(in_water, (bool, np.bool_)) or not isinstance(scatter, (bool, np.bool_)):
-        raise ValueError("chart_in_water, forward_scatter: expected True or False")
+        raise InputError("chart_in_water, forward_scatter", "expected True or False")
     R, light = setup.reflectances, setup.illuminant
     if in_water:
         R = cp.in_water_reflectance(R)
@@ -258,7 +259,7 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     sensor = SensorSettings() if sensor is None else sensor
     if not isinstance(sensor, SensorSettings):
-        raise ValueError("sensor: expected a forward.SensorSettings")
+        raise InputError("sensor", "expected a forward.SensorSettings")
     water = resolve_water(water, path_model=path_model, cdom_slope=cdom_slope)
     wl = setup.wavelengths
     terms = water.on_grid(wl, basis=basis, weights=weights)
@@ -275,9 +276,9 @@ def simulate_chart(chl, cdom, depth, distance, *, camera=DEFAULT_CAMERA, noise: 
     s = setup.sensitivities.T @ rho_b
     expected = camera_response(setup.sensitivities, setup.illuminant, k, setup.reflectances, s)
     if not isinstance(noise, (bool, np.bool_)):
-        raise ValueError(f"noise: expected True or False, got {noise!r}")
+        raise InputError("noise", f"expected True or False, got {noise!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-        raise ValueError(f"seed: expected a non-negative integer or None, got {seed!r}")
+        raise InputError("seed", f"expected a non-negative integer or None, got {seed!r}")
     rng = np.random.default_rng(seed)
     cap = capture(expected, setup, sensor, noise=bool(noise), rng=rng)
     return ChartSimulation(

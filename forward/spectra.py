@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import validate
+from forward.validate import InputError
 
 __all__ = [
     "COLOUR_CACHE",
@@ -142,13 +143,13 @@ def wavelength_grid(wavelengths=None) -> np.ndarray:
     else:
         wl = validate.array("wavelengths", wavelengths, ndim=1).copy()
         if wl.size < 3:
-            raise ValueError(f"wavelengths: need at least 3 wavelengths, got {wl.size}")
+            raise InputError("wavelengths", f"need at least 3 wavelengths, got {wl.size}")
         if np.any(np.diff(wl) <= 0):
-            raise ValueError("wavelengths: must be strictly increasing")
+            raise InputError("wavelengths", "must be strictly increasing")
         lo, hi = MODEL_RANGE_NM
         if wl[0] < lo - 1e-9 or wl[-1] > hi + 1e-9:
-            raise ValueError(
-                f"wavelengths: grid {wl[0]:g}-{wl[-1]:g} nm leaves the model range "
+            raise InputError(
+                "wavelengths", f"grid {wl[0]:g}-{wl[-1]:g} nm leaves the model range "
                 f"{lo:g}-{hi:g} nm (the pure-water and phytoplankton tables end there)"
             )
     wl.setflags(write=False)
@@ -271,7 +272,7 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
     """
     p = Path(path)
     if not p.is_file():
-        raise ValueError(f"{name}: file not found: {p}")
+        raise InputError(name, f"file not found: {p}")
     rows = []
     for ln in p.read_text(encoding="utf-8").splitlines():
         if not ln.strip() or ln.lstrip().startswith("#"):
@@ -281,16 +282,16 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
             rows.append([float(s) for s in parts])
         except ValueError:
             if rows:
-                raise ValueError(f"{name}: non-numeric row in {p}: {ln!r}") from None
+                raise InputError(name, f"non-numeric row in {p}: {ln!r}") from None
             continue  # header
     if not rows:
-        raise ValueError(f"{name}: no numeric rows in {p}")
+        raise InputError(name, f"no numeric rows in {p}")
     if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
-        raise ValueError(f"{name}: {p} must have a wavelength column and >= 1 value column in every row")
+        raise InputError(name, f"{p} must have a wavelength column and >= 1 value column in every row")
     arr = validate.array(name, rows, ndim=2)
     wl = arr[:, 0]
     if np.any(np.diff(wl) <= 0):
-        raise ValueError(f"{name}: wavelengths in {p} must be strictly increasing")
+        raise InputError(name, f"wavelengths in {p} must be strictly increasing")
     return wl, arr[:, 1:]
 
 
@@ -348,8 +349,8 @@ def resample(src_wavelengths, values, wavelengths, *, name: str, tail: float | N
             why = "" if tail is None or not high else (
                 f", and its values at {high[0][0]:g} nm are still {100 * high[0][1]:.0f} % of "
                 f"their peak (taken as 0 beyond the data only below {100 * tail:g} %)")
-            raise ValueError(
-                f"{name}: data cover {src[0]:g}-{src[-1]:g} nm but the wavelength grid is "
+            raise InputError(
+                name, f"data cover {src[0]:g}-{src[-1]:g} nm but the wavelength grid is "
                 f"{wl[0]:g}-{wl[-1]:g} nm{why}; use a grid inside the data ({lo:g}-{hi:g} nm)"
             )
         out = np.zeros((wl.size,) + vals.shape[1:])
@@ -456,8 +457,8 @@ def on_grid(value, wl, name, ncols):
         arr = arr[:, None]
     if arr.ndim != 2 or arr.shape[0] != wl.size or (ncols is not None and arr.shape[1] != ncols):
         want = f"({wl.size}, {ncols if ncols else 'n'})"
-        raise ValueError(
-            f"{name}: an array must be given on the wavelength grid with shape {want}, got {arr.shape}"
+        raise InputError(
+            name, f"an array must be given on the wavelength grid with shape {want}, got {arr.shape}"
         )
     return arr
 
@@ -511,7 +512,7 @@ def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
     matrix = table["xyz_to_srgb"].reshape(3, 3)
     levels = table["encoding_8bit_level"]
     if levels.shape != (255,) or np.any(np.diff(levels) <= 0):
-        raise ValueError(f"{SRGB_CACHE}: expected 255 increasing levels")
+        raise InputError(SRGB_CACHE, "expected 255 increasing levels")
     return matrix, levels
 
 
@@ -576,7 +577,7 @@ def colour_spectrum(database: str, name: str, wavelengths=None, *, arg: str = "n
 
     db = getattr(colour, database)
     if name not in db:
-        raise ValueError(f"{arg}: unknown name {name!r}; known: {sorted(db.keys())}")
+        raise InputError(arg, f"unknown name {name!r}; known: {sorted(db.keys())}")
     wl = wavelength_grid(wavelengths)
     entry = db[name]
     if database == "MSDS_CMFS":  # colour-science's own interpolation of the observer
@@ -683,7 +684,7 @@ def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None, *,
     sens = np.clip(sens, 0.0, None)
     peak = sens.max(axis=0)
     if np.all(peak <= 0):
-        raise ValueError("camera: all channels are zero on the wavelength grid")
+        raise InputError("camera", "all channels are zero on the wavelength grid")
     if not normalise:
         return sens
     # a channel that is zero on the grid stays zero (a legitimate, if useless, channel)
@@ -734,7 +735,7 @@ def illuminant_spd(illuminant=None, wavelengths=None) -> np.ndarray:
     else:
         spd = on_grid(illuminant, wl, "illuminant", 1)[:, 0]
     if spd.max() <= 0:
-        raise ValueError("illuminant: is zero everywhere on the wavelength grid")
+        raise InputError("illuminant", "is zero everywhere on the wavelength grid")
     return np.clip(spd, 0, None) / spd.max()
 
 
@@ -789,5 +790,5 @@ def chart_reflectances(reflectances=None, wavelengths=None) -> np.ndarray:
     else:
         refl = on_grid(reflectances, wl, "reflectances", None)
     if np.any(refl < 0):
-        raise ValueError("reflectances: contain negative values")
+        raise InputError("reflectances", "contain negative values")
     return refl

@@ -21,7 +21,7 @@ _HOME = {
     "orientations": "chart", "parse_corners": "chart", "sample_patches": "chart",
     "ChartNotFound": "detect", "Detection": "detect", "find_chart": "detect",
     "DiveResult": "dive", "measure_dive": "dive", "read_metadata": "dive",
-    "fit_joint": "joint",
+    "JointPhoto": "joint", "fit_joint": "joint",
     "Photo": "image", "demosaic": "image", "read_image": "image",
     "MEASURE_BLOCKING": "measurement", "Measurement": "measurement", "budget_for": "measurement",
     "correction": "measurement", "measure": "measurement",

@@ -25,6 +25,7 @@ R. T. Birge, "The calculation of errors by the method of least squares", Phys. R
 from __future__ import annotations
 
 import math
+from forward.validate import InputError
 
 __all__ = ["KINDS", "OPTIONS", "auxiliary_record", "combine_readings", "dive_auxiliary",
            "merge_auxiliary", "option_sources", "parse_kd", "parse_pair"]
@@ -41,9 +42,9 @@ def _positive(option, what, text) -> float:
     try:
         x = float(text)
     except (TypeError, ValueError):
-        raise ValueError(f"{option}: {what} is not a number: {text!r}") from None
+        raise InputError(option, f"{what} is not a number: {text!r}") from None
     if not (math.isfinite(x) and x > 0):
-        raise ValueError(f"{option}: {what} must be finite and > 0, got {text!r}")
+        raise InputError(option, f"{what} must be finite and > 0, got {text!r}")
     return x
 
 
@@ -71,7 +72,7 @@ def parse_pair(option: str, text: str, form: str = "VALUE:SD") -> tuple:
     """
     value, sep, sd = str(text).partition(":")
     if not sep:
-        raise ValueError(f"{option}: expected {form} (the measurement and its standard "
+        raise InputError(option, f"expected {form} (the measurement and its standard "
                          f"deviation), got {text!r}")
     return (_positive(option, "the value", value.strip()),
             _positive(option, "the sd", sd.strip()))
@@ -99,10 +100,10 @@ def parse_kd(option: str, text: str) -> tuple:
     """
     band, sep, rest = str(text).partition("=")
     if not sep:
-        raise ValueError(f"{option}: expected NM=VALUE:SD (e.g. 490=0.12:0.01), got {text!r}")
+        raise InputError(option, f"expected NM=VALUE:SD (e.g. 490=0.12:0.01), got {text!r}")
     nm = _positive(option, "the band (nm)", band.strip())
     if not 400.0 <= nm <= 700.0:
-        raise ValueError(f"{option}: the band {nm:g} nm lies outside 400-700 nm")
+        raise InputError(option, f"the band {nm:g} nm lies outside 400-700 nm")
     return nm, parse_pair(option, rest, "NM=VALUE:SD")
 
 
@@ -203,7 +204,7 @@ def combine_readings(readings) -> tuple:
     """
     readings = [(float(v), float(s)) for v, s in readings]
     if not readings:
-        raise ValueError("readings: none to combine")
+        raise InputError("readings", "none to combine")
     w = [1.0 / s ** 2 for _, s in readings]
     mean = sum(wi * v for wi, (v, _) in zip(w, readings)) / sum(w)
     sd = 1.0 / math.sqrt(sum(w))
@@ -224,8 +225,9 @@ def dive_auxiliary(records) -> dict:
 
     Parameters
     ----------
-    records : sequence of dict
-        measurement.json contents (``inputs['auxiliary']``: :func:`auxiliary_record`'s list).
+    records : sequence of dict or measure.joint.JointPhoto
+        measurement.json contents (``inputs['auxiliary']``: :func:`auxiliary_record`'s list)
+        or the joint fit's photos (their ``auxiliary``).
 
     Returns
     -------
@@ -234,7 +236,9 @@ def dive_auxiliary(records) -> dict:
     """
     seen = {}
     for rec in records:
-        for r in (rec.get("inputs") or {}).get("auxiliary") or []:
+        readings = (rec.get("inputs") or {}).get("auxiliary") if isinstance(rec, dict) \
+            else rec.auxiliary
+        for r in readings or []:
             key = (r["kind"], r.get("band_nm"), float(r["value"]), float(r["sd"]),
                    r.get("source", "given"))
             seen[key] = (float(r["value"]), float(r["sd"]))

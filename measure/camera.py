@@ -25,6 +25,7 @@ import numpy as np
 
 import forward
 from forward.imaging import ChartSetup
+from forward.validate import InputError
 
 __all__ = [
     "CHART_PATCHES",
@@ -93,19 +94,19 @@ def read_chart_reflectance(path, wavelengths=None, *, name: str = "chart_reflect
 
     wl_src, values = read_spectral_csv(path, name=name)
     if values.shape[1] != CHART_PATCHES:
-        raise ValueError(f"{name}: {path} has {values.shape[1]} reflectance columns; expected "
+        raise InputError(name, f"{path} has {values.shape[1]} reflectance columns; expected "
                          f"{CHART_PATCHES} (wavelength nm, then patch 1 dark skin ... patch 24 "
                          "black, in ColorChecker order)")
     top, bottom = float(values.max()), float(values.min())
     if top > _REFLECTANCE_MAX or bottom < 0:
         hint = " (the file looks like percent: divide by 100)" if top > 1.5 else ""
-        raise ValueError(f"{name}: {path}: reflectance factors must lie in 0-1, found "
+        raise InputError(name, f"{path}: reflectance factors must lie in 0-1, found "
                          f"{bottom:.4g}-{top:.4g}{hint}")
     wl = forward.wavelength_grid(wavelengths)
     refl = resample(wl_src, values, wl, name=name)
     grey = refl[:, 18:24].mean(axis=0)
     if not np.all(np.diff(grey) < 0):
-        raise ValueError(f"{name}: {path}: the grey row (patches 19-24) does not fall from "
+        raise InputError(name, f"{path}: the grey row (patches 19-24) does not fall from "
                          "white to black (mean reflectance "
                          + ", ".join(f"{g:.3g}" for g in grey)
                          + "): the columns are not in ColorChecker order")
@@ -238,17 +239,17 @@ def load_profile(path) -> Profile:
     """
     p = Path(path)
     if not p.exists():
-        raise ValueError(f"profile: {p}: no such file")
+        raise InputError("profile", f"{p}: no such file")
     if p.is_dir():
-        raise ValueError(f"profile: {p}: is a folder, not a profile JSON")
+        raise InputError("profile", f"{p}: is a folder, not a profile JSON")
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
         prof = Profile(**{k: data[k] for k in Profile.__dataclass_fields__ if k in data})
         gains = np.asarray(prof.gains, float)
     except (OSError, ValueError, TypeError, KeyError) as exc:
-        raise ValueError(f"profile: {p}: not a uw3p camera profile ({type(exc).__name__})") from None
+        raise InputError("profile", f"{p}: not a uw3p camera profile ({type(exc).__name__})") from None
     if gains.shape != (3,) or not np.all(np.isfinite(gains)) or np.any(gains <= 0):
-        raise ValueError(f"profile: {p}: gains must be three positive numbers, got {prof.gains}")
+        raise InputError("profile", f"{p}: gains must be three positive numbers, got {prof.gains}")
     return prof
 
 
@@ -289,13 +290,13 @@ def camera_setup(camera=forward.DEFAULT_CAMERA, *, quantal: bool = False, gains=
     wl = forward.wavelength_grid(wavelengths)
     sens = forward.camera_sensitivities(camera, wl, normalise=False)  # the curves' own balance
     if sens.shape[1] != 3:
-        raise ValueError(f"camera: expected three channels (red, green, blue), got {sens.shape[1]}")
+        raise InputError("camera", f"expected three channels (red, green, blue), got {sens.shape[1]}")
     if quantal:
         sens = camera = sens * wl[:, None]  # photons -> energy, balance included
     if gains is not None:
         gains = np.asarray(gains, float)
         if gains.shape != (3,) or np.any(~np.isfinite(gains)) or np.any(gains <= 0):
-            raise ValueError(f"gains: expected three positive numbers, got {gains!r}")
+            raise InputError("gains", f"expected three positive numbers, got {gains!r}")
     balance = own_balance(sens)
     total = balance if gains is None else balance * gains
     if gains is None and np.all(balance == 1.0):

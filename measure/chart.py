@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from forward.validate import InputError
 
 __all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
            "sample_patches", "orientations", "grey_row_ok", "corners_outside", "pose",
@@ -122,15 +123,15 @@ def parse_corners(text) -> np.ndarray:
         except ValueError:
             pts = None
         if not pts or any(len(p) != 2 for p in pts) or len(pts) != 4:
-            raise ValueError(f"corners: expected 'x1,y1 x2,y2 x3,y3 x4,y4' (four x,y pixel pairs), "
+            raise InputError("corners", f"expected 'x1,y1 x2,y2 x3,y3 x4,y4' (four x,y pixel pairs), "
                              f"got {text!r}")
         arr = np.array(pts, float)
     else:
         arr = np.asarray(text, float)
         if arr.shape != (4, 2):
-            raise ValueError(f"corners: expected four (x, y) pairs, got shape {arr.shape}")
+            raise InputError("corners", f"expected four (x, y) pairs, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("corners: must be finite numbers")
+        raise InputError("corners", "must be finite numbers")
     return arr
 
 
@@ -163,7 +164,7 @@ def homography(src, dst) -> np.ndarray:
         A.append([0, 0, 0, x, y, 1, -v * x, -v * y, -v])
     _, sv, vt = np.linalg.svd(np.array(A))
     if sv[-2] < DEGENERATE_SV * sv[0]:
-        raise ValueError("corners: degenerate (three of them on a line, or repeated)")
+        raise InputError("corners", "degenerate (three of them on a line, or repeated)")
     H = vt[-1].reshape(3, 3)
     return H / H[2, 2]
 
@@ -243,14 +244,14 @@ def _check_geometry(corners, size):
     W, H = size
     bad = corners_outside(corners, size)
     if bad:
-        raise ValueError(f"corners: corner(s) {bad} lie outside the image ({W} x {H} pixels)")
+        raise InputError("corners", f"corner(s) {bad} lie outside the image ({W} x {H} pixels)")
     cross = []
     for i in range(4):
         a, b, c = corners[i], corners[(i + 1) % 4], corners[(i + 2) % 4]
         u, v = b - a, c - b
         cross.append(u[0] * v[1] - u[1] * v[0])
     if not (all(v > 0 for v in cross) or all(v < 0 for v in cross)):
-        raise ValueError("corners: they do not form a convex quadrilateral in the order given "
+        raise InputError("corners", "they do not form a convex quadrilateral in the order given "
                          "(next to patch 1, patch 6, patch 24, patch 19: around the chart)")
 
 
@@ -407,7 +408,7 @@ def sample_patches(photo, corners, layout: ChartLayout = LAYOUTS["patches"],
                 vals = photo.data[yy, xx, ch]
                 clipped = photo.clipped[yy, xx]
             if vals.size < MIN_PIXELS:
-                raise ValueError(f"corners: patch {j + 1} covers {vals.size} pixels of channel "
+                raise InputError("corners", f"patch {j + 1} covers {vals.size} pixels of channel "
                                  f"{'RGB'[ch]} (at least {MIN_PIXELS} needed): the chart is too "
                                  "small in the image or the corners are wrong")
             value = _patch_value(vals.astype(float), np.asarray(clipped, bool),
@@ -467,7 +468,7 @@ def orientations(photo, corners, layout: ChartLayout = LAYOUTS["patches"]):
     corners = parse_corners(corners)
     _check_geometry(corners, photo.size)
     if not _long_side_first(corners):
-        raise ValueError("corners: the first side (corner 1 -> 2, along patches 1-6) is the "
+        raise InputError("corners", "the first side (corner 1 -> 2, along patches 1-6) is the "
                          "short one: the chart's six-patch side comes first (order: next to "
                          "patch 1, patch 6, patch 24, patch 19)")
     out = {}

@@ -54,13 +54,16 @@ from sca.compiled import KERNEL_LOCK
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
 from .pixels import correct_pixels
-from .measurement import WHITE_TARGET
 from .rangemap import read_range
+from forward.validate import InputError
 
-__all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "SRGB_LUT_BITS", "TABLE_SIZE", "Corrected",
+__all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE", "Corrected",
            "CorrectionTable", "correct_image", "correction_table", "seathru_coefficients",
            "srgb_encoding_lut"]
 
+#: corrected.tiff: the corrected white patch's brightest channel is put at this fraction of
+#: full scale (a common factor of the gains; the correction's colour is its ratios).
+WHITE_TARGET = 0.8
 #: Ranges in the transmission table (0 to the cap, evenly spaced); linear interpolation
 #: between them is within 1e-4 of the model for a cap of 20 m in the clearest and the most
 #: turbid of the paper's waters (tests/test_correct.py)
@@ -222,11 +225,11 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
     """
     cw = water if isinstance(water, CorrectionWater) else correction_water(water, **water_options)
     if not (max_gain > 1):
-        raise ValueError(f"max_gain: must be > 1 (or inf), got {max_gain!r}")
+        raise InputError("max_gain", f"must be > 1 (or inf), got {max_gain!r}")
     if max_range is not None and not (math.isfinite(max_range) and max_range > 0):
-        raise ValueError(f"max_range: must be finite and > 0 m, got {max_range!r}")
+        raise InputError("max_range", f"must be finite and > 0 m, got {max_range!r}")
     if int(size) != size or size < 16:
-        raise ValueError(f"size: an integer >= 16, got {size!r}")
+        raise InputError("size", f"an integer >= 16, got {size!r}")
     air = cw.setup.white_response
     # the cap: where t_c(r) / t_c(0) first falls below 1 / max_gain in some channel
     search = np.linspace(0.0, SEARCH_RANGE_M if max_range is None else max_range, 2001)
@@ -256,7 +259,7 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
         except (TypeError, ValueError):
             unk = math.nan
         if not (math.isfinite(unk) and unk > 0):
-            raise ValueError(f"unknown: 'reference' or a range > 0 m, got {unknown!r}")
+            raise InputError("unknown", f"'reference' or a range > 0 m, got {unknown!r}")
     return CorrectionTable(ranges, trans, veil, shape[-1] * scale, float(cw.gain), cap, why,
                            min(unk, cap), r0, cw)
 
@@ -366,7 +369,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         Y of a perfect white reflector in the sRGB image (default 1).
     white_linear : float, optional
         A perfect white reflector's most sensitive channel in the linear image, fraction of
-        full scale (default :data:`measure.measurement.WHITE_TARGET`).
+        full scale (default :data:`WHITE_TARGET`).
     linear, srgb, float_output : bool, optional
         Which images to make.
     black_level, white_level : optional
@@ -415,7 +418,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     """
     for name, v in (("white", white), ("white_linear", white_linear)):
         if not (math.isfinite(v) and 0 < v <= 1):
-            raise ValueError(f"{name}: must be in (0, 1], got {v!r}")
+            raise InputError(name, f"must be in (0, 1], got {v!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
     table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,

@@ -29,6 +29,7 @@ import numpy as np
 
 import forward
 from forward.water import COEFFICIENT_PARAMS, Water
+from forward.validate import InputError
 
 __all__ = ["CorrectionWater", "MODEL_NUISANCE", "correction_water", "exposure_ratio"]
 
@@ -121,11 +122,11 @@ def _load(source):
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except OSError as exc:
-        raise ValueError(f"water: cannot read {p}: {exc.strerror or exc}") from None
+        raise InputError("water", f"cannot read {p}: {exc.strerror or exc}") from None
     except ValueError:
-        raise ValueError(f"water: {p}: not JSON (give measurement.json or joint.json)") from None
+        raise InputError("water", f"{p}: not JSON (give measurement.json or joint.json)") from None
     if not isinstance(data, dict):
-        raise ValueError(f"water: {p}: not a measurement.json or joint.json")
+        raise InputError("water", f"{p}: not a measurement.json or joint.json")
     return data, str(p)
 
 
@@ -161,7 +162,7 @@ def _setup_from(record: dict, setup):
     cam = record.get("camera") or {}
     name = cam.get("name", forward.DEFAULT_CAMERA)
     if name == "custom":
-        raise ValueError("setup: the measurement used custom camera curves; give the camera "
+        raise InputError("setup", "the measurement used custom camera curves; give the camera "
                          "(setup=, or --camera)")
     prof = cam.get("profile") or {}
     ill = cam.get("illuminant")
@@ -197,13 +198,13 @@ def _from_measurement(rec: dict, source: str, setup, depth, ratio) -> Correction
 def _from_joint(rec: dict, source: str, setup, depth, photo, ratio, model) -> CorrectionWater:
     photos = rec.get("photos") or {}
     if not photos:
-        raise ValueError(f"water: {source}: joint.json lists no photo")
+        raise InputError("water", f"{source}: joint.json lists no photo")
     if photo is None:
         # the photo nearest in depth (its veiling light was lit most like the frame's)
         ref = depth if depth is not None else float(np.median([p["depth"] for p in photos.values()]))
         photo = min(photos, key=lambda k: abs(float(photos[k]["depth"]) - ref))
     if photo not in photos:
-        raise ValueError(f"photo: {photo!r} is not a photo of {source} ({', '.join(photos)})")
+        raise InputError("photo", f"{photo!r} is not a photo of {source} ({', '.join(photos)})")
     p = photos[photo]
     notes = [f"veiling light and gain of {photo} (depth {float(p['depth']):.3g} m, distance "
              f"{float(p['distance']):.3g} m)"]
@@ -257,10 +258,10 @@ def correction_water(source, *, setup=None, depth=None, photo=None, exposure_rat
         ``photo``, ``depth``, ``exposure_ratio`` or ``setup``.
     """
     if depth is not None and not (math.isfinite(float(depth)) and float(depth) >= 0):
-        raise ValueError(f"depth: must be finite and >= 0 m, got {depth!r}")
+        raise InputError("depth", f"must be finite and >= 0 m, got {depth!r}")
     if exposure_ratio is not None and not (math.isfinite(float(exposure_ratio))
                                            and float(exposure_ratio) > 0):
-        raise ValueError(f"exposure_ratio: must be finite and > 0, got {exposure_ratio!r}")
+        raise InputError("exposure_ratio", f"must be finite and > 0, got {exposure_ratio!r}")
     if hasattr(source, "to_dict") and hasattr(source, "setup"):
         setup = source.setup if setup is None else setup
     rec, where = _load(source)
@@ -268,5 +269,5 @@ def correction_water(source, *, setup=None, depth=None, photo=None, exposure_rat
         return _from_measurement(rec, where, setup, depth, exposure_ratio)
     if "photos" in rec and "chl" in rec:
         return _from_joint(rec, where, setup, depth, photo, exposure_ratio, model)
-    raise ValueError(f"water: {where}: neither measurement.json (an 'estimate') nor joint.json "
+    raise InputError("water", f"{where}: neither measurement.json (an 'estimate') nor joint.json "
                      "('photos')")

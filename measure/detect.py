@@ -56,6 +56,7 @@ import numpy as np
 from forward import spectra
 
 from .chart import CORNER_PATCHES, LAYOUTS, ChartLayout, corners_outside, orientations, pose
+from forward.validate import InputError
 
 __all__ = [
     "ADAPTIVE_BLOCKS",
@@ -198,7 +199,7 @@ class Detection:
         bad = corners_outside(self.corners, size)
         if bad:
             near = ", ".join(str(CORNER_PATCHES[i - 1]) for i in bad)
-            raise ValueError(f"image: the chart found lies partly outside the frame (its corners "
+            raise InputError("image", f"the chart found lies partly outside the frame (its corners "
                              f"next to patch {near} fall beyond the {size[0]} x {size[1]} "
                              "pixels); every patch must be in the photo: take it again with "
                              "the whole chart inside the frame")
@@ -236,7 +237,7 @@ def _linear_rgb(image):
         return demosaic(image), 1.0, 0.0
     arr = np.asarray(image)
     if arr.ndim != 3 or arr.shape[-1] < 3 or arr.shape[0] < 16 or arr.shape[1] < 16:
-        raise ValueError(f"image: expected a measure.Photo or linear RGB (height, width, 3), got "
+        raise InputError("image", f"expected a measure.Photo or linear RGB (height, width, 3), got "
                          f"shape {arr.shape}")
     return np.asarray(arr[..., :3], np.float32), 1.0, 0.0
 
@@ -540,11 +541,11 @@ def _corners_of(assigned, pts, best, layout, factor, scale, offset):
 def _layout(layout) -> ChartLayout:
     if not isinstance(layout, ChartLayout):
         if layout not in LAYOUTS:
-            raise ValueError(f"layout: must be one of {sorted(LAYOUTS)} or a ChartLayout, got "
+            raise InputError("layout", f"must be one of {sorted(LAYOUTS)} or a ChartLayout, got "
                              f"{layout!r}")
         layout = LAYOUTS[layout]
     if (layout.columns, layout.rows) != (6, 4):
-        raise ValueError(f"layout: the detector finds the 6 x 4 ColorChecker Classic, not "
+        raise InputError("layout", f"the detector finds the 6 x 4 ColorChecker Classic, not "
                          f"{layout.columns} x {layout.rows}; give --corners")
     return layout
 

@@ -19,6 +19,7 @@ import numpy as np
 from sca.compiled import KERNEL_LOCK
 
 from .pixels import bilinear_all, unpack
+from forward.validate import InputError
 
 # numba's fork-safe threading layer and the kernel lock: one place (sca.compiled)
 _KERNEL_LOCK = KERNEL_LOCK
@@ -132,7 +133,7 @@ def read_image(path, *, black_level=None, white_level=None) -> Photo:
     """
     p = Path(path)
     if not p.is_file():
-        raise ValueError(f"image: {p}: no such file")
+        raise InputError("image", f"{p}: no such file")
     if p.suffix.lower() in TIFF_EXTENSIONS:
         return _read_tiff(p, black_level, white_level)
     return _read_raw(p, black_level, white_level)
@@ -141,7 +142,7 @@ def read_image(path, *, black_level=None, white_level=None) -> Photo:
 def _levels(name, value, n):
     arr = np.broadcast_to(np.asarray(value, float), (n,)).astype(float)
     if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError(f"{name}: must be finite and >= 0, got {value!r}")
+        raise InputError(name, f"must be finite and >= 0, got {value!r}")
     return arr
 
 
@@ -151,25 +152,25 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
     try:
         raw = rawpy.imread(str(p))
     except (rawpy.LibRawError, OSError) as exc:
-        raise ValueError(f"image: {p}: not a RAW file LibRaw can read, nor a .tif/.tiff "
+        raise InputError("image", f"{p}: not a RAW file LibRaw can read, nor a .tif/.tiff "
                          f"({type(exc).__name__})") from None
     with raw:
         try:
             mosaic = raw.raw_image_visible.copy()
             colors = raw.raw_colors_visible.copy()
         except rawpy.LibRawError as exc:
-            raise ValueError(f"image: {p}: LibRaw cannot unpack it ({type(exc).__name__})") from None
+            raise InputError("image", f"{p}: LibRaw cannot unpack it ({type(exc).__name__})") from None
         desc = raw.color_desc.decode("ascii", "replace")
         blacks = np.asarray(raw.black_level_per_channel, float)
         white = float(raw.white_level)
     letters = [desc[i] if i < len(desc) else "?" for i in range(4)]
     top = int(colors.max(initial=0))
     if top >= len(letters):
-        raise ValueError(f"image: {p}: colour index {top} outside LibRaw's 4 colours")
+        raise InputError("image", f"{p}: colour index {top} outside LibRaw's 4 colours")
     # the colour indices present (a comparison each: np.unique sorts all 24 M of them)
     used = [c for c in range(top + 1) if (colors == c).any()]
     if any(letters[c] not in CHANNEL_OF_LETTER for c in used):
-        raise ValueError(f"image: {p}: colour filter array {desc!r} is not red/green/blue")
+        raise InputError("image", f"{p}: colour filter array {desc!r} is not red/green/blue")
     lut = np.array([CHANNEL_OF_LETTER.get(letter, 0) for letter in letters], dtype=np.int8)
     if black_level is not None:  # per model channel -> per colour index
         blacks = _levels("black_level", black_level, 3)[lut]
@@ -191,11 +192,11 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
     try:
         arr = tifffile.imread(str(p))
     except Exception as exc:  # tifffile raises many kinds for a bad file
-        raise ValueError(f"image: {p}: not a readable TIFF ({type(exc).__name__}: {exc})") from None
+        raise InputError("image", f"{p}: not a readable TIFF ({type(exc).__name__}: {exc})") from None
     if arr.ndim != 3 or arr.shape[-1] not in (3, 4):
-        raise ValueError(f"image: {p}: expected an RGB TIFF (height, width, 3), got shape {arr.shape}")
+        raise InputError("image", f"{p}: expected an RGB TIFF (height, width, 3), got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.integer) and not np.issubdtype(arr.dtype, np.floating):
-        raise ValueError(f"image: {p}: unsupported sample type {arr.dtype}")
+        raise InputError("image", f"{p}: unsupported sample type {arr.dtype}")
     rgb = arr[..., :3]
     top = float(np.iinfo(rgb.dtype).max) if np.issubdtype(rgb.dtype, np.integer) else np.inf
     white = top if white_level is None else float(_levels("white_level", white_level, 1)[0])

@@ -30,6 +30,7 @@ import numpy as np
 
 import sca
 from forward.water import resolve_water
+from forward.validate import InputError
 
 __all__ = ["FIELDS", "FIELD_FLOOR", "LIGHT_FIELD_ALPHA", "field_basis", "fit_light_field"]
 
@@ -116,7 +117,7 @@ def _minimise(theta, basis, M, sigma, noise_sd, setup, depth, distance, water, p
     chi^2)."""
     fit = _fit_at(theta, basis, M, sigma, setup, depth, distance, water, patch)
     if fit is None:
-        raise ValueError("theta: the starting field falls below FIELD_FLOOR")
+        raise InputError("theta", "the starting field falls below FIELD_FLOOR")
     chi2 = float(fit[0].objective[0])
     for _ in range(GN_MAX_ITER):
         delta = _step(fit, theta, basis, M, noise_sd, depth, distance, water)

@@ -40,12 +40,14 @@ from .chart import (
     pose,
     sample_patches,
 )
+from .correct import WHITE_TARGET
 from .detect import find_chart
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
+from forward.validate import InputError
 
 __all__ = ["Measurement", "measure", "correction", "budget_for", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
-           "SATURATED_FRACTION", "WHITE_TARGET", "ORIENTATION_CHI2"]
+           "SATURATED_FRACTION", "ORIENTATION_CHI2"]
 
 #: Flags of the measurement itself that make it unreliable (besides sca.assess.BLOCKING):
 #: the camera's channel balance is unknown (or its profile is not reliable), the chart's
@@ -57,9 +59,6 @@ MEASURE_BLOCKING = ("uncalibrated-camera", "orientation-unverified", "saturated"
 CLIPPED_SIGMA = 1e6
 #: More than this fraction of the 72 patch values clipped: 'saturated'.
 SATURATED_FRACTION = 1 / 3
-#: corrected.tiff: the corrected white patch's brightest channel is put at this fraction of
-#: full scale (a common factor of the gains; the correction's colour is its ratios).
-WHITE_TARGET = 0.8
 #: When several orientations pass the grey-row test, the best fit must beat the others by this
 #: chi^2 (else the orientation is not verified).
 ORIENTATION_CHI2 = 25.0
@@ -181,7 +180,7 @@ class Measurement:
                 "wavelengths": e.wavelengths.tolist(), "backscatter": e.backscatter.tolist(),
                 "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
                 "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
-                "converged": e.converged, "status": e.status, "path_model": e.path_model,
+                "converged": e.converged, "status": e.status,
                 "budget": e.budget, "nuisance": {k: np.asarray(v, float).tolist()
                                                  for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
@@ -219,7 +218,7 @@ def _layout(layout) -> ChartLayout:
     if isinstance(layout, ChartLayout):
         return layout
     if layout not in LAYOUTS:
-        raise ValueError(f"layout: must be one of {sorted(LAYOUTS)} or a ChartLayout, got {layout!r}")
+        raise InputError("layout", f"must be one of {sorted(LAYOUTS)} or a ChartLayout, got {layout!r}")
     return LAYOUTS[layout]
 
 
@@ -228,7 +227,7 @@ def _data(sample: PatchSample):
     clipped or unmeasurable values left out by a sigma of CLIPPED_SIGMA x the largest value."""
     M = np.maximum(sample.rgb, 0.0)
     if not M.max() > 0:
-        raise ValueError("image: every sampled patch value is <= 0 after the black level: the "
+        raise InputError("image", "every sampled patch value is <= 0 after the black level: the "
                          "photo is black or the corners miss the chart")
     out = CLIPPED_SIGMA * float(M.max())
     ok = np.isfinite(sample.sigma) & (sample.sigma > 0) & ~(sample.clipped > 0)
@@ -340,7 +339,7 @@ def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535
     curve shifts, where it has ``balance`` and ``camera_shift``, P_delta = P - delta dP/dlambda
     to first order as :mod:`sca.model` takes them; the corrected white is that of the given
     illuminant and the camera's nominal curves), times one common factor that puts the
-    corrected white patch's brightest channel at :data:`WHITE_TARGET` x ``full_scale``.
+    corrected white patch's brightest channel at :data:`measure.correct.WHITE_TARGET` x ``full_scale``.
 
     Parameters
     ----------
@@ -543,13 +542,13 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     True
     """
     if mode not in sca.MODES:  # before any work
-        raise ValueError(f"mode: must be one of {sca.MODES}, got {mode!r}")
+        raise InputError("mode", f"must be one of {sca.MODES}, got {mode!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
     if isinstance(profile, (str, bytes)) or hasattr(profile, "__fspath__"):
         profile = load_profile(profile)
     if profile is not None and not isinstance(profile, Profile):
-        raise ValueError("profile: expected a measure.Profile or the path of a profile JSON")
+        raise InputError("profile", "expected a measure.Profile or the path of a profile JSON")
     depth = validate.scalar("depth", depth)
     distance = validate.scalar("distance", distance)
     water = resolve_water(water)
@@ -559,7 +558,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant,
                          gains=None if profile is None else profile.gains, reflectances=refl)
     if light_field != "auto" and light_field not in FIELDS:
-        raise ValueError(f"light_field: must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
+        raise InputError("light_field", f"must be 'auto' or one of {tuple(FIELDS)}, got {light_field!r}")
     budget = budget_for(uncertain, profile, measured_chart=refl is not None)
     if corners is None:
         found = find_chart(photo, lay)
@@ -604,7 +603,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         notes.append("no camera profile: the curves' own channel balance was used (run uw3p "
                      "calibrate on a photo of the chart in air)")
     elif not _same_camera(profile.camera, camera):
-        raise ValueError(f"profile: made for camera {profile.camera!r}, not {camera!r}")
+        raise InputError("profile", f"made for camera {profile.camera!r}, not {camera!r}")
     elif not profile.reliable:
         flags.append("unreliable-profile")
         notes.append(f"the camera profile is not reliable (flags: {', '.join(profile.flags)}): "

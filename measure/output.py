@@ -22,8 +22,10 @@ import forward
 from forward.spectra import WHITE_PATCH, srgb_8bit
 
 from .image import demosaic
+from .imagefiles import TIFF_COMPRESSION
+from forward.validate import InputError
 
-__all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_COMPRESSION", "TIFF_MODES",
+__all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_MODES",
            "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",
            "result_owner", "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
@@ -34,15 +36,6 @@ PNG_OPTIONS = {"compress_level": 1}
 #: ``tiff=`` of :func:`write_outputs`: corrected.tiff deflate-compressed (default), uncompressed,
 #: or not written (the sRGB preview corrected.png is always written)
 TIFF_MODES = ("compressed", "full", "none")
-#: tifffile's options for a compressed corrected.tiff: Adobe deflate with the
-#: horizontal-differencing predictor (TIFF 6.0 section 14), lossless, any TIFF reader; zlib
-#: level 1 and the strips compressed on every core. tifffile encodes it with imagecodecs (a
-#: dependency: its zlib-ng, the same format) where Python's zlib took 2.6-4.3 s on a 24 MP photo
-#: (2 cores); `uw3p measure` of that photo went from 9.8 to 6.9 s (issue 21). Level 6 on one
-#: worker had taken 11.5 s for a file 3 % smaller (111 against 114 MB; 144 MB uncompressed: a
-#: photo's noise leaves deflate little to find)
-TIFF_COMPRESSION = {"compression": "zlib", "compressionargs": {"level": 1}, "predictor": True,
-                    "maxworkers": os.cpu_count() or 1}
 #: The file written last into a photo's folder: its presence says the folder is complete; it
 #: names the image and (in a dive) the key of the inputs and options used
 MARKER = "complete.json"
@@ -402,19 +395,19 @@ def check_out(outdir, image, overwrite: bool = False) -> None:
     if not out.exists():
         return
     if not out.is_dir():
-        raise ValueError(f"out: {out} is a file; give a folder")
+        raise InputError("out", f"{out} is a file; give a folder")
     if not any(out.iterdir()):
         return
     owner = result_owner(out)
     if owner is None and (out / "run.json").is_file():
-        raise ValueError(f"out: {out} holds a dive's results (run.json, one folder per photo); "
+        raise InputError("out", f"{out} holds a dive's results (run.json, one folder per photo); "
                          "a photo's results go in a folder of their own: give a new or empty "
                          "folder")
     if owner is None:
-        raise ValueError(f"out: {out} exists and holds files that are not uw3p results; give a "
+        raise InputError("out", f"{out} exists and holds files that are not uw3p results; give a "
                          "new or empty folder")
     if not overwrite and not _same_file(owner, image):
-        raise ValueError(f"out: {out} holds the results of another photo ({owner or 'unknown'}); "
+        raise InputError("out", f"{out} holds the results of another photo ({owner or 'unknown'}); "
                          "give another folder or --overwrite (overwrite=True) to replace them")
 
 
@@ -451,7 +444,7 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     report : bool, optional
         Also draw report.png (the photo with the sampled boxes, the fit, k and the estimate).
     tiff : {'compressed', 'full', 'none'}, optional
-        corrected.tiff deflate-compressed and lossless (:data:`TIFF_COMPRESSION`; default),
+        corrected.tiff deflate-compressed and lossless (:data:`measure.imagefiles.TIFF_COMPRESSION`; default),
         uncompressed, or not written.
     overwrite : bool, optional
         Replace a folder that holds another photo's results.
@@ -478,7 +471,7 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
         another photo's results without ``overwrite``.
     """
     if tiff not in TIFF_MODES:
-        raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
     return write_folder(outdir, meas.photo.path, overwrite,
                         lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range))
 
@@ -515,12 +508,12 @@ def write_folder(outdir, image, overwrite: bool, write) -> dict:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
     except OSError as exc:
-        raise ValueError(f"out: cannot create {out}: {exc.strerror}") from None
+        raise InputError("out", f"cannot create {out}: {exc.strerror}") from None
     try:
         names = write(tmp)
         _swap(tmp, out)
     except OSError as exc:
-        raise ValueError(f"out: cannot write {out}: {exc.strerror}") from None
+        raise InputError("out", f"cannot write {out}: {exc.strerror}") from None
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
@@ -532,7 +525,7 @@ def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) ->
     import tifffile
 
     from .correct import correct_image
-    from .correct_output import write_jpeg, write_srgb_tiff
+    from .imagefiles import write_jpeg, write_srgb_tiff
 
     names = ["measurement.json"]
     (folder / "measurement.json").write_text(

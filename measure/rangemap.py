@@ -25,6 +25,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+from forward.validate import InputError
 
 __all__ = ["MM_PER_M", "PLANE_PREFIX", "RANGE_EXTENSIONS", "parse_range", "read_range",
            "resample_range"]
@@ -67,7 +68,7 @@ def parse_range(value):
         except ValueError:
             coef = ()
         if len(coef) != 3 or not all(math.isfinite(c) for c in coef):
-            raise ValueError(f"range: a plane is 'plane:A,B,C' (three numbers, m), got {text!r}")
+            raise InputError("range", f"a plane is 'plane:A,B,C' (three numbers, m), got {text!r}")
         return "plane", coef
     try:
         return "constant", _positive(float(text))
@@ -76,16 +77,16 @@ def parse_range(value):
             raise
     p = Path(text)
     if p.suffix.lower() not in RANGE_EXTENSIONS:
-        raise ValueError(f"range: a distance in m, 'plane:A,B,C' or a range map "
+        raise InputError("range", f"a distance in m, 'plane:A,B,C' or a range map "
                          f"({', '.join(RANGE_EXTENSIONS)}), got {text!r}")
     if not p.is_file():
-        raise ValueError(f"range: {p}: no such file")
+        raise InputError("range", f"{p}: no such file")
     return "file", p
 
 
 def _positive(x: float) -> float:
     if not (math.isfinite(x) and x > 0):
-        raise ValueError(f"range: a distance must be finite and > 0 m, got {x!r}")
+        raise InputError("range", f"a distance must be finite and > 0 m, got {x!r}")
     return x
 
 
@@ -102,7 +103,7 @@ def _load(p: Path) -> np.ndarray:
             with Image.open(p) as im:
                 arr = np.asarray(im)
             if arr.dtype != np.uint16 and arr.dtype != np.int32:
-                raise ValueError(f"range: {p}: a PNG range map must be 16-bit (millimetres), got "
+                raise InputError("range", f"{p}: a PNG range map must be 16-bit (millimetres), got "
                                  f"{arr.dtype}")
             scale = 1.0 / MM_PER_M
         else:
@@ -110,17 +111,17 @@ def _load(p: Path) -> np.ndarray:
 
             arr = tifffile.imread(p)
             if not np.issubdtype(arr.dtype, np.floating):
-                raise ValueError(f"range: {p}: a TIFF range map must hold floats in metres, got "
+                raise InputError("range", f"{p}: a TIFF range map must hold floats in metres, got "
                                  f"{arr.dtype} (a 16-bit map in millimetres: save it as PNG)")
             scale = 1.0
     except ValueError:
         raise
     except Exception as exc:  # the readers raise many kinds for a bad file
-        raise ValueError(f"range: {p}: not a readable range map ({type(exc).__name__}: "
+        raise InputError("range", f"{p}: not a readable range map ({type(exc).__name__}: "
                          f"{exc})") from None
     arr = np.squeeze(np.asarray(arr))
     if arr.ndim != 2:
-        raise ValueError(f"range: {p}: expected one channel (height, width), got shape "
+        raise InputError("range", f"{p}: expected one channel (height, width), got shape "
                          f"{arr.shape}")
     out = arr.astype(np.float32) * np.float32(scale)
     out[~(out > 0)] = np.nan  # 0, negative or NaN: unknown
@@ -191,15 +192,15 @@ def read_range(value, size) -> np.ndarray | float:
         w = np.linspace(-1.0, 1.0, H, dtype=np.float32)[:, None]
         out = np.float32(a) + np.float32(b) * u + np.float32(c) * w
         if not np.all(out > 0):
-            raise ValueError(f"range: the plane {a:g} + {b:g} u + {c:g} v is <= 0 m in a part "
+            raise InputError("range", f"the plane {a:g} + {b:g} u + {c:g} v is <= 0 m in a part "
                              "of the photo (u, v in [-1, 1])")
         return out
     arr = _load(v) if kind == "file" else np.asarray(v, np.float32).copy()
     if kind == "array":
         if arr.ndim != 2:
-            raise ValueError(f"range: expected a (height, width) array, got shape {arr.shape}")
+            raise InputError("range", f"expected a (height, width) array, got shape {arr.shape}")
         arr[~(arr > 0)] = np.nan
     if not np.isfinite(arr).any():
-        raise ValueError(f"range: {v if kind == 'file' else 'the array'} holds no known range "
+        raise InputError("range", f"{v if kind == 'file' else 'the array'} holds no known range "
                          "(every value is 0 or NaN)")
     return resample_range(arr, size)

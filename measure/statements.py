@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from sca.derived import QUANTITIES, describe, verdict
+from forward.validate import InputError
 
 __all__ = ["HINTS", "LABELS", "estimate_values", "one_line", "statements"]
 
@@ -101,7 +102,7 @@ def statements(result, where: str = "photo", given=()) -> list:
         Naming ``where`` when it is not one of :data:`HINTS`.
     """
     if where not in HINTS:
-        raise ValueError(f"where: must be one of {tuple(HINTS)}, got {where!r}")
+        raise InputError("where", f"must be one of {tuple(HINTS)}, got {where!r}")
     values, intervals = estimate_values(result)
     given = set(given)
     out = []

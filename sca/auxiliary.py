@@ -39,6 +39,7 @@ from forward.water import BEAM_TERMS, COEFFICIENT_PARAMS, DIFFUSE_TERMS
 
 from .biooptical import case1_observations
 from .problem import Observation
+from forward.validate import InputError
 
 __all__ = ["AUXILIARY", "KD_MODEL_REL", "SECCHI_GAMMA", "SECCHI_GAMMA_REL", "SECCHI_NM",
            "auxiliary_observations", "cdom_observation", "kd_observation", "planned",
@@ -201,22 +202,22 @@ def auxiliary_observations(auxiliary, water) -> list:
     if not auxiliary:
         return []
     if not isinstance(auxiliary, dict):
-        raise ValueError("auxiliary: expected a dict like {'cdom': (0.1, 0.02)}")
+        raise InputError("auxiliary", "expected a dict like {'cdom': (0.1, 0.02)}")
     bad = set(auxiliary) - set(AUXILIARY)
     if bad:
-        raise ValueError(f"auxiliary: unknown measurement(s) {sorted(bad)}; choose from "
+        raise InputError("auxiliary", f"unknown measurement(s) {sorted(bad)}; choose from "
                          f"{AUXILIARY}")
 
     def pair(label, entry):
         try:
             v, s = (np.asarray(x, float) for x in entry)
         except (TypeError, ValueError):
-            raise ValueError(f"auxiliary[{label!r}]: expected (value, sd), got {entry!r}") \
+            raise InputError(f"auxiliary[{label!r}]", f"expected (value, sd), got {entry!r}") \
                 from None
         given = np.isfinite(v)
         if np.any(v[given] <= 0) or np.any(~(np.broadcast_to(s, v.shape)[given] > 0)) \
                 or np.any(~np.isfinite(np.broadcast_to(s, v.shape)[given])):
-            raise ValueError(f"auxiliary[{label!r}]: the value and its sd must be finite and "
+            raise InputError(f"auxiliary[{label!r}]", f"the value and its sd must be finite and "
                              f"> 0, got {entry!r}")
         return v, s
     out = []
@@ -229,14 +230,14 @@ def auxiliary_observations(auxiliary, water) -> list:
     if "kd" in auxiliary:
         kd = auxiliary["kd"]
         if not isinstance(kd, dict) or not kd:
-            raise ValueError("auxiliary['kd']: expected {wavelength nm: (value, sd)}")
+            raise InputError("auxiliary['kd']", "expected {wavelength nm: (value, sd)}")
         for wl, entry in kd.items():
             try:
                 band = float(wl)
             except (TypeError, ValueError):
-                raise ValueError(f"auxiliary['kd']: a wavelength is not a number: {wl!r}") \
+                raise InputError("auxiliary['kd']", f"a wavelength is not a number: {wl!r}") \
                     from None
             if not 400.0 <= band <= 700.0:
-                raise ValueError(f"auxiliary['kd']: {band:g} nm lies outside 400-700 nm")
+                raise InputError("auxiliary['kd']", f"{band:g} nm lies outside 400-700 nm")
             out.append(kd_observation(band, *pair(f"kd {band:g} nm", entry), water))
     return out

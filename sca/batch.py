@@ -60,6 +60,7 @@ from .pathmodels import candidates, combine_batch
 from .projection import grid_best
 from .derived import derived_from_fit, quantity_names, verdicts_of
 from .quadrature import CERTIFY_SIGMA, reduction_error
+from forward.validate import InputError
 
 __all__ = [
     "CHUNK",
@@ -230,13 +231,13 @@ def _sigma_stack(sigma, N, m, n):
     except ValueError:
         arr = None
     if arr is None:
-        raise ValueError(f"sigma: expected a scalar, (m, n) = ({m}, {n}) or (N, m, n) = "
+        raise InputError("sigma", f"expected a scalar, (m, n) = ({m}, {n}) or (N, m, n) = "
                          f"({N}, {m}, {n}) array, got shape {np.shape(sigma)}")
     if np.any(arr <= 0):
-        raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g}; "
+        raise InputError("sigma", f"standard deviations must be > 0 (min {arr.min():g}; "
                          f"{_charts(np.any(arr <= 0, axis=(1, 2)))})")
     if np.any(arr < 1e-100):
-        raise ValueError(f"sigma: standard deviations down to {arr.min():g} are too small for "
+        raise InputError("sigma", f"standard deviations down to {arr.min():g} are too small for "
                          f"the solver (below 1e-100 their squares underflow; "
                          f"{_charts(np.any(arr < 1e-100, axis=(1, 2)))}); rescale the values "
                          "and their sds together")
@@ -258,14 +259,14 @@ def _per_chart(name, value, N):
     try:
         raw = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a number or {N} numbers, got {value!r}") from None
+        raise InputError(name, f"expected a number or {N} numbers, got {value!r}") from None
     if raw.ndim > 1 or (raw.ndim == 1 and raw.size not in (1, N)):
-        raise ValueError(f"{name}: expected a scalar or {N} values (one per chart), got "
+        raise InputError(name, f"expected a scalar or {N} values (one per chart), got "
                          f"{raw.size if raw.ndim == 1 else 'shape ' + str(raw.shape)}")
     arr = np.broadcast_to(raw.reshape(-1) if raw.ndim else raw, (N,)).astype(float)
     bad = ~np.isfinite(arr) | (arr < 0)
     if bad.any():
-        raise ValueError(f"{name}: must be finite and >= 0 (got {arr[bad][0]!r} at "
+        raise InputError(name, f"must be finite and >= 0 (got {arr[bad][0]!r} at "
                          f"{_charts(bad)})")
     return arr
 
@@ -370,9 +371,9 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
           "engine": engine, "gain": gain, "uncertain": uncertain, "quadrature": quadrature,
           "auxiliary": auxiliary}
     if auxiliary and sigma is None:
-        raise ValueError("auxiliary: needs the photos' noise (sigma) to weigh against")
+        raise InputError("auxiliary", "needs the photos' noise (sigma) to weigh against")
     if quadrature not in QUADRATURES:
-        raise ValueError(f"quadrature: must be one of {QUADRATURES}, got {quadrature!r}")
+        raise InputError("quadrature", f"must be one of {QUADRATURES}, got {quadrature!r}")
     if len(models) == 1:
         return _estimate_batch(rgb_stack, water=water, **kw)
     results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
@@ -392,40 +393,40 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
     try:
         M = np.asarray(rgb_stack, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError("rgb_stack: expected a numeric (N, m, n) array") from None
+        raise InputError("rgb_stack", "expected a numeric (N, m, n) array") from None
     m_, n_ = setup.sensitivities.shape[1], setup.reflectances.shape[1]
     if M.ndim != 3 or M.shape[1:] != (m_, n_):
-        raise ValueError(f"rgb_stack: expected shape (N, {m_}, {n_}), got {M.shape}")
+        raise InputError("rgb_stack", f"expected shape (N, {m_}, {n_}), got {M.shape}")
     N = M.shape[0]
     flat = M.reshape(N, -1)
     for bad, what in ((~np.all(np.isfinite(flat), axis=1), "NaN or infinite values"),
                       (np.any(flat < 0, axis=1), "negative values")):
         if bad.any():
-            raise ValueError(f"rgb_stack: {what} in {_charts(bad)}")
+            raise InputError("rgb_stack", f"{what} in {_charts(bad)}")
     scale = flat.max(axis=1) if N else np.zeros(0)
     if np.any(scale > MAX_RGB):
-        raise ValueError(f"rgb_stack: values up to {M.max():g} exceed {MAX_RGB:g} "
+        raise InputError("rgb_stack", f"values up to {M.max():g} exceed {MAX_RGB:g} "
                          f"({_charts(scale > MAX_RGB)}); measurements in model units are O(1) "
                          "(a white reflector in air = 1)")
     if np.any(scale <= 0):
-        raise ValueError(f"rgb_stack: every value is zero in {_charts(scale <= 0)}")
+        raise InputError("rgb_stack", f"every value is zero in {_charts(scale <= 0)}")
     if np.any(scale < 1e-100):
-        raise ValueError(f"rgb_stack: values too small for the solver in "
+        raise InputError("rgb_stack", f"values too small for the solver in "
                          f"{_charts(scale < 1e-100)} (below 1e-100 their squares underflow); "
                          "rescale them (with gain='free' any unit will do)")
     spec = fit_spec(free, fix, gain, water, m_)
     mdl = ChartModel(setup, basis=basis, water=spec.water)
     if mdl.z != 1:
-        raise ValueError(f"basis: the batched solver supports one basis function (z = 1), got z = {mdl.z}")
+        raise InputError("basis", f"the batched solver supports one basis function (z = 1), got z = {mdl.z}")
     sig = _sigma_stack(sigma, N, m_, n_)
     sat = None if saturation is None else _per_chart("saturation", saturation, N)
     geometry = {"depth": _per_chart("depth", depth, N),
                 "distance": _per_chart("distance", distance, N)}
     if int(max_iter) != max_iter or max_iter < 1:
-        raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
+        raise InputError("max_iter", f"must be a positive integer, got {max_iter!r}")
     tol = validate.scalar("tol", tol, positive=True)
     if engine not in ENGINES:
-        raise ValueError(f"engine: must be one of {ENGINES}, got {engine!r}")
+        raise InputError("engine", f"must be one of {ENGINES}, got {engine!r}")
     budget = resolve_budget(uncertain, depth=geometry["depth"], distance=geometry["distance"],
                             water=spec.water, free=spec.names, fixed=tuple(fix or {}))
     if sig is None or budget.exact:

@@ -54,6 +54,7 @@ from forward.spectra import read_table
 from forward.water import COEFFICIENT_PARAMS, NONWATER_ABSORPTION_TERMS
 
 from .problem import Observation
+from forward.validate import InputError
 
 __all__ = ["CASE1_QUANTITIES", "CASE1_TABLE", "CASE1_UNCERTAIN", "REFERENCE_NM", "Relation",
            "binds", "case1_observations", "fit_relation", "read_case1", "relation_observation"]
@@ -104,14 +105,14 @@ class Relation:
 
     def __post_init__(self):
         if self.quantity not in CASE1_QUANTITIES:
-            raise ValueError(f"quantity: expected one of {CASE1_QUANTITIES}, got "
+            raise InputError("quantity", f"expected one of {CASE1_QUANTITIES}, got "
                              f"{self.quantity!r}")
         for name in ("alpha", "sd", "floor", "chl_floor"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
+                raise InputError(name, f"must be finite and > 0, got {v!r}")
         if not np.isfinite(self.beta):
-            raise ValueError(f"beta: must be finite, got {self.beta!r}")
+            raise InputError("beta", f"must be finite, got {self.beta!r}")
 
     def predict(self, chl):
         """The relation's median a_q(440) at C, m^-1 (floor removed).
@@ -180,7 +181,7 @@ def fit_relation(quantity: str, chl, value, *, floor: float, chl_floor: float) -
     chl, value = np.asarray(chl, float), np.asarray(value, float)
     ok = np.isfinite(chl) & np.isfinite(value) & (chl >= 0) & (value >= 0)
     if ok.sum() < 3:
-        raise ValueError(f"value: {int(ok.sum())} valid pairs; at least 3 are needed")
+        raise InputError("value", f"{int(ok.sum())} valid pairs; at least 3 are needed")
     x = np.log(chl[ok] + chl_floor)
     y = np.log(value[ok] + floor)
     beta, ln_alpha = np.polyfit(x, y, 1)
@@ -284,13 +285,13 @@ def case1_observations(water, choice=True, relations: dict | None = None) -> lis
     if choice is True:
         names = [q for q in CASE1_QUANTITIES if q in table]
     elif isinstance(choice, str | bytes) or not hasattr(choice, "__iter__"):
-        raise ValueError(f"auxiliary['case1']: expected True or a sequence of {CASE1_QUANTITIES},"
+        raise InputError("auxiliary['case1']", f"expected True or a sequence of {CASE1_QUANTITIES},"
                          f" got {choice!r}")
     else:
         names = list(choice)
         bad = [q for q in names if q not in table]
         if bad:
-            raise ValueError(f"auxiliary['case1']: no relation for {bad}; choose from "
+            raise InputError("auxiliary['case1']", f"no relation for {bad}; choose from "
                              f"{sorted(table)}")
     return [relation_observation(table[q], water) for q in names]
 

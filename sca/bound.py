@@ -49,6 +49,7 @@ from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
                     profiled_information)
+from forward.validate import InputError
 
 __all__ = ["GAINS", "Z95", "Precision", "precision", "quantity_sd"]
 
@@ -244,18 +245,18 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     """
     scalar = all(np.ndim(v) == 0 for v in (chl, cdom, depth, distance))
     if path_model is not None and not dive:
-        raise ValueError("path_model: the bound under another path model is a dive's "
+        raise InputError("path_model", "the bound under another path model is a dive's "
                          "(dive=True)")
     if gain not in GAINS:
-        raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
+        raise InputError("gain", f"must be one of {GAINS}, got {gain!r}")
     if fix is not None and not isinstance(fix, dict):
-        raise ValueError("fix: expected a dict like {'cdom': None} (known at the condition's "
+        raise InputError("fix", "expected a dict like {'cdom': None} (known at the condition's "
                          f"value) or {{'cdom': 0.1}}, got {type(fix).__name__}")
     fix = dict(fix or {})
     if "chl" in fix:
-        raise ValueError("fix: the bound is for C; it cannot hold C known")
+        raise InputError("fix", "the bound is for C; it cannot hold C known")
     if fix.get("backscatter") is not None:
-        raise ValueError("fix['backscatter']: the bound holds s known at the condition's veiling "
+        raise InputError("fix['backscatter']", "the bound holds s known at the condition's veiling "
                          "light; give None")
     free = tuple(free or ())
     if "gain" in free:  # free=('gain',) is gain='free'
@@ -271,7 +272,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         np.atleast_1d(length("depth", depth)), np.atleast_1d(length("distance", distance))))
     sensor = SensorSettings() if sensor is None else sensor
     if not isinstance(sensor, SensorSettings):
-        raise ValueError("sensor: expected a forward.SensorSettings")
+        raise InputError("sensor", "expected a forward.SensorSettings")
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     m = setup.sensitivities.shape[1]
     spec_fix = {k: (0.0 if v is None else v) for k, v in fix.items()}
@@ -279,7 +280,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
                     resolve_water(water), m)
     mdl = ChartModel(setup, water=spec.water)
     if mdl.z != 1:
-        raise ValueError("basis: the bound is for one basis function (z = 1)")
+        raise InputError("basis", "the bound is for one basis function (z = 1)")
     N, n = chl.size, mdl.n
     names = list(spec.names)
     if "chl" not in names:
@@ -389,10 +390,10 @@ def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, 
     from .joint import dive_precision
 
     if gain != "free" or fix:
-        raise ValueError("dive: the joint bound frees each photo's exposure gain and holds "
+        raise InputError("dive", "the joint bound frees each photo's exposure gain and holds "
                          "nothing: give gain='free' and no fix")
     if np.ptp(chl) > 0 or np.ptp(cdom) > 0:
-        raise ValueError("dive: one water: chl and cdom must be the same for every photo")
+        raise InputError("dive", "one water: chl and cdom must be the same for every photo")
     d = dive_precision(float(chl[0]), float(cdom[0]), depth=depth, distance=distance,
                        sigma=sigma_photon, setup=setup, water=water, uncertain=uncertain,
                        backscatter=s, auxiliary=auxiliary, path_model=path_model)

@@ -37,6 +37,7 @@ from forward.water import COEFFICIENT_PARAMS, Water
 
 from .budget_defaults import BUDGET_SOURCES, DEFAULT_UNCERTAIN, REAL_WATER_UNCERTAIN
 from .model import covariance
+from forward.validate import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
            "SYSTEMATIC", "Budget", "prior_centre", "resolve_budget", "parse_sd",
@@ -117,24 +118,24 @@ def parse_sd(name: str, value, reference=None):
     if isinstance(value, str):
         text = value.strip()
         if not text.endswith("%"):
-            raise ValueError(f"{label}: expected a number or a percentage like '5%', got {value!r}")
+            raise InputError(label, f"expected a number or a percentage like '5%', got {value!r}")
         try:
             frac = float(text[:-1]) / 100.0
         except ValueError:
-            raise ValueError(f"{label}: expected a percentage like '5%', got {value!r}") from None
+            raise InputError(label, f"expected a percentage like '5%', got {value!r}") from None
         if reference is None:
-            raise ValueError(f"{label}: a percentage needs a value to refer to; give an sd in "
+            raise InputError(label, "a percentage needs a value to refer to; give an sd in "
                              "the parameter's units")
         sd = frac * np.abs(np.asarray(reference, float))
     else:
         if isinstance(value, bool):
-            raise ValueError(f"{label}: expected a number, got {value!r}")
+            raise InputError(label, f"expected a number, got {value!r}")
         try:
             sd = float(value)
         except (TypeError, ValueError):
-            raise ValueError(f"{label}: expected a number, got {value!r}") from None
+            raise InputError(label, f"expected a number, got {value!r}") from None
     if not np.all(np.isfinite(sd)) or np.any(np.asarray(sd) < 0):
-        raise ValueError(f"{label}: a standard deviation must be finite and >= 0, got {value!r}")
+        raise InputError(label, f"a standard deviation must be finite and >= 0, got {value!r}")
     return sd
 
 
@@ -190,12 +191,12 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
     if uncertain is None:
         uncertain = DEFAULT_UNCERTAIN
     if not isinstance(uncertain, dict):
-        raise ValueError("uncertain: expected a dict name -> standard deviation, e.g. "
+        raise InputError("uncertain", "expected a dict name -> standard deviation, e.g. "
                          f"{{'depth': 0.2}}, or {{}} for the paper's exact model; got "
                          f"{type(uncertain).__name__}")
     unknown = set(uncertain) - set(NUISANCE) - set(SYSTEMATIC)
     if unknown:
-        raise ValueError(f"uncertain: unknown name(s) {sorted(unknown)}; choose from "
+        raise InputError("uncertain", f"unknown name(s) {sorted(unknown)}; choose from "
                          f"{tuple(NUISANCE + SYSTEMATIC)}")
     lengths = {"depth": np.atleast_1d(np.asarray(depth, float)),
                "distance": np.atleast_1d(np.asarray(distance, float))}

@@ -13,6 +13,7 @@ from forward import validate
 from forward.water import COEFFICIENT_PARAMS, Water
 
 from .model import GEOMETRY, check_names
+from forward.validate import InputError
 
 __all__ = ["GAINS", "DEFAULT_FREE", "FREEABLE", "FIXABLE", "FitSpec", "fit_spec", "parse_fix"]
 
@@ -82,7 +83,7 @@ def parse_fix(fix, m: int) -> dict:
     if fix is None:
         return {}
     if not isinstance(fix, dict):
-        raise ValueError("fix: expected a dict like {'backscatter': 0, 'cdom': 0.1}, got "
+        raise InputError("fix", "expected a dict like {'backscatter': 0, 'cdom': 0.1}, got "
                          f"{type(fix).__name__}")
     check_names("fix", tuple(fix), FIXABLE)
     out = {}
@@ -91,7 +92,7 @@ def parse_fix(fix, m: int) -> dict:
             try:
                 arr = np.broadcast_to(np.asarray(val, float), (m,))
             except (ValueError, TypeError):
-                raise ValueError(f"fix['backscatter']: expected a scalar or {m} values") from None
+                raise InputError("fix['backscatter']", f"expected a scalar or {m} values") from None
             out[key] = np.array(validate.array("fix['backscatter']", arr, nonnegative=True))
         elif key in ("chl", "cdom"):
             out[key] = validate.scalar(f"fix[{key!r}]", val)
@@ -129,12 +130,12 @@ def fit_spec(free, fix, gain: str, water: Water, m: int) -> FitSpec:
         nothing left to estimate.
     """
     if gain not in GAINS:
-        raise ValueError(f"gain: must be one of {GAINS}, got {gain!r}")
+        raise InputError("gain", f"must be one of {GAINS}, got {gain!r}")
     extra = check_names("free", () if free is None else free, FREEABLE)
     fixed = parse_fix(fix, m)
     both = set(extra) & set(fixed)
     if both:
-        raise ValueError(f"free: {sorted(both)} also fixed in fix=")
+        raise InputError("free", f"{sorted(both)} also fixed in fix=")
     constants = {k: fixed.pop(k) for k in list(fixed) if k in COEFFICIENT_PARAMS}
     if constants:
         water = dataclasses.replace(water, **constants)
@@ -143,5 +144,5 @@ def fit_spec(free, fix, gain: str, water: Water, m: int) -> FitSpec:
     names = tuple(n for n in DEFAULT_FREE if n not in fixed) + tuple(
         n for n in extra if n not in DEFAULT_FREE + ("gain", "backscatter"))
     if not names and not free_s and not free_gain:
-        raise ValueError("fix: nothing is left to estimate")
+        raise InputError("fix", "nothing is left to estimate")
     return FitSpec(names, fixed, free_gain, free_s, water)

@@ -32,6 +32,7 @@ import numpy as np
 
 from .lm import SINGULAR_PIVOT, evaluate, levenberg_marquardt
 from .problem import Problem
+from forward.validate import InputError
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
@@ -430,7 +431,7 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
     if int(newton_steps) != newton_steps or newton_steps < 0:
-        raise ValueError(f"newton_steps: must be a whole number >= 0, got {newton_steps!r}")
+        raise InputError("newton_steps", f"must be a whole number >= 0, got {newton_steps!r}")
     N, p = theta_hat.shape
     which = list(range(p) if which is None else which)
     ends = np.repeat(theta_hat[:, :, None], 2, axis=2).astype(float)

@@ -49,6 +49,7 @@ from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
 from .problem import chl_from_u, du_chain, u_from_chl
 from .quadrature import CERTIFY_SIGMA, reduction_error
+from forward.validate import InputError
 
 __all__ = [
     "HETEROGENEITY_ALPHA",
@@ -288,11 +289,11 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     if uncertain is None:
         uncertain = DEFAULT_UNCERTAIN
     if not isinstance(uncertain, dict):
-        raise ValueError("uncertain: expected a dict name -> standard deviation, or {} for the "
+        raise InputError("uncertain", "expected a dict name -> standard deviation, or {} for the "
                          "paper's exact model")
     bad = set(uncertain) - set(NUISANCE) - {"patch"}
     if bad:
-        raise ValueError(f"uncertain: unknown name(s) {sorted(bad)}")
+        raise InputError("uncertain", f"unknown name(s) {sorted(bad)}")
     priors = {}
     for name, value in uncertain.items():
         if name in ("depth", "distance", "patch"):
@@ -305,7 +306,7 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
         if given is not None:
             sd = np.broadcast_to(np.asarray(given, float), ref.shape).astype(float)
             if np.any(~np.isfinite(sd)) or np.any(sd < 0):
-                raise ValueError(f"{name}_sd: standard deviations must be finite and >= 0")
+                raise InputError(f"{name}_sd", "standard deviations must be finite and >= 0")
         elif name in uncertain:
             sd = np.broadcast_to(parse_sd(name, uncertain[name], ref), ref.shape).astype(float)
         else:
@@ -314,7 +315,7 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     patch = float(parse_sd("patch", uncertain.get("patch", 0.0)))
     rho = float(patch_correlation)
     if not 0.0 <= rho <= 1.0:
-        raise ValueError(f"patch_correlation: must lie in [0, 1], got {patch_correlation!r}")
+        raise InputError("patch_correlation", f"must lie in [0, 1], got {patch_correlation!r}")
     # correlation rho between photos: a shared part of variance rho patch^2, an independent
     # part (1 - rho) patch^2
     return priors, geo, np.sqrt(rho) * patch, np.sqrt(1.0 - rho) * patch, dict(uncertain)
@@ -334,7 +335,7 @@ def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, p
     sig = sigma.reshape(N, -1)
     scale = np.nanmax(np.where(np.isfinite(Mv), Mv, 0.0), axis=1)
     if np.any(~(scale > 0)):
-        raise ValueError("rgb: every chart needs a positive value")
+        raise InputError("rgb", "every chart needs a positive value")
     ok = np.isfinite(sig) & (sig > 0) & np.isfinite(Mv)
     Ms = np.where(ok, Mv, 0.0) / scale[:, None]
     total = np.sqrt((np.where(ok, sig, 1.0) / scale[:, None]) ** 2 + (patch_indep * Ms) ** 2)
@@ -373,23 +374,23 @@ def _single_starts(M, sigma, setups, water, depth, distance):
 def _check(M, sigma, depth, distance, setups):
     M = np.asarray(M, float)
     if M.ndim != 3 or M.shape[0] < 1:
-        raise ValueError(f"rgb: expected (N, m, n) patch values of N >= 1 photos, got shape "
+        raise InputError("rgb", f"expected (N, m, n) patch values of N >= 1 photos, got shape "
                          f"{M.shape}")
     sigma = np.asarray(sigma, float)
     if sigma.shape != M.shape:
-        raise ValueError(f"sigma: expected the shape of rgb {M.shape}, got {sigma.shape}")
+        raise InputError("sigma", f"expected the shape of rgb {M.shape}, got {sigma.shape}")
     N = M.shape[0]
     out = []
     for name, v in (("depth", depth), ("distance", distance)):
         a = np.broadcast_to(np.asarray(v, float), (N,)).astype(float)
         if np.any(~np.isfinite(a)) or np.any(a < 0):
-            raise ValueError(f"{name}: expected N finite lengths >= 0 (m)")
+            raise InputError(name, "expected N finite lengths >= 0 (m)")
         out.append(a)
     if isinstance(setups, ChartSetup):
         setups = [setups] * N
     setups = list(setups)
     if len(setups) != N or not all(isinstance(s, ChartSetup) for s in setups):
-        raise ValueError("setup: expected one forward.ChartSetup, or one per photo")
+        raise InputError("setup", "expected one forward.ChartSetup, or one per photo")
     return M, sigma, out[0], out[1], setups
 
 
@@ -449,7 +450,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     water = resolve_water(water)
     names = [f"photo {i + 1}" for i in range(N)] if names is None else [str(x) for x in names]
     if len(names) != N:
-        raise ValueError(f"names: expected {N} names, got {len(names)}")
+        raise InputError("names", f"expected {N} names, got {len(names)}")
     priors, geo, p_shared, p_indep, budget = _budget(uncertain, water, depth, distance,
                                                      depth_sd, distance_sd, patch_correlation)
     exact = not priors and not np.any(geo["depth"]) and not np.any(geo["distance"]) \
@@ -703,7 +704,7 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
          "backscatter": s[i]}, jacobian=False).values.reshape(m, n) for i in range(N)])
     sigma = np.broadcast_to(np.asarray(sigma, float), M0.shape)
     if path_model is not None and path_model not in PATH_MODELS:
-        raise ValueError(f"path_model: expected one of {PATH_MODELS}, got {path_model!r}")
+        raise InputError("path_model", f"expected one of {PATH_MODELS}, got {path_model!r}")
     fitted = water if path_model in (None, water.path_model) else dataclasses.replace(
         water, path_model=path_model)
     d = _dive(M0, sigma, setups, fitted, depth, distance, priors, geo, p_shared, p_indep,

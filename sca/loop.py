@@ -59,6 +59,7 @@ from .trust_region import (
     update_radius,
 )
 from .verdict import assess, fit_lm
+from forward.validate import InputError
 
 __all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
            "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",
@@ -168,7 +169,7 @@ class Estimator:
                  free=(), setup: ChartSetup | None = None, gain: str = "known",
                  uncertain=None, quadrature: str = "reduced", auxiliary=None):
         if quadrature not in ("reduced", "full"):
-            raise ValueError(f"quadrature: must be 'reduced' or 'full', got {quadrature!r}")
+            raise InputError("quadrature", f"must be 'reduced' or 'full', got {quadrature!r}")
         #: the inference layer's model: the certified quadrature or the full grid
         self.quadrature = quadrature
         self.depth = validate.scalar("depth", depth)
@@ -191,7 +192,7 @@ class Estimator:
         self.observations = auxiliary_observations(auxiliary, spec.water)
         tied = set(self.extras) & {"phyto_scale", "phyto_exponent"}
         if tied:
-            raise ValueError(f"free: {sorted(tied)} enter eq 17, which this loop linearises with "
+            raise InputError("free", f"{sorted(tied)} enter eq 17, which this loop linearises with "
                              "the water's constants; use sca.estimate_least_squares or "
                              "sca.estimate_batch")
         # with C fixed and one basis function, eq 17 fixes w too
@@ -209,7 +210,7 @@ class Estimator:
         self.n_pos = self.n_scalar_pos + int(self.w_bound)
         self.n_free = len(self.order) - int(self.free_w) + (mdl.z if self.free_w else 0)
         if self.n_free == 0 and not self.free_s:
-            raise ValueError("fix: nothing is left to estimate")
+            raise InputError("fix", "nothing is left to estimate")
         self.w_slice = (self.n_scalar_pos, self.n_scalar_pos + mdl.z) if self.free_w else None
 
     # ----------------------------------------------------------------------------- helpers
@@ -220,13 +221,13 @@ class Estimator:
         shape = (self.model.m, self.model.n)
         M = validate.array("rgb", rgb, shape=shape)
         if np.any(M < 0):
-            raise ValueError(f"rgb: contains negative values (min {M.min():g}); measurements are "
+            raise InputError("rgb", f"contains negative values (min {M.min():g}); measurements are "
                              "exposure-normalised sensor values >= 0")
         if M.max() > MAX_RGB:
-            raise ValueError(f"rgb: values up to {M.max():g} exceed {MAX_RGB:g}; measurements in "
+            raise InputError("rgb", f"values up to {M.max():g} exceed {MAX_RGB:g}; measurements in "
                              "model units are O(1) (a white reflector in air = 1)")
         if 0 < M.max() < 1e-100:
-            raise ValueError(f"rgb: values up to {M.max():g} are too small for the solver "
+            raise InputError("rgb", f"values up to {M.max():g} are too small for the solver "
                              "(below 1e-100 their squares underflow); rescale them (with "
                              "gain='free' any unit will do)")
         return M
@@ -272,11 +273,11 @@ class Estimator:
         if arr.ndim == 0:
             arr = np.full(shape, float(arr))
         if arr.shape != shape:
-            raise ValueError(f"sigma: expected a scalar or shape {shape}, got {arr.shape}")
+            raise InputError("sigma", f"expected a scalar or shape {shape}, got {arr.shape}")
         if np.any(arr <= 0):
-            raise ValueError(f"sigma: standard deviations must be > 0 (min {arr.min():g})")
+            raise InputError("sigma", f"standard deviations must be > 0 (min {arr.min():g})")
         if np.any(arr < 1e-100):
-            raise ValueError(f"sigma: standard deviations down to {arr.min():g} are too small "
+            raise InputError("sigma", f"standard deviations down to {arr.min():g} are too small "
                              "for the solver (below 1e-100 their squares underflow); rescale "
                              "the values and their sds together")
         return arr
@@ -289,7 +290,7 @@ class Estimator:
         sig = self.check_sigma(sigma)
         scale = float(np.max(M))
         if scale <= 0:
-            raise ValueError("rgb: all values are zero; nothing to fit")
+            raise InputError("rgb", "all values are zero; nothing to fit")
         s_fixed = None if self.free_s else self.fixed["backscatter"] / scale
         wt = np.ones(M.size) if sig is None else scale / self.budget.noise_sd(M, sig).ravel()
         Mv = M.ravel() / scale
@@ -314,7 +315,7 @@ class Estimator:
         if x0 is not None:
             allowed = {"chl", "cdom"} | set(self.extras)
             if not isinstance(x0, dict) or not set(x0) <= allowed:
-                raise ValueError(f"x0: expected a dict with keys among {sorted(allowed)}")
+                raise InputError("x0", f"expected a dict with keys among {sorted(allowed)}")
             if "chl" in x0 and self.free_chl:
                 chl_grid = np.array([validate.scalar("x0['chl']", x0["chl"])])
             if "cdom" in x0 and self.free_cdom:
@@ -363,11 +364,11 @@ class Estimator:
         block_values = GRID_BLOCK_VALUES if block_values is None else block_values
         if isinstance(block_values, bool) or not isinstance(block_values, numbers.Integral) \
                 or block_values < 1:
-            raise ValueError(f"block_values: must be a positive integer, got {block_values!r}")
+            raise InputError("block_values", f"must be a positive integer, got {block_values!r}")
         per_point = {k for k, v in grid.items() if isinstance(v, np.ndarray) and v.ndim}
         lengths = {k: len(grid[k]) for k in per_point}
         if any(size != n for size in lengths.values()):
-            raise ValueError(f"grid: every array must have n = {n} points, got {lengths}")
+            raise InputError("grid", f"every array must have n = {n} points, got {lengths}")
         blocks = max(1, min(-(-n * mdl.wavelengths.size // int(block_values)),
                             n // GRID_BLOCK_MIN_POINTS))
         edges = [n * i // blocks for i in range(blocks + 1)]  # even: none below the minimum
@@ -408,9 +409,9 @@ class Estimator:
         Estimate
         """
         if mode not in MODES:
-            raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
+            raise InputError("mode", f"must be one of {MODES}, got {mode!r}")
         if int(max_iter) != max_iter or max_iter < 1:
-            raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
+            raise InputError("max_iter", f"must be a positive integer, got {max_iter!r}")
         tol = validate.scalar("tol", tol, positive=True)
         if saturation is not None:
             saturation = validate.scalar("saturation", saturation, positive=True)
@@ -853,7 +854,7 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
               free=free, setup=setup, gain=gain, uncertain=uncertain, quadrature=quadrature,
               auxiliary=auxiliary)
     if auxiliary and sigma is None:
-        raise ValueError("auxiliary: needs the photo's noise (sigma) to weigh against")
+        raise InputError("auxiliary", "needs the photo's noise (sigma) to weigh against")
     est = Estimator(water=water, path_model=path_model, cdom_slope=cdom_slope, **kw)
     fit = dict(sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
     return over_path_models(est, path_models, sigma, lambda e: e.fit(rgb, **fit), kw)

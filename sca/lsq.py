@@ -16,6 +16,7 @@ from .loop import MODES, Estimator, over_path_models
 from .model import CHL_DERIVATIVE_FLOOR, lower_bound
 from .results import Estimate
 from .verdict import assess
+from forward.validate import InputError
 
 __all__ = ["estimate_least_squares", "residual_functions"]
 
@@ -119,14 +120,14 @@ def estimate_least_squares(rgb, *, depth, distance, sigma=None, saturation=None,
     1-23 (scipy's 'trf').
     """
     if mode not in MODES:
-        raise ValueError(f"mode: must be one of {MODES}, got {mode!r}")
+        raise InputError("mode", f"must be one of {MODES}, got {mode!r}")
     if int(max_iter) != max_iter or max_iter < 1:
-        raise ValueError(f"max_iter: must be a positive integer, got {max_iter!r}")
+        raise InputError("max_iter", f"must be a positive integer, got {max_iter!r}")
     path_models = kwargs.pop("path_models", None)
     kw = dict(depth=depth, distance=distance, gain=gain, **kwargs)
     est = Estimator(**kw)
     if est.model.z != 1:
-        raise ValueError("basis: estimate_least_squares supports one basis function (z = 1)")
+        raise InputError("basis", "estimate_least_squares supports one basis function (z = 1)")
     for key in ("water", "path_model", "cdom_slope"):
         kw.pop(key, None)
     return over_path_models(est, path_models, sigma,

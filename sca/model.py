@@ -31,6 +31,7 @@ from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
 from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
 from .projection import linear_part_stats
+from forward.validate import InputError
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
@@ -128,12 +129,12 @@ def check_names(name: str, names, allowed=PARAMS) -> tuple:
     try:
         names = tuple(names)
     except TypeError:
-        raise ValueError(f"{name}: expected parameter names, got {names!r}") from None
+        raise InputError(name, f"expected parameter names, got {names!r}") from None
     bad = [n for n in names if n not in allowed]
     if bad:
-        raise ValueError(f"{name}: unknown parameter(s) {bad}; choose from {tuple(allowed)}")
+        raise InputError(name, f"unknown parameter(s) {bad}; choose from {tuple(allowed)}")
     if len(set(names)) != len(names):
-        raise ValueError(f"{name}: a parameter is named twice: {names}")
+        raise InputError(name, f"a parameter is named twice: {names}")
     return names
 
 
@@ -430,7 +431,7 @@ class ChartModel:
             return np.zeros(self.m)
         if name == "cdom" or name in LIGHT:
             return 0.0
-        raise ValueError(f"params: '{name}' has no default; give its value")
+        raise InputError("params", f"'{name}' has no default; give its value")
 
     # ------------------------------------------------------------------ the model function
     def predict(self, params: dict, free=(), *, chl_floor: float = 0.0,
@@ -472,10 +473,10 @@ class ChartModel:
         """:meth:`predict` of one block of charts (``free`` checked)."""
         unknown = set(params) - set(PARAMS)
         if unknown:
-            raise ValueError(f"params: unknown parameter(s) {sorted(unknown)}")
+            raise InputError("params", f"unknown parameter(s) {sorted(unknown)}")
         for need in ("chl", "depth", "distance"):
             if need not in params:
-                raise ValueError(f"params: '{need}' is required")
+                raise InputError("params", f"'{need}' is required")
         chl = np.asarray(params["chl"], float)
         cdom = np.asarray(params.get("cdom", 0.0), float)
         L = np.asarray(params["depth"], float) + np.asarray(params["distance"], float)
@@ -488,7 +489,7 @@ class ChartModel:
         if shift is not None:
             shift = np.asarray(shift, float)
         if "w" in free and w is None:
-            raise ValueError("free: 'w' needs the weights in params['w']")
+            raise InputError("free", "'w' needs the weights in params['w']")
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
         spectral = tuple(n for n in free if n in SPECTRAL)
         legs = len(PATH_LEGS[self.water.path_model]) > 1

@@ -20,6 +20,7 @@ import numpy as np
 from forward.water import PATH_MODELS
 
 from .assess import BLOCKING
+from forward.validate import InputError
 
 __all__ = ["PATH_MODEL_DELTA", "SPAN_FLAG", "candidates", "supported", "combine_batch",
            "combine_single"]
@@ -62,7 +63,7 @@ def candidates(path_models, water, budget_applies: bool) -> tuple:
         names = (path_models,) if isinstance(path_models, str) else tuple(path_models)
         bad = [n for n in names if n not in PATH_MODELS]
         if bad or not names:
-            raise ValueError(f"path_models: expected names among {PATH_MODELS}, got {path_models!r}")
+            raise InputError("path_models", f"expected names among {PATH_MODELS}, got {path_models!r}")
     return (water.path_model,) + tuple(n for n in dict.fromkeys(names) if n != water.path_model)
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from forward.validate import InputError
 
 __all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
 
@@ -188,18 +189,18 @@ class Problem:
             o.value = np.broadcast_to(np.asarray(o.value, float), (self.size,))
             o.sd = np.broadcast_to(np.asarray(o.sd, float), (self.size,))
             if np.any(~(o.sd[np.isfinite(o.value)] > 0)):
-                raise ValueError(f"observations: {o.name}'s sd must be > 0")
+                raise InputError("observations", f"{o.name}'s sd must be > 0")
         self.lower = np.array([self.lower_bound(n) for n in self.names], float)
         self.powers = np.array([self.power(n) for n in self.names], float)
         self.free = tuple(dict.fromkeys(self.names))
         if (prior_mean is None) != (prior_weight is None):
-            raise ValueError("prior_mean, prior_weight: give both or neither")
+            raise InputError("prior_mean, prior_weight", "give both or neither")
         if prior_mean is not None:
             shape = (self.size, len(self.names))
             for name in ("prior_mean", "prior_weight"):
                 a = np.asarray(getattr(self, name), float)
                 if a.shape != shape:
-                    raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+                    raise InputError(name, f"expected shape {shape}, got {a.shape}")
                 setattr(self, name, a)
 
     # ------------------------------------------------------------------ a layout's choices

@@ -61,6 +61,7 @@ from .bound import Z95, Precision, precision
 from .budget import DEFAULT_UNCERTAIN
 from .derived import BANDS_NM, QUANTITIES
 from .pathmodels import PATH_MODEL_DELTA
+from forward.validate import InputError
 
 __all__ = ["AUXILIARY_OPTIONS", "C_BANDS", "MAX_PHOTOS", "SAMPLE_SD", "SECCHI_READING_REL",
            "TARGETS", "Design", "Prediction", "Protocol", "design", "ladder"]
@@ -109,7 +110,7 @@ def ladder(lo: float, hi: float, n: int, first: float | None = None) -> tuple:
         once), the first ``n`` of them: every ladder holds the smaller ones.
     """
     if n < 1:
-        raise ValueError(f"n: a ladder has at least one depth, got {n}")
+        raise InputError("n", f"a ladder has at least one depth, got {n}")
     if lo == hi:
         return (float(hi),) * n
     seq = [float(hi) if first is None else float(first)]
@@ -288,18 +289,18 @@ def _check_targets(targets) -> dict:
     if targets is None:
         return {"chl": 0.30}
     if not isinstance(targets, dict) or not targets:
-        raise ValueError("targets: expected a dict like {'chl': 0.3} (relative 95 % "
+        raise InputError("targets", "expected a dict like {'chl': 0.3} (relative 95 % "
                          "half-widths)")
     out = {}
     for k, v in targets.items():
         if k not in TARGETS:
-            raise ValueError(f"targets: unknown name {k!r}; choose from {TARGETS}")
+            raise InputError("targets", f"unknown name {k!r}; choose from {TARGETS}")
         try:
             v = float(v)
         except (TypeError, ValueError):
-            raise ValueError(f"targets: {k!r} must be a number, got {v!r}") from None
+            raise InputError("targets", f"{k!r} must be a number, got {v!r}") from None
         if not np.isfinite(v) or v <= 0:
-            raise ValueError(f"targets: {k!r} must be a relative half-width > 0 (0.3 for "
+            raise InputError("targets", f"{k!r} must be a relative half-width > 0 (0.3 for "
                              f"+-30 %), got {v!r}")
         out[k] = v
     return out
@@ -309,9 +310,9 @@ def _range(name, value) -> tuple:
     try:
         v = np.atleast_1d(np.asarray(value, float))
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected one length or two (m), got {value!r}") from None
+        raise InputError(name, f"expected one length or two (m), got {value!r}") from None
     if v.ndim != 1 or not 1 <= v.size <= 2:
-        raise ValueError(f"{name}: expected one length or two (m), got {value!r}")
+        raise InputError(name, f"expected one length or two (m), got {value!r}")
     return tuple(float(length(name, float(x))) for x in v)
 
 
@@ -400,10 +401,10 @@ def design(chl, cdom, *, depth, distance, targets=None, max_photos: int = MAX_PH
 
     for name, v in (("chl", chl), ("cdom", cdom)):
         if not np.ndim(v) == 0:
-            raise ValueError(f"{name}: expected one number, got {v!r}")
+            raise InputError(name, f"expected one number, got {v!r}")
         validate.nonnegative(name, v)
         if not float(v) > 0:
-            raise ValueError(f"{name}: must be > 0 (the precision is relative to it; give the "
+            raise InputError(name, f"must be > 0 (the precision is relative to it; give the "
                              f"smallest value you need to measure), got {v!r}")
     chl, cdom = float(chl), float(cdom)
     targets = _check_targets(targets)
@@ -411,21 +412,21 @@ def design(chl, cdom, *, depth, distance, targets=None, max_photos: int = MAX_PH
     lo, hi = min(depths), max(depths)
     distances = tuple(dict.fromkeys(_range("distance", distance)))
     if int(max_photos) != max_photos or max_photos < 1:
-        raise ValueError(f"max_photos: an integer >= 1, got {max_photos!r}")
+        raise InputError("max_photos", f"an integer >= 1, got {max_photos!r}")
     max_photos = int(max_photos)
     auxiliary = (auxiliary,) if isinstance(auxiliary, str) else tuple(auxiliary)
     bad = [a for a in auxiliary if a not in AUXILIARY_OPTIONS]
     if bad or not auxiliary:
-        raise ValueError(f"auxiliary: expected options among {AUXILIARY_OPTIONS}, got "
+        raise InputError("auxiliary", f"expected options among {AUXILIARY_OPTIONS}, got "
                          f"{auxiliary!r}")
     auxiliary = tuple(a for a in AUXILIARY_OPTIONS if a in auxiliary)  # cheapest first
     if gain not in ("free", "known", "channels"):
-        raise ValueError(f"gain: must be one of ('free', 'known', 'channels'), got {gain!r}")
+        raise InputError("gain", f"must be one of ('free', 'known', 'channels'), got {gain!r}")
     for name, v in (("sample_sd", sample_sd), ("secchi_sd", secchi_sd)):
         if v is not None and not (np.isfinite(float(v)) and float(v) > 0):
-            raise ValueError(f"{name}: a standard deviation > 0, got {v!r}")
+            raise InputError(name, f"a standard deviation > 0, got {v!r}")
     if uncertain is not None and not isinstance(uncertain, dict):
-        raise ValueError("uncertain: expected a dict name -> standard deviation, or {}")
+        raise InputError("uncertain", "expected a dict name -> standard deviation, or {}")
     budget = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
     sensor = SensorSettings() if sensor is None else sensor
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)

@@ -257,19 +257,19 @@ def _rule(key, setup_ref) -> QuadratureRule | None:
             except OSError:
                 pass
             return rule
-    rule = _build(setup_ref())
+    rule = _build(*setup_ref())
     if path is not None and rule is not None:
         _save(path, rule)
     return rule
 
 
-def _build(setup) -> QuadratureRule | None:
-    from .model import ChartModel
-
+def _build(setup, model_type) -> QuadratureRule | None:
+    """The rule of ``setup``, fitted on snapshots of a ``model_type`` (:class:`sca.ChartModel`,
+    passed in by the model that asks: this module sits below it) in the paper's water."""
     index = quadrature_nodes(setup.wavelengths)
     if index is None:
         return None
-    model = ChartModel(setup, water=PAPER_WATER)  # the domain is the paper's water's
+    model = model_type(setup, water=PAPER_WATER)  # the domain is the paper's water's
     rng = np.random.default_rng(20161)  # fixed: the same rule on every run and machine
     K = _snapshots(model, rng, SNAPSHOTS)
     # the patches' signals and the white's (its shift rows unused), one fit
@@ -317,7 +317,7 @@ def quadrature_rule(model) -> QuadratureRule | None:
     """
     if quadrature_nodes(model.wavelengths) is None:
         return None
-    return _rule(_fingerprint(model.setup), _Ref(model.setup))
+    return _rule(_fingerprint(model.setup), _Ref((model.setup, type(model))))
 
 
 def reduction_error(full, reduced, params, sigma) -> np.ndarray:

@@ -51,6 +51,7 @@ from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
 from .lm import evaluate, levenberg_marquardt
 from .model import lower_bound, upper_cap
 from .problem import TINY, Evaluation, Problem, chl_from_u, u_from_chl
+from forward.validate import InputError
 
 __all__ = [
     "KD_MODEL_ERROR",
@@ -152,10 +153,10 @@ class KdModel:
         """
         bad = (set(params) | set(free)) - set(KD_PARAMS)
         if bad:
-            raise ValueError(f"params: unknown K_d parameter(s) {sorted(bad)}; choose from "
+            raise InputError("params", f"unknown K_d parameter(s) {sorted(bad)}; choose from "
                              f"{KD_PARAMS}")
         if "chl" not in params:
-            raise ValueError("params: 'chl' is required")
+            raise InputError("params", "'chl' is required")
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
         wrt = tuple(n for n in free if n != "downwelling_cosine")
         kd, d = self.terms.path_coefficient(params["chl"], params.get("cdom", 0.0),
@@ -286,12 +287,12 @@ def _check_kd(kd, wavelengths):
     if kd.ndim == 1:
         kd = kd[None]
     if kd.ndim != 2 or kd.shape[1] != wl.size:
-        raise ValueError(f"kd: expected shape (N, {wl.size}) or ({wl.size},), got {kd.shape}")
+        raise InputError("kd", f"expected shape (N, {wl.size}) or ({wl.size},), got {kd.shape}")
     valid = ~np.isnan(kd)
     if np.any(~(kd[valid] > 0)) or np.any(~np.isfinite(kd[valid])):
-        raise ValueError("kd: every value must be > 0 and finite, or NaN for a missing band")
+        raise InputError("kd", "every value must be > 0 and finite, or NaN for a missing band")
     if np.any(valid.sum(axis=1) < MIN_BANDS):
-        raise ValueError(f"kd: every spectrum needs at least {MIN_BANDS} bands")
+        raise InputError("kd", f"every spectrum needs at least {MIN_BANDS} bands")
     return kd, valid, wl
 
 
@@ -369,11 +370,11 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     model_error = validate.scalar("model_error", model_error)
     rel = float(np.hypot(sigma_rel, model_error))
     if rel <= 0:
-        raise ValueError("sigma_rel: sigma_rel and model_error cannot both be 0")
+        raise InputError("sigma_rel", "sigma_rel and model_error cannot both be 0")
     uncertain = dict(KD_UNCERTAIN if uncertain is None else uncertain)
     bad = set(uncertain) - set(KD_PARAMS[2:])
     if bad:
-        raise ValueError(f"uncertain: not a nuisance of the K_d model: {sorted(bad)}")
+        raise InputError("uncertain", f"not a nuisance of the K_d model: {sorted(bad)}")
     for k, v in uncertain.items():
         uncertain[k] = validate.scalar(f"uncertain['{k}']", v)
     model = KdModel(wl, water=water)

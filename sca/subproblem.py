@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import cvxpy as cp
 import numpy as np
+from forward.validate import InputError
 
 
 @dataclass
@@ -217,7 +218,7 @@ def build_subproblem(n_free: int, n_pos: int, w_slice: tuple | None, q: int, n_s
     """
     nv = n_free + n_s
     if nv == 0:
-        raise ValueError("fix: nothing is left to estimate")
+        raise InputError("fix", "nothing is left to estimate")
     v = cp.Variable(nv, name="v")
     R = cp.Parameter((nv, nv), name="R")
     b = cp.Parameter(nv, name="b")
@@ -278,14 +279,14 @@ def assign(sub: Subproblem, values: dict) -> str:
     for name, val in values.items():
         param = getattr(sub, name)
         if np.shape(val) != param.shape:
-            raise ValueError(f"{name}: a value of shape {np.shape(val)} for the QP's parameter "
+            raise InputError(name, f"a value of shape {np.shape(val)} for the QP's parameter "
                              f"of shape {param.shape}")
         if np.iscomplexobj(val):
-            raise ValueError(f"{name}: the QP's parameters are real, got a complex value")
+            raise InputError(name, "the QP's parameters are real, got a complex value")
         if not np.all(np.isfinite(val)):
             bad.append(name)
         elif param.attributes["nonneg"] and np.any(np.asarray(val) < 0):
-            raise ValueError(f"{name}: the QP's parameter is nonnegative, got a value below 0")
+            raise InputError(name, "the QP's parameter is nonnegative, got a value below 0")
     if bad:
         return "the linearised problem is not finite (" + ", ".join(bad) + ")"
     for name, val in values.items():

@@ -25,6 +25,7 @@ from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
+from forward.validate import InputError
 
 __all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
 
@@ -147,7 +148,7 @@ def fit_lm(est, st, max_iter: int, x0=None) -> int:
         Levenberg-Marquardt iterations.
     """
     if st.mdl.z != 1:
-        raise ValueError("mode: 'lm' supports one basis function (z = 1); use 'safeguarded'")
+        raise InputError("mode", "'lm' supports one basis function (z = 1); use 'safeguarded'")
     prob = _problem(est, st, priors=False)
     st.x = est.initial_point(st, x0)
     st.initial = {"chl": st.x["chl"], "cdom": st.x["cdom"]}

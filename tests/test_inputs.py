@@ -601,3 +601,24 @@ def test_input_errors_carry_the_arguments_name():
     # the name comes from the attribute even where the reason holds a colon
     odd = forward.InputError("max_iter", "expected a count: got 'x'")
     assert option_message(odd, {"max_iter": "--max-iter"}) == "--max-iter: expected a count: got 'x'"
+
+
+def test_every_input_error_of_the_package_carries_its_argument():
+    """No ``raise ValueError("<argument>: ...")`` is left in the package: bad input is a
+    forward.InputError, so the command line never reads an argument out of a message (a plain
+    ValueError's text is said as it is)."""
+    import ast
+    from pathlib import Path
+
+    from uw3p.common import option_message
+
+    root = Path(__file__).resolve().parent.parent
+    left = []
+    for pkg in ("forward", "sca", "measure", "uw3p"):
+        for path in sorted((root / pkg).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if (isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
+                        and getattr(node.exc.func, "id", None) == "ValueError"):
+                    left.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert not left, left
+    assert option_message(ValueError("depth: odd"), {"depth": "--depth"}) == "depth: odd"

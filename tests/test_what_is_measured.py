@@ -8,6 +8,7 @@ The photographs are generated (:mod:`experiments.synthetic_photo`), as in tests/
 and tests/test_dive.py."""
 
 import csv
+import dataclasses
 import io
 import json
 import math
@@ -429,8 +430,15 @@ def test_a_dives_metadata_readings_reach_each_photo_and_the_joint_fit(tmp_path, 
     assert fused["cdom"]["value"] == pytest.approx(0.1)
     assert fused["cdom"]["sd"] == pytest.approx(0.001 / 2 ** 0.5)
     assert fused["kd"]["sd"] == 0.02 and fused["secchi"]["value"] == 12.0
-    alone = measure.fit_joint(list(recs.values()), setup=measure.camera_setup(
-        gains=shots["profile"].gains), auxiliary={})
+    # the run fitted the photos it measured as the typed objects its workers made (no
+    # measurement.json read back); from their measurement.json the same photos give the same
+    setup = measure.camera_setup(gains=shots["profile"].gains)
+    assert res.joint_estimate is not None
+    again = measure.fit_joint(list(recs.values()), setup=setup)
+    assert again.chl == pytest.approx(res.joint_estimate.chl, rel=1e-9)
+    assert again.cdom_ci == pytest.approx(res.joint_estimate.cdom_ci, rel=1e-9)
+    assert joint["chl"] == pytest.approx(res.joint_estimate.chl, rel=1e-12)
+    alone = measure.fit_joint(list(recs.values()), setup=setup, auxiliary={})
     width = [joint["cdom_ci"][1] - joint["cdom_ci"][0], alone.cdom_ci[1] - alone.cdom_ci[0]]
     assert width[0] < 0.5 * width[1]
     # summary.csv and survey.nc: the quantities with their bounds and verdicts, per photo and
@@ -455,3 +463,32 @@ def test_a_dives_metadata_readings_reach_each_photo_and_the_joint_fit(tmp_path, 
         assert ds["transmittance"].attrs["units"] == "1"
         assert str(ds["c_490_verdict"].values[0]) == "measured"
         assert math.isclose(float(ds["c_490_wavelength"]), 490.0)
+
+
+def test_a_measurement_and_its_json_are_the_same_joint_photo(photo):
+    """The joint fit's photo made from the Measurement equals the one read from its
+    measurement.json, field by field; a Measurement, its JointPhoto and its JSON fit alike."""
+    from measure.joint import JointPhoto, joint_photo
+    from measure.output import strict_json
+
+    meas = photo[1]
+    typed = JointPhoto.from_measurement(meas)
+    text = json.loads(json.dumps(strict_json(meas.to_dict()), allow_nan=False))
+    read = JointPhoto.from_record(text)
+    for f in dataclasses.fields(JointPhoto):
+        a, b = getattr(typed, f.name), getattr(read, f.name)
+        if f.name == "start":
+            assert a.keys() == b.keys()
+            for k in a:
+                np.testing.assert_array_equal(np.asarray(a[k], float), np.asarray(b[k], float))
+        elif f.name == "budget":
+            assert strict_json(a) == b
+        elif isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            np.testing.assert_array_equal(a, b)
+        else:
+            assert a == b, f.name
+    assert typed.auxiliary and typed.depth_sd > 0 and np.isinf(typed.sigma).sum() == \
+        np.isinf(read.sigma).sum()
+    assert joint_photo(typed) is typed and joint_photo(text).name == typed.name
+    with pytest.raises(ValueError, match="^records: each must be"):
+        joint_photo(3.0)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import sys
+from .common import input_error
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -73,7 +74,7 @@ def run(args, out, err) -> int:
 
     out_dir = Path(args.out)
     if out_dir.is_file():
-        raise ValueError(f"--out: {out_dir} is a file; give a folder")
+        raise input_error("--out", f"{out_dir} is a file; give a folder")
     cmd = [sys.executable, "-m", "experiments.benchmark",
            "--out", str(out_dir / "results.json"), "--report", str(out_dir / "BENCHMARKS.md"),
            "--figure", str(out_dir / "benchmark_speed_error.png")] + (

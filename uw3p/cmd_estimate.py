@@ -24,7 +24,7 @@ import re
 
 from measure.csvsafe import safe_writer
 
-from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
+from .common import (input_error, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
                      add_setup_options, atomic_open, auxiliary_from_args, budget_text,
                      camera_note, check_spectra_args, json_text, setup_kwargs,
                      uncertain_from_args)
@@ -140,11 +140,11 @@ def _chart_ids(msg: str, charts, offset: int) -> str:
 
 def _batch_error(exc, args, charts, offset):
     """A ``sca.estimate_batch`` error in the command's terms: the file and its chart ids."""
-    msg = _chart_ids(str(exc), charts, offset)
-    head, _, rest = msg.partition(":")
-    where = {"rgb_stack": f"--batch: {args.batch}:",
-             "sigma": f"--batch: {args.batch}: the _sd columns:"}
-    return ValueError(f"{where[head]}{rest}" if head in where else msg)
+    argument = getattr(exc, "argument", None)
+    where = {"rgb_stack": f"{args.batch}: ", "sigma": f"{args.batch}: the _sd columns: "}
+    if argument not in where:
+        return ValueError(_chart_ids(str(exc), charts, offset))
+    return input_error("--batch", where[argument] + _chart_ids(exc.reason, charts, offset))
 
 
 def _geometry(args, depth, distance):
@@ -154,10 +154,10 @@ def _geometry(args, depth, distance):
     for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
         if not np.isnan(arr).all():  # the file has a <name>_m column
             if opt is not None:
-                raise ValueError(f"--{name}: {args.batch} has a {name}_m column (one {name} per "
+                raise input_error(f"--{name}", f"{args.batch} has a {name}_m column (one {name} per "
                                  f"chart); give the {name} in the file or with --{name}, not both")
         elif opt is None:
-            raise ValueError(f"--{name}: required unless the batch file has a {name}_m column")
+            raise input_error(f"--{name}", f"required unless the batch file has a {name}_m column")
         else:
             arr[:] = opt
     return depth, distance
@@ -235,7 +235,7 @@ def _auxiliary(args, sigma) -> dict:
     if aux and sigma is None:
         given = ", ".join(o for o, k in (("--cdom-sample", "cdom"), ("--secchi", "secchi"),
                                           ("--kd", "kd")) if k in aux)
-        raise ValueError(f"{given.split(', ')[0]}: a measurement is weighed against the patches' "
+        raise input_error(given.split(", ")[0], f"a measurement is weighed against the patches' "
                          "noise: the patch file needs its _sd columns (red_sd, green_sd, "
                          f"blue_sd) to fuse {given}")
     return aux
@@ -253,10 +253,10 @@ def _run_batch(args, out, err):
     from .patchfile import read_batch_csv
 
     if args.mode is not None:
-        raise ValueError("--mode: the batched solver (--batch) has one algorithm (variable "
+        raise input_error("--mode", "the batched solver (--batch) has one algorithm (variable "
                          "projection + Levenberg-Marquardt); omit --mode")
     if args.fix_cdom is not None:
-        raise ValueError("--fix-cdom: not available with --batch")
+        raise input_error("--fix-cdom", "not available with --batch")
     big_file = os.path.isfile(args.batch) and os.path.getsize(args.batch) >= PROGRESS_BYTES
     charts, M, sigma, depth, distance = read_batch_csv(args.batch,
                                                        progress=err if big_file else None)
@@ -404,12 +404,12 @@ def run(args, out, err) -> int:
     from .patchfile import read_patch_csv
 
     if (args.batch is None) == (args.measurements is None):
-        raise ValueError("measurements: give either a measurements CSV or --batch FILE")
+        raise input_error("measurements", "give either a measurements CSV or --batch FILE")
     check_spectra_args(args)
     if args.batch is not None:
         return _run_batch(args, out, err)
     if args.depth is None or args.distance is None:
-        raise ValueError("--depth, --distance: both are required")
+        raise input_error("--depth, --distance", "both are required")
     M, sigma = read_patch_csv(args.measurements)
     fix = {}
     if args.fix_backscatter is not None:
@@ -426,14 +426,14 @@ def run(args, out, err) -> int:
                        uncertain=uncertain_from_args(args), auxiliary=aux or None, **setup)
     except ValueError as exc:
         msg = str(exc)
-        what = getattr(exc, "argument", None) or msg.partition(":")[0]
+        what = getattr(exc, "argument", None)
         if what in ("rgb", "sigma"):
-            why = getattr(exc, "reason", None) or msg.partition(": ")[2]
+            why = exc.reason
             if "expected" in why and "shape" in why:  # in the file's orientation
-                raise ValueError(f"measurements: {args.measurements}: one row per patch and one "
+                raise input_error("measurements", f"{args.measurements}: one row per patch and one "
                                  f"column per channel expected; {msg} (channels x patches)"
                                  ) from None
-            raise ValueError(f"measurements: {args.measurements}: "
+            raise input_error("measurements", f"{args.measurements}: "
                              f"{'the _sd columns: ' if what == 'sigma' else ''}{why}") from None
         raise
     if args.attenuation:

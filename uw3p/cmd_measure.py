@@ -24,10 +24,11 @@ photometric fields of the iFDO standard.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from . import __version__
-from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
+from .common import (input_error, EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
                      add_budget_options, add_chart_option, add_photo_options, add_water_options,
                      auxiliary_from_args, camera_note, chart_from_args, check_spectra_args,
                      read_photo, uncertain_from_args, water_from_args)
@@ -174,21 +175,21 @@ def run(args, out, err) -> int:
     """
     check_spectra_args(args)
     if not args.out:
-        raise ValueError("--out: empty (an unset shell variable?); give the output folder "
+        raise input_error("--out", "empty (an unset shell variable?); give the output folder "
                          "(created if missing)")
     src = Path(args.image)
     if not src.exists():
-        raise ValueError(f"image: file not found: {src}")
+        raise input_error("image", f"file not found: {src}")
     if Path(args.out).is_file():
-        raise ValueError(f"--out: {args.out} is a file; give a folder (created if missing)")
+        raise input_error("--out", f"{args.out} is a file; give a folder (created if missing)")
     if args.metadata is not None and not src.is_dir():
-        raise ValueError("--metadata: applies to a folder of photos; for one photo give "
+        raise input_error("--metadata", "applies to a folder of photos; for one photo give "
                          "--depth and --distance")
     err.write(camera_note(args.camera))
     if src.is_dir():
         return _measure_folder(args, src, out, err)
     if args.depth is None or args.distance is None:
-        raise ValueError("--depth, --distance: both are required")
+        raise input_error("--depth, --distance", "both are required")
     outdir = Path(args.out)
     code, row = _measure_one(args, src, outdir)
     e = row
@@ -239,27 +240,26 @@ def _measure_folder(args, src, out, err):
             out.write(f"wrote {path}\n")
     if args.joint and res.joint is None:
         out.write(f"joint: {res.joint_error}\n")
-    elif res.joint is not None:
-        import json
-
-        j = json.loads(Path(res.joint).read_text(encoding="utf-8"))
-
-        from measure.statements import one_line
-
-        def end(v):
-            return "inf" if v in ("inf", None) else f"{float(v):.4g}"
-        v = j.get("verdicts") or {}
-        out.write(f"joint: C {j['chl']:.4g} mg m^-3 [{end(j['chl_ci'][0])}, {end(j['chl_ci'][1])}] "
-                  f"({v.get('chl', '?')}), a_CDOM(440) {j['cdom']:.4g} m^-1 "
-                  f"[{end(j['cdom_ci'][0])}, {end(j['cdom_ci'][1])}] ({v.get('cdom', '?')}); "
-                  f"what the dive measures: {one_line(j, j.get('quantities') or ())}; "
-                  f"reliable {j['reliable']}"
-                  + (f" (flags: {' '.join(j['flags'])})" if j["flags"] else "")
-                  + ("" if j["heterogeneity"]["one_water"] else
-                     "; not one water: " + (", ".join(j["heterogeneity"]["disagree"]) or "?"))
-                  + "\n")
+    elif res.joint_estimate is not None:
+        out.write(_joint_line(res.joint_estimate))
     if res.interrupted:
         err.write(f"uw3p measure: interrupted; {res.summary} lists what was done (a rerun "
                   "completes the rest)\n")
         return EXIT_INTERRUPTED
     return res.code
+
+
+def _joint_line(j) -> str:
+    """The joint estimate (:class:`sca.joint.JointEstimate`) on one line."""
+    from measure.statements import one_line
+
+    def end(v):
+        return "inf" if not math.isfinite(float(v)) else f"{float(v):.4g}"
+    v = j.verdicts or {}
+    return (f"joint: C {j.chl:.4g} mg m^-3 [{end(j.chl_ci[0])}, {end(j.chl_ci[1])}] "
+            f"({v.get('chl', '?')}), a_CDOM(440) {j.cdom:.4g} m^-1 "
+            f"[{end(j.cdom_ci[0])}, {end(j.cdom_ci[1])}] ({v.get('cdom', '?')}); "
+            f"what the dive measures: {one_line(j, j.quantities or ())}; reliable {j.reliable}"
+            + (f" (flags: {' '.join(j.flags)})" if j.flags else "")
+            + ("" if j.heterogeneity["one_water"] else
+               "; not one water: " + (", ".join(j.heterogeneity["disagree"]) or "?")) + "\n")

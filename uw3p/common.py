@@ -20,6 +20,7 @@ __all__ = [
     "uncertain_from_args", "budget_text", "check_spectra_args", "camera_note",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
     "write_file", "write_atomic", "atomic_open", "json_text", "option_message", "plain",
+    "input_error",
 ]
 
 #: Exit status: success (every estimate reliable / converged).
@@ -178,7 +179,7 @@ def auxiliary_from_args(args) -> dict:
     for item in getattr(args, "kd", None) or []:
         band, pair = parse_kd("--kd", item)
         if band in out.get("kd", {}):
-            raise ValueError(f"--kd: the band {band:g} nm is given twice")
+            raise input_error("--kd", f"the band {band:g} nm is given twice")
         out.setdefault("kd", {})[band] = pair
     return out
 
@@ -259,9 +260,9 @@ def uncertain_from_args(args) -> dict:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep or not name:
-            raise ValueError(f"--uncertain: expected NAME=SD, got {item!r}")
+            raise input_error("--uncertain", f"expected NAME=SD, got {item!r}")
         if name not in NUISANCE + SYSTEMATIC:
-            raise ValueError(f"--uncertain: unknown name {name!r}; choose from "
+            raise input_error("--uncertain", f"unknown name {name!r}; choose from "
                              f"{', '.join(NUISANCE + SYSTEMATIC)}")
         value = value.strip()
         out[name] = value if value.endswith("%") else _float(f"--uncertain {name}", value)
@@ -272,7 +273,7 @@ def _float(option, value) -> float:
     try:
         return float(value)
     except ValueError:
-        raise ValueError(f"{option}: expected a number, got {value!r}") from None
+        raise input_error(option, f"expected a number, got {value!r}") from None
 
 
 def budget_text(budget: dict, name: str = "chl") -> str:
@@ -346,10 +347,10 @@ def check_spectra_args(args) -> None:
             continue
         p = Path(value)
         if p.is_dir():
-            raise ValueError(f"--{opt}: {p} is a folder, not a file")
+            raise input_error(f"--{opt}", f"{p} is a folder, not a file")
         if (opt == "profile" or str(value).lower().endswith((".csv", ".txt", ".json"))) \
                 and not p.exists():
-            raise ValueError(f"--{opt}: file not found: {p}")
+            raise input_error(f"--{opt}", f"file not found: {p}")
 
 
 def camera_note(camera, wavelengths=None) -> str:
@@ -427,7 +428,7 @@ def wavelengths_from_args(args):
 
     step = _RANGE_STEP_NM if args.step is None else args.step
     if not step > 0:
-        raise ValueError(f"--step: must be > 0, got {step}")
+        raise input_error("--step", f"must be > 0, got {step}")
     return np.arange(args.wl_min, args.wl_max + step / 2, step)
 
 
@@ -458,12 +459,14 @@ def water_from_args(args):
     for opt in ("cdom_slope", "nap_slope"):  # eqs 6, 7: absorption falls with wavelength
         value = getattr(args, opt)
         if value is not None and not value > 0:
-            raise ValueError(f"--{opt.replace('_', '-')}: must be > 0 nm^-1 (the absorption "
+            raise input_error(f"--{opt.replace('_', '-')}", f"must be > 0 nm^-1 (the absorption "
                              f"falls with wavelength, eqs 6-7), got {value:g}")
     try:
         return forward.Water(**kw)
     except ValueError as exc:
-        raise ValueError(f"--{str(exc).replace('_', '-')}") from None
+        if getattr(exc, "argument", None) is None:
+            raise
+        raise input_error("--" + exc.argument.replace("_", "-"), exc.reason) from None
 
 
 def setup_kwargs(args) -> dict:
@@ -531,19 +534,19 @@ def atomic_open(path, option: str = "--out"):
     """
     p = Path(path)
     if p.is_dir():
-        raise ValueError(f"{option}: {p} is a folder; give a file name")
+        raise input_error(option, f"{p} is a folder; give a file name")
     if not p.parent.is_dir():
-        raise ValueError(f"{option}: cannot write {p}: its folder does not exist")
+        raise input_error(option, f"cannot write {p}: its folder does not exist")
     try:
         fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
     except OSError as exc:
-        raise ValueError(f"{option}: cannot write {p}: {exc.strerror}") from None
+        raise input_error(option, f"cannot write {p}: {exc.strerror}") from None
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             yield fh
         os.replace(tmp, p)
     except OSError as exc:
-        raise ValueError(f"{option}: cannot write {p}: {exc.strerror}") from None
+        raise input_error(option, f"cannot write {p}: {exc.strerror}") from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -622,6 +625,28 @@ def json_text(obj) -> str:
 
 
 # --------------------------------------------------------------------------- messages
+def input_error(argument: str, reason: str) -> ValueError:
+    """Bad input to the command: a :class:`forward.InputError` naming the argument (imported
+    on the first bad input, so that starting the command loads no numerics: decision
+    0007-start-up).
+
+    Parameters
+    ----------
+    argument : str
+        The option or argument, as the command line spells it (``--depth``) or as the library
+        does (``depth``: :func:`option_message` says the option).
+    reason : str
+        Why the value is refused.
+
+    Returns
+    -------
+    forward.InputError
+    """
+    from forward.validate import InputError
+
+    return InputError(argument, reason)
+
+
 def plain(text: str) -> str:
     """Help text without reStructuredText markup (double backticks)."""
     return text.replace("``", "")
@@ -634,8 +659,8 @@ def option_message(message, options: dict, renames: dict | None = None) -> str:
     Parameters
     ----------
     message : forward.InputError, ValueError or str
-        The error: an :class:`forward.InputError` names its argument (``argument``); the text of
-        any other (``"<argument>: <why>"``, the package's convention) is read for it.
+        The error: an :class:`forward.InputError` names its argument (``argument``); any other
+        is said as it is (its text is not read for an argument).
     options : dict
         Option destination -> option string, e.g. {'depth': '--depth', 'max_iter':
         '--max-iter'}.
@@ -649,13 +674,7 @@ def option_message(message, options: dict, renames: dict | None = None) -> str:
         The message, its leading argument renamed where one matches.
     """
     argument = getattr(message, "argument", None)
-    text = str(message)
-    if argument is not None:
-        key, rest = argument, " " + message.reason
-    else:
-        head, sep, rest = text.partition(":")
-        if not sep or " " in head.strip():
-            return text
-        key = head.strip()
-    new = (renames or {}).get(key) or options.get(key)
-    return f"{new}:{rest}" if new else text
+    if argument is None:  # not an input error: its text as it is
+        return str(message)
+    new = (renames or {}).get(argument) or options.get(argument)
+    return f"{new}: {message.reason}" if new else str(message)

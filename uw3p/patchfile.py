@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from measure.csvsafe import safe_writer
+from forward.validate import InputError
 
 __all__ = ["RGB", "BATCH_EXTRA", "CHANNEL_ALIASES", "read_patch_csv", "read_batch_csv",
            "patch_csv", "known_columns"]
@@ -64,11 +65,11 @@ _CH = re.compile(r"^ch(\d+)$")
 def _check_path(path, name) -> Path:
     p = Path(path)
     if p.is_dir():
-        raise ValueError(f"{name}: {p} is a folder, not a CSV file")
+        raise InputError(name, f"{p} is a folder, not a CSV file")
     if not p.exists():
-        raise ValueError(f"{name}: file not found: {p}")
+        raise InputError(name, f"file not found: {p}")
     if not p.is_file():
-        raise ValueError(f"{name}: {p} is not a regular file")
+        raise InputError(name, f"{p} is not a regular file")
     return p
 
 
@@ -77,12 +78,12 @@ def _encoding(head: bytes, p, name) -> str:
     if head.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
         return "utf-16"
     if b"\x00" in head:
-        raise ValueError(f"{name}: {p} is not a text CSV file (it holds binary data)")
+        raise InputError(name, f"{p} is not a text CSV file (it holds binary data)")
     try:
         head.decode("utf-8")
     except UnicodeDecodeError as exc:
         if exc.start < len(head) - 4:  # not just a character cut by the sample's end
-            raise ValueError(f"{name}: {p} is not UTF-8 text (byte {exc.start}): save it as "
+            raise InputError(name, f"{p} is not UTF-8 text (byte {exc.start}): save it as "
                              "'CSV UTF-8'") from None
     return "utf-8-sig"
 
@@ -128,7 +129,7 @@ class _Table:
             with open(p, "rb") as fh:
                 head = fh.read(SAMPLE_BYTES)
         except OSError as exc:
-            raise ValueError(f"{name}: cannot read {p}: {exc.strerror}") from None
+            raise InputError(name, f"cannot read {p}: {exc.strerror}") from None
         self.size = p.stat().st_size
         self.encoding = _encoding(head, p, name)
         text = head.decode(self.encoding, errors="ignore")
@@ -142,7 +143,7 @@ class _Table:
         self.delimiter = hint.group(1) if hint else self._sniff(lines)
         first = next(filter(_has_data, csv.reader(lines, delimiter=self.delimiter)), None)
         if first is None:
-            raise ValueError(f"{name}: {p} has no rows")
+            raise InputError(name, f"{p} has no rows")
         # a decimal comma: only where the comma cannot be the separator
         self.decimal_comma = self.delimiter != ","
         self.header = None if _numeric_row(first, self.decimal_comma) else first
@@ -176,10 +177,10 @@ class _Table:
         try:
             yield from filter(_has_data, csv.reader(_lines(fh), delimiter=self.delimiter))
         except csv.Error as exc:
-            raise ValueError(f"{self.name}: {self.path} is not valid CSV: {exc}") from None
+            raise InputError(self.name, f"{self.path} is not valid CSV: {exc}") from None
         except UnicodeDecodeError as exc:
             what = "UTF-16" if self.encoding == "utf-16" else "UTF-8"
-            raise ValueError(f"{self.name}: {self.path} is not {what} text ({exc.reason}): "
+            raise InputError(self.name, f"{self.path} is not {what} text ({exc.reason}): "
                              "save it as 'CSV UTF-8'") from None
         finally:
             fh.close()
@@ -270,43 +271,43 @@ def _columns(table: _Table, batch: bool):
             unknown.append(h)
             continue
         if c in where:
-            raise ValueError(f"{name}: {p}: column {c!r} is given twice (columns "
+            raise InputError(name, f"{p}: column {c!r} is given twice (columns "
                              f"{table.header[where[c]]!r} and {h!r})")
         where[c] = i
     if unknown:
         hint = (" (a batch file: use --batch)" if not batch and any(
             _norm(u) == "chart" for u in unknown) else "")
-        raise ValueError(f"{name}: {p}: unknown column{'s' if len(unknown) > 1 else ''} "
+        raise InputError(name, f"{p}: unknown column{'s' if len(unknown) > 1 else ''} "
                          f"{', '.join(repr(u) for u in unknown)}{hint}; known columns: "
                          f"{known_columns(batch)}")
     for need in ("patch",) + (("chart",) if batch else ()):
         if need not in where:
-            raise ValueError(f"{name}: {p}: no {need!r} column (header: "
+            raise InputError(name, f"{p}: no {need!r} column (header: "
                              f"{', '.join(table.header)}); known columns: {known_columns(batch)}")
     named = [c for c in RGB if c in where]
     numbered = sorted((int(_CH.match(c).group(1)), c) for c in where if _CH.match(c))
     if named and numbered:
-        raise ValueError(f"{name}: {p}: give the channels as red, green, blue or as ch0, ch1, "
+        raise InputError(name, f"{p}: give the channels as red, green, blue or as ch0, ch1, "
                          "..., not both")
     if numbered:
         channels = [c for _, c in numbered]
         if [k for k, _ in numbered] != list(range(len(numbered))):
-            raise ValueError(f"{name}: {p}: channel columns must be ch0, ch1, ... without gaps, "
+            raise InputError(name, f"{p}: channel columns must be ch0, ch1, ... without gaps, "
                              f"got {', '.join(channels)}")
     else:
         channels = list(RGB)
         missing = [c for c in RGB if c not in where]
         if missing:
-            raise ValueError(f"{name}: {p}: no {' or '.join(missing)} column (header: "
+            raise InputError(name, f"{p}: no {' or '.join(missing)} column (header: "
                              f"{', '.join(table.header)}); known columns: {known_columns(batch)}")
     sds = [f"{c}_sd" for c in channels]
     stray = [c for c in where if c.endswith("_sd") and c not in sds]
     if stray:
-        raise ValueError(f"{name}: {p}: {', '.join(stray)} without its channel")
+        raise InputError(name, f"{p}: {', '.join(stray)} without its channel")
     have = [c for c in sds if c in where]
     if have and len(have) != len(sds):
         missing = [c for c in sds if c not in where]
-        raise ValueError(f"{name}: {p}: columns {missing} are missing: give a standard deviation "
+        raise InputError(name, f"{p}: columns {missing} are missing: give a standard deviation "
                          "for every channel or for none")
     return where, [where[c] for c in channels], channels, (
         [where[c] for c in sds] if have else None)
@@ -353,13 +354,13 @@ def _read_rows(table, rows, columns, id_col, unnamed=()):
         lens = set(map(len, block))
         if lens != {width}:
             k = next(i for i, r in enumerate(block) if len(r) != width)
-            raise ValueError(f"{name}: {table.where(done + k)} has {len(block[k])} fields, "
+            raise InputError(name, f"{table.where(done + k)} has {len(block[k])} fields, "
                              f"{'the header' if table.header else 'the first row'} {width}")
         cols = list(zip(*block))
         for j in unnamed:
             k = next((i for i, x in enumerate(cols[j]) if x.strip()), None)
             if k is not None:
-                raise ValueError(f"{name}: {table.where(done + k)}: {cols[j][k]!r} in column "
+                raise InputError(name, f"{table.where(done + k)}: {cols[j][k]!r} in column "
                                  f"{j + 1}, which has no name (a value the file does not name "
                                  "is not read): name the column or remove the value")
         if id_col is not None:
@@ -377,13 +378,13 @@ def _read_rows(table, rows, columns, id_col, unnamed=()):
                 k = next(i for i, x in enumerate(cols[j]) if not _is_float(x, table.decimal_comma))
                 col = table.header[j] if table.header else f"column {j + 1}"
                 value = cols[j][k]
-                raise ValueError(f"{name}: {table.where(done + k)}: {value!r} in {col} is not a "
+                raise InputError(name, f"{table.where(done + k)}: {value!r} in {col} is not a "
                                  f"number" + ("" if value.strip() else " (an empty cell)")
                                  ) from None
             chunks[key].append(arr)
         done += len(block)
     if done == 0:
-        raise ValueError(f"{name}: {table.path} has a header but no values")
+        raise InputError(name, f"{table.path} has a header but no values")
     values = {k: np.concatenate(v) for k, v in chunks.items()}
     return (list(ids) if id_col is not None else None,
             np.concatenate(codes) if id_col is not None else None, values)
@@ -413,28 +414,28 @@ def _assemble(table, charts, codes, values, channels, sds, extras, batch):
                            + [values[k] for k in extras])
     bad = ~np.all(np.isfinite(vals), axis=1)
     if bad.any():
-        raise ValueError(f"{name}: {at(int(np.flatnonzero(bad)[0]))}: NaN or infinite value")
+        raise InputError(name, f"{at(int(np.flatnonzero(bad)[0]))}: NaN or infinite value")
     bad = np.any(vals < 0, axis=1)
     if bad.any():
-        raise ValueError(f"{name}: {at(int(np.flatnonzero(bad)[0]))}: negative value; patch "
+        raise InputError(name, f"{at(int(np.flatnonzero(bad)[0]))}: negative value; patch "
                          "values, their sds, depths and distances are >= 0 (raw values with the "
                          "black level subtracted, or model units)")
     counts = np.bincount(codes, minlength=N)
     n = int(counts[0])
     if np.any(counts != n):
         j = int(np.flatnonzero(counts != n)[0])
-        raise ValueError(f"{name}: {p}: {label(j)} has {counts[j]} patches, {label(0)} has {n}")
+        raise InputError(name, f"{p}: {label(j)} has {counts[j]} patches, {label(0)} has {n}")
     patch = values["patch"]
     bad = (patch != np.round(patch)) | (patch < 1) | (patch > n)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{name}: {at(k)}: patch {patch[k]:g}; "
+        raise InputError(name, f"{at(k)}: patch {patch[k]:g}; "
                          f"the patch column must number the patches 1..{n} once each")
     slot = codes * n + (patch.astype(np.int64) - 1)
     seen = np.bincount(slot, minlength=N * n)
     if np.any(seen != 1):
         s = int(np.flatnonzero(seen != 1)[0])
-        raise ValueError(f"{name}: {p}{' (' + label(s // n) + ')' if batch else ''}: patch {s % n + 1} is "
+        raise InputError(name, f"{p}{' (' + label(s // n) + ')' if batch else ''}: patch {s % n + 1} is "
                          f"{'missing' if seen[s] == 0 else 'given more than once'}; the patch "
                          f"column must number the patches 1..{n} once each")
     m = len(channels)
@@ -449,7 +450,7 @@ def _assemble(table, charts, codes, values, channels, sds, extras, batch):
         varies = np.ptp(per, axis=1) > 0
         if varies.any():
             c = int(np.flatnonzero(varies)[0])
-            raise ValueError(f"{name}: {p}: {label(c)} has more than one {k} (one value per "
+            raise InputError(name, f"{p}: {label(c)} has more than one {k} (one value per "
                              "chart)")
         out[k] = per[:, 0].copy()
     return M, sigma, out
@@ -484,7 +485,7 @@ def read_patch_csv(path, *, name: str = "measurements"):
     if table.header is None:
         width = len(table.first) - len(_unnamed(table))
         if width < 2:
-            raise ValueError(f"{name}: {table.path} needs a patch column and one column per "
+            raise InputError(name, f"{table.path} needs a patch column and one column per "
                              "channel")
         channels = list(RGB) if width == 4 else [f"ch{j}" for j in range(width - 1)]
         cols = {"patch": 0, **{c: j + 1 for j, c in enumerate(channels)}}
@@ -536,7 +537,7 @@ def read_batch_csv(path, *, name: str = "--batch", progress=None):
     """
     table = _Table(path, name)
     if table.header is None:
-        raise ValueError(f"{name}: {table.path} needs a header naming its columns; known "
+        raise InputError(name, f"{table.path} needs a header naming its columns; known "
                          f"columns: {known_columns(True)}")
     where, ch_idx, channels, sd_idx = _columns(table, batch=True)
     cols = {"patch": where["patch"], **dict(zip(channels, ch_idx))}

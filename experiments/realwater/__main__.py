@@ -13,7 +13,7 @@ import sys
 import traceback
 from pathlib import Path
 
-from .nomad import realdata_dir
+from .nomad_data import realdata_dir
 from .report import write_report
 
 #: The sections, in order: (module, title). Missing modules are reported as missing.

@@ -3,7 +3,7 @@
 ``python -m experiments.realwater.biooptical`` learns a_CDOM(440) = alpha C^beta,
 a_NAP(440) = gamma C^delta and a_phi(440) = A C^B (:func:`sca.biooptical.fit_relation`: least
 squares in logs, the residual's sd the scatter) on the EVEN data rows of the NOMAD stations of the K_d comparison
-(:func:`experiments.realwater.nomad.load_nomad`: >= 5 K_d bands and in-situ C), and writes the
+(:func:`experiments.realwater.nomad_data.load_nomad`: >= 5 K_d bands and in-situ C), and writes the
 table that :mod:`sca.biooptical` reads. ``--check`` only compares the table with what the even
 rows give (exit 1 when they differ). The odd rows are never read here: they test the prior
 (:mod:`experiments.realwater.nomad`, REALWATER.md).
@@ -26,7 +26,7 @@ import numpy as np
 import forward
 from sca.biooptical import CASE1_QUANTITIES, CASE1_TABLE, fit_relation, read_case1
 
-from .nomad import NomadStations, cdom_440, load_nomad
+from .nomad_data import NomadStations, cdom_440, load_nomad
 
 __all__ = ["CHECK_RTOL", "CHL_FLOOR", "COMMAND", "FLOOR", "TABLE_PATH", "agrees", "held_out",
            "learn_relations", "main", "measured_440", "nap_440", "phyto_440", "table_text",

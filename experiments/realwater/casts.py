@@ -21,7 +21,7 @@ import numpy as np
 from sca.spectral import fit_spectrum
 
 from ..common import write_csv
-from .nomad import REALDATA
+from .nomad_data import REALDATA
 
 __all__ = ["BAND_RANGE", "CASTS_FILE", "MIN_R2", "load_casts", "run"]
 

@@ -38,7 +38,7 @@ from sca.spectral import KD_UNCERTAIN, KdModel, fit_spectrum
 from ..common import save_figure, style, write_csv
 from .biooptical import COMMAND, agrees, held_out, learn_relations, measured_440, training_rows
 from .estimators import CHL_FLOOR, fit_morel, score
-from .nomad import CHL_CLASSES, REALDATA, NomadStations
+from .nomad_data import CHL_CLASSES, REALDATA, NomadStations
 
 __all__ = ["CRITERION", "ESTIMATORS", "OBPG_FILE", "by_class", "compare", "criterion",
            "kd_common_factor", "pope_fry_water", "section"]

@@ -26,6 +26,7 @@ from .terms import (
     _sum_pieces,
     _TermInputs,
 )
+from forward.validate import InputError
 
 
 __all__ = ["WaterTerms"]
@@ -136,10 +137,10 @@ class WaterTerms:
         w = np.full(z, 1.0 / z) if weights is None else validate.array("weights", weights, shape=(z,))
         scale440 = float(t440 @ w)
         if scale440 <= 0:
-            raise ValueError("weights: the basis combination T w must be positive at 440 nm")
+            raise InputError("weights", "the basis combination T w must be positive at 440 nm")
         phyto = T @ w / scale440
         if np.any(phyto < -1e-12):
-            raise ValueError("weights: T w is negative at some wavelength (violates eq 16)")
+            raise InputError("weights", "T w is negative at some wavelength (violates eq 16)")
         arrays = [_readonly(x) for x in (wl, a_w, b_w, bk, particles, cdom, nap, T, t440, phyto)]
         return cls(water, *arrays, free_only)
 
@@ -160,7 +161,7 @@ class WaterTerms:
         idx = np.asarray(index, int)
         wl = self.wavelengths[idx]
         if idx.ndim != 1 or wl.size < 3 or np.any(np.diff(idx) <= 0):
-            raise ValueError("index: expected at least 3 increasing grid indices")
+            raise InputError("index", "expected at least 3 increasing grid indices")
         cut = [_readonly(a[..., idx]) for a in (self.pure_water_absorption,
                                                 self.pure_water_scattering,
                                                 self.background_scattering,
@@ -181,7 +182,7 @@ class WaterTerms:
 
     def _check_shape(self, w):
         if w is None and self.free_only:
-            raise ValueError(f"weights: required for a basis of z = {self.T.shape[1]} functions")
+            raise InputError("weights", f"required for a basis of z = {self.T.shape[1]} functions")
 
     # ---------------------------------------------------------------- the path coefficient
     def path_coefficient(self, chl, cdom, *, w=None, values=None, wrt=(), floor: float = 0.0,
@@ -229,11 +230,11 @@ class WaterTerms:
         values = dict(values or {})
         unknown = set(values) - set(COEFFICIENT_PARAMS)
         if unknown:
-            raise ValueError(f"values: not a coefficient parameter: {sorted(unknown)}; "
+            raise InputError("values", f"not a coefficient parameter: {sorted(unknown)}; "
                              f"choose from {COEFFICIENT_PARAMS}")
         bad = set(wrt) - set(COEFFICIENT_PARAMS) - {"chl", "cdom", "w"}
         if bad:
-            raise ValueError(f"wrt: cannot differentiate c(x) by {sorted(bad)}")
+            raise InputError("wrt", f"cannot differentiate c(x) by {sorted(bad)}")
         if w is None:
             self._check_shape(None)
         x = _TermInputs(self, np.asarray(chl, float)[..., None], np.asarray(cdom, float)[..., None],

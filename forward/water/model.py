@@ -28,6 +28,7 @@ from ..spectra import (
     resample,
     wavelength_grid,
 )
+from forward.validate import InputError
 
 if TYPE_CHECKING:
     from .grid import WaterTerms
@@ -247,7 +248,7 @@ class Water:
 
     def __post_init__(self):
         if self.path_model not in PATH_MODELS:
-            raise ValueError(f"path_model: must be one of {PATH_MODELS}, got {self.path_model!r}")
+            raise InputError("path_model", f"must be one of {PATH_MODELS}, got {self.path_model!r}")
         for name in self._POSITIVE:
             object.__setattr__(self, name, validate.scalar(name, getattr(self, name), positive=True))
         for name in self._NONNEGATIVE:
@@ -275,16 +276,16 @@ class Water:
             try:
                 wl, vals = value
             except (TypeError, ValueError):
-                raise ValueError(f"{name}: expected (wavelengths, values) or a CSV file") from None
+                raise InputError(name, "expected (wavelengths, values) or a CSV file") from None
         wl = validate.array(name, wl, ndim=1)
         vals = validate.array(name, vals, nonnegative=True)
         if vals.ndim == 1:
             vals = vals[:, None]
         if vals.ndim != 2 or vals.shape[0] != wl.size or (ncols and vals.shape[1] != ncols):
-            raise ValueError(f"{name}: values must have one row per wavelength"
+            raise InputError(name, "values must have one row per wavelength"
                              + (f" and {ncols} column" if ncols else ""))
         if wl.size < 2 or np.any(np.diff(wl) <= 0):
-            raise ValueError(f"{name}: wavelengths must be strictly increasing (>= 2 rows)")
+            raise InputError(name, "wavelengths must be strictly increasing (>= 2 rows)")
         return _readonly(wl), _readonly(vals[:, 0] if ncols == 1 else vals)
 
     def _fingerprint(self) -> str:
@@ -491,7 +492,7 @@ def resolve_water(water=None, *, path_model=None, cdom_slope=None) -> Water:
     if water is None:
         water = PAPER_WATER
     elif not isinstance(water, Water):
-        raise ValueError(f"water: expected a forward.Water, got {type(water).__name__}")
+        raise InputError("water", f"expected a forward.Water, got {type(water).__name__}")
     changes = {}
     if path_model is not None and path_model != water.path_model:
         changes["path_model"] = path_model
@@ -543,15 +544,15 @@ def phytoplankton_basis(wavelengths=None, basis=None, *, water: Water | None = N
         else:
             src_wl, vals = read_spectral_csv(basis, name="basis")
             if np.any(vals < 0):
-                raise ValueError("basis: contains negative values")
+                raise InputError("basis", "contains negative values")
         t440 = np.array([np.interp(lam0, src_wl, v) for v in vals.T])
         if basis is None:
             vals, t440 = vals / t440, np.ones(vals.shape[1])
         return resample(src_wl, vals, wl, name="basis"), t440
     T = on_grid(basis, wl, "basis", None)
     if not (wl[0] <= lam0 <= wl[-1]):
-        raise ValueError("basis: the wavelength grid must contain 440 nm (eq 17) for an array basis")
+        raise InputError("basis", "the wavelength grid must contain 440 nm (eq 17) for an array basis")
     t440 = np.array([np.interp(lam0, wl, col) for col in T.T])
     if np.all(t440 <= 0):
-        raise ValueError("basis: all basis functions are zero at 440 nm, so eq 17 cannot fix their scale")
+        raise InputError("basis", "all basis functions are zero at 440 nm, so eq 17 cannot fix their scale")
     return T, t440

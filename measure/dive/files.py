@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ..output import TEMP_PREFIX
 from .names import LOCK_FILE, RUN_FILES
+from forward.validate import InputError
 
 __all__ = ["TEMP_SUFFIX", "atomic", "clean_temp", "locked"]
 
@@ -53,12 +54,12 @@ def atomic(path: Path):
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
         os.close(fd)
     except OSError as exc:
-        raise ValueError(f"out: cannot write {path}: {_why(exc)}") from None
+        raise InputError("out", f"cannot write {path}: {_why(exc)}") from None
     try:
         yield Path(tmp)
         os.replace(tmp, path)
     except OSError as exc:
-        raise ValueError(f"out: cannot write {path}: {_why(exc)}") from None
+        raise InputError("out", f"cannot write {path}: {_why(exc)}") from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -108,20 +109,20 @@ def locked(root: Path):
     try:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise ValueError(f"out: cannot create {root}: {_why(exc)}") from None
+        raise InputError("out", f"cannot create {root}: {_why(exc)}") from None
     try:
         fd = os.open(root / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o644)
     except OSError as exc:
-        raise ValueError(f"out: cannot create the lock file {root / LOCK_FILE}: {_why(exc)}") \
+        raise InputError("out", f"cannot create the lock file {root / LOCK_FILE}: {_why(exc)}") \
             from None
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise ValueError(f"out: another uw3p run is writing {root}; wait for it to end, or "
+            raise InputError("out", f"another uw3p run is writing {root}; wait for it to end, or "
                              "give another --out") from None
         except OSError as exc:
-            raise ValueError(f"out: cannot lock {root}: {_why(exc)}") from None
+            raise InputError("out", f"cannot lock {root}: {_why(exc)}") from None
         yield root
     finally:
         os.close(fd)  # releases the lock

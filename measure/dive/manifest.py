@@ -28,6 +28,7 @@ import numpy as np
 from ..camera import file_digest
 from .files import atomic
 from .names import MANIFEST
+from forward.validate import InputError
 
 __all__ = ["FILE_OPTIONS", "check_manifest", "file_digest", "manifest",
            "manifest_digest", "write_manifest"]
@@ -88,7 +89,7 @@ def manifest(options: dict, tiff: str, report: bool, version: str, defaults=None
             try:
                 v = {"sha256": file_digest(v)}
             except OSError as exc:
-                raise ValueError(f"{k}: cannot read {v}: {exc.strerror}") from None
+                raise InputError(k, f"cannot read {v}: {exc.strerror}") from None
         opts[k] = v
     return json.loads(json.dumps({"version": version, "options": opts,
                                   "outputs": {"tiff": tiff, "report": bool(report)},
@@ -167,11 +168,11 @@ def check_manifest(root: Path, content: dict, overwrite: bool) -> None:
     try:
         old = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
-        raise ValueError(f"out: cannot read {path} ({exc}); give --overwrite to replace the "
+        raise InputError("out", f"cannot read {path} ({exc}); give --overwrite to replace the "
                          "results there, or a new --out") from None
     diff = _differences(old, content)
     if diff:
-        raise ValueError(f"out: {root} holds the results of a run with other options ("
+        raise InputError("out", f"{root} holds the results of a run with other options ("
                          + "; ".join(diff) + "); a rerun with other options would replace "
                          "them: give --overwrite to redo every photo with these options, or a "
                          "new --out")

@@ -9,6 +9,7 @@ import io
 import math
 import re
 from pathlib import Path
+from forward.validate import InputError
 
 __all__ = ["AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
@@ -50,9 +51,9 @@ def _number(value, name, where, *, positive=True):
     try:
         x = float(value)
     except ValueError:
-        raise ValueError(f"{where}: {name} is not a number: {value!r}") from None
+        raise InputError("metadata", f"{where}: {name} is not a number: {value!r}") from None
     if not math.isfinite(x) or x < 0 or (positive and x == 0):
-        raise ValueError(f"{where}: {name} must be finite and {'> 0' if positive else '>= 0'}, "
+        raise InputError("metadata", f"{where}: {name} must be finite and {'> 0' if positive else '>= 0'}, "
                          f"got {value!r}")
     return x
 
@@ -102,7 +103,7 @@ def read_metadata(path) -> dict:
         with open(p, encoding="utf-8-sig", newline="") as fh:
             text = fh.read()
     except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"metadata: cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
+        raise InputError("metadata", f"cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
             from None
     return _rows(p, io.StringIO(text, newline=""), separator(text))
 
@@ -139,7 +140,7 @@ def _rows(p: Path, fh, sep: str = ",") -> dict:
         names = [h for _, h in named]
         missing = [c for c in METADATA_COLUMNS if c not in names]
         if missing:
-            raise ValueError(f"metadata: {p} line 1: missing column(s) {', '.join(missing)} "
+            raise InputError("metadata", f"{p} line 1: missing column(s) {', '.join(missing)} "
                              f"(needs {', '.join(METADATA_COLUMNS)}; optional "
                              f"{', '.join(METADATA_OPTIONAL + sum(AUXILIARY_COLUMNS.values(), ()))}"
                              ", kd_<nm>, kd_<nm>_sd)")
@@ -147,26 +148,26 @@ def _rows(p: Path, fh, sep: str = ",") -> dict:
         unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL
                    + aux_columns and not KD_COLUMN.match(c)]
         if unknown:
-            raise ValueError(f"metadata: {p} line 1: unknown column(s) {', '.join(unknown)}")
+            raise InputError("metadata", f"{p} line 1: unknown column(s) {', '.join(unknown)}")
         repeated = sorted({c for c in names if names.count(c) > 1})
         if repeated:
-            raise ValueError(f"metadata: {p} line 1: column(s) {', '.join(repeated)} repeat")
+            raise InputError("metadata", f"{p} line 1: column(s) {', '.join(repeated)} repeat")
         pairs = _auxiliary_pairs(p, names)
         last = max(i for i, _ in named) + 1  # cells a row must have (trailing unnamed: no)
         rows = {}
         start = reader.line_num + 1
         for raw in reader:
             n, start = start, reader.line_num + 1
-            where = f"metadata: {p} line {n}"
+            where = f"{p} line {n}"  # the argument: metadata
             if len(raw) > len(header):
-                raise ValueError(f"{where}: more cells than columns")
+                raise InputError("metadata", f"{where}: more cells than columns")
             if len(raw) < last and any(v.strip() for v in raw):
-                raise ValueError(f"{where}: fewer cells ({len(raw)}) than columns ({last}): a "
+                raise InputError("metadata", f"{where}: fewer cells ({len(raw)}) than columns ({last}): a "
                                  "line cut short? (give empty cells for values not given)")
             raw = raw + [""] * (len(header) - len(raw))
             stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
             if stray:
-                raise ValueError(f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
+                raise InputError("metadata", f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
                                  "column name in line 1")
             cell = {h: raw[i] if h in _TEXT_CELLS or sep == "," else raw[i].replace(",", ".")
                     for i, h in named}
@@ -174,9 +175,9 @@ def _rows(p: Path, fh, sep: str = ",") -> dict:
                 continue
             name = cell["image"].strip()
             if not name:
-                raise ValueError(f"{where}: image is empty")
+                raise InputError("metadata", f"{where}: image is empty")
             if name in rows:
-                raise ValueError(f"{where}: image {name!r} repeats line {rows[name]['line']}")
+                raise InputError("metadata", f"{where}: image {name!r} repeats line {rows[name]['line']}")
             rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
                           "distance_m": _number(cell["distance_m"], "distance_m", where),
                           "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
@@ -189,7 +190,7 @@ def _rows(p: Path, fh, sep: str = ",") -> dict:
                           "auxiliary": _auxiliary(cell, pairs, where), "line": n,
                           "raw_name": cell["image"]}
     except csv.Error as exc:
-        raise ValueError(f"metadata: {p} line {reader.line_num}: {exc}") from None
+        raise InputError("metadata", f"{p} line {reader.line_num}: {exc}") from None
     return rows
 
 
@@ -201,7 +202,7 @@ def _range_map(csv_path: Path, value: str, where: str):
     p = Path(value)
     p = p if p.is_absolute() else csv_path.resolve().parent / p
     if not p.is_file():
-        raise ValueError(f"{where}: range_map: no such file: {value}")
+        raise InputError("metadata", f"{where}: range_map: no such file: {value}")
     return str(p)
 
 
@@ -214,13 +215,13 @@ def _auxiliary_pairs(p: Path, names) -> dict:
         if m:
             nm = float(m.group(1))
             if not 400.0 <= nm <= 700.0:
-                raise ValueError(f"metadata: {p} line 1: column {c}: the band {nm:g} nm lies "
+                raise InputError("metadata", f"{p} line 1: column {c}: the band {nm:g} nm lies "
                                  "outside 400-700 nm")
             pairs[("kd", nm)] = (f"kd_{m.group(1)}", f"kd_{m.group(1)}_sd")
     for value, sd in pairs.values():
         if (value in names) != (sd in names):
             have, lack = (value, sd) if value in names else (sd, value)
-            raise ValueError(f"metadata: {p} line 1: column {have} needs column {lack} (every "
+            raise InputError("metadata", f"{p} line 1: column {have} needs column {lack} (every "
                              "measurement with its standard deviation)")
     return pairs
 
@@ -233,7 +234,7 @@ def _auxiliary(cell, pairs, where) -> dict:
         sd = _number(cell.get(scol, ""), scol, where)
         if (value is None) != (sd is None):
             empty = scol if sd is None else vcol
-            raise ValueError(f"{where}: {empty} is empty: give the measurement with its "
+            raise InputError("metadata", f"{where}: {empty} is empty: give the measurement with its "
                              "standard deviation, or neither")
         if value is None:
             continue

@@ -26,6 +26,7 @@ import numpy as np
 from ..output import read_marker, result_owner
 from .manifest import file_digest
 from .summary import CORRECTED, summary_row
+from forward.validate import InputError
 
 __all__ = ["complete_files", "correction_range", "holds_results", "photo_key", "plan_photo",
            "resolve_inputs"]
@@ -48,7 +49,7 @@ def correction_range(inputs: dict):
     for k in ("range_map", "range_m", "distance_m"):
         if inputs.get(k) is not None:
             return inputs[k]
-    raise ValueError("range: not given (range_map, range_m or distance_m)")
+    raise InputError("range", "not given (range_map, range_m or distance_m)")
 
 
 def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
@@ -83,7 +84,7 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
         for value, source in cands:
             if value is not None:
                 return value, source
-        raise ValueError(f"{name}: not given for {photo.name} (a metadata row, the EXIF, or "
+        raise InputError(name, f"not given for {photo.name} (a metadata row, the EXIF, or "
                          f"--{name})")
     row = row or {}
     d, d_src = pick("depth", [(row.get("depth_m"), "metadata"),

@@ -46,6 +46,7 @@ from .plan import holds_results, plan_photo
 from .plot import plot_survey
 from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
 from .survey import survey_dataset, write_survey
+from forward.validate import InputError
 
 __all__ = ["DiveWarning", "DiveResult", "check_scheduler", "measure_dive"]
 
@@ -83,6 +84,8 @@ class DiveResult:
         status -> number of rows.
     joint_error : str
         Why the joint fit was not made, when asked for and not made.
+    joint_estimate : sca.joint.JointEstimate or None
+        The joint fit (joint.json holds its content), None when not made.
     warnings : list of str
         Metadata rows that name no photo, photos without a row (also issued as
         :class:`DiveWarning`).
@@ -98,6 +101,7 @@ class DiveResult:
     interrupted: bool = False
     counts: dict = field(default_factory=dict)
     joint_error: str = ""
+    joint_estimate: object = None
     warnings: list = field(default_factory=list)
 
 
@@ -142,9 +146,9 @@ def _check_defaults(depth, distance, corners) -> None:
         try:
             x = float(value)
         except (TypeError, ValueError):
-            raise ValueError(f"{name}: must be a number (m), got {value!r}") from None
+            raise InputError(name, f"must be a number (m), got {value!r}") from None
         if not math.isfinite(x) or x < 0 or (low == "> 0" and x == 0):
-            raise ValueError(f"{name}: must be finite and {low} (m), got {value!r}")
+            raise InputError(name, f"must be finite and {low} (m), got {value!r}")
     if corners is not None:
         parse_corners(corners)
 
@@ -170,7 +174,7 @@ def check_scheduler(scheduler) -> None:
     if not sep:
         if not _HOST_PORT.match(s):
             near = difflib.get_close_matches(s, ["synchronous"], n=1)
-            raise ValueError(f"scheduler: {s!r} is neither 'synchronous' nor a Dask scheduler's "
+            raise InputError("scheduler", f"{s!r} is neither 'synchronous' nor a Dask scheduler's "
                              "address (tcp://host:port)"
                              + (f"; did you mean {near[0]!r}?" if near else ""))
         proto, rest = "tcp", s
@@ -178,12 +182,12 @@ def check_scheduler(scheduler) -> None:
         return  # another transport (ucx, inproc): Dask connects or says why
     host, _, port = rest.split("/")[0].rpartition(":")
     if not port.isdigit():
-        raise ValueError(f"scheduler: {s!r}: no port number (tcp://host:port)")
+        raise InputError("scheduler", f"{s!r}: no port number (tcp://host:port)")
     try:
         socket.create_connection((host.strip("[]") or "localhost", int(port)),
                                  timeout=SCHEDULER_CONNECT_S).close()
     except OSError as exc:
-        raise ValueError(f"scheduler: cannot connect to {s}: "
+        raise InputError("scheduler", f"cannot connect to {s}: "
                          f"{getattr(exc, 'strerror', None) or exc or 'timed out'}") from None
 
 
@@ -204,7 +208,7 @@ def _match_rows(meta: dict, names) -> dict:
         raw = row.get("raw_name", name)
         key = next((n for n in (raw, name, _normal_name(name)) if n in names), name)
         if key in out:
-            raise ValueError(f"metadata: line {row['line']}: image {raw!r} names the photo of "
+            raise InputError("metadata", f"line {row['line']}: image {raw!r} names the photo of "
                              f"line {out[key]['line']} again")
         out[key] = row
     return out
@@ -340,9 +344,9 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     profile from a photo of the chart in air, :func:`measure.calibrate`, removes the flag).
     """
     if tiff not in TIFF_MODES:
-        raise ValueError(f"tiff: must be one of {TIFF_MODES}, got {tiff!r}")
+        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
     if not str(out):
-        raise ValueError("out: empty; give the output folder (created if missing)")
+        raise InputError("out", "empty; give the output folder (created if missing)")
     _check_defaults(depth, distance, corners)
     check_scheduler(scheduler)
     metadata = None if metadata is None else Path(os.path.abspath(metadata))
@@ -359,7 +363,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
             src, (str, os.PathLike)) else src)]
         others = []
     if not photos:
-        raise ValueError(f"image: no RAW or TIFF files in {src} "
+        raise InputError("image", f"no RAW or TIFF files in {src} "
                          f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
     meta = _match_rows(meta, [p.name for p in photos])
     options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
@@ -424,7 +428,7 @@ def _measure_and_finish(root, photos, others_rows, extra, rows, records, jobs, n
     the files are written whatever follows: ``ctrl_c`` disarmed, :func:`_one_ctrl_c`)."""
     from tqdm import tqdm
 
-    left = set()
+    left, measured = set(), {}  # measured: image -> JointPhoto, made in this run
     with tqdm(total=len(jobs), file=bar, desc="measuring", unit="photo",
               disable=bar is None or not jobs) as pbar:
         def on_result(job, result):
@@ -433,6 +437,8 @@ def _measure_and_finish(root, photos, others_rows, extra, rows, records, jobs, n
                                   result.get("error", ""))
             if result.get("record") is not None:
                 records[str(p)] = result["record"]
+            if result.get("photo") is not None:
+                measured[str(p)] = result["photo"]
             pbar.update(1)
             if progress is not None:
                 progress(rows[p])
@@ -453,7 +459,7 @@ def _measure_and_finish(root, photos, others_rows, extra, rows, records, jobs, n
     all_rows = [rows[p] for p in photos] + others_rows + extra
     all_rows.sort(key=lambda r: Path(r["image"]).name)
     res = _finish(all_rows, records, root, bool(left), joint, options, version, command,
-                  figure, {job["image"]: job for job in jobs}, outputs[0])
+                  figure, {job["image"]: job for job in jobs}, outputs[0], measured)
     res.warnings = notes
     return res
 
@@ -499,23 +505,24 @@ def _finished(job):
 
 
 def _finish(rows, records, root, interrupted, joint, options, version, command, figure,
-            jobs=None, tiff="compressed"):
+            jobs=None, tiff="compressed", measured=None):
     """Write joint.json, correct the chartless frames with it, then summary.csv, survey.nc,
     ifdo.json and survey.png of this run (removing a joint.json or survey.png it does not
     make); the DiveResult."""
-    joint_data, joint_path, joint_error = None, None, ""
+    fit, joint_data, joint_path, joint_error = None, None, None, ""
     if joint:
         if interrupted:
             joint_error = "not fitted: the run was interrupted"
         else:
-            joint_data, joint_path, joint_error = _joint(rows, records, root, options)
+            fit, joint_data, joint_path, joint_error = _joint(rows, records, root, options,
+                                                              measured or {})
     if not interrupted:
         correct_frames(rows, records, jobs or {}, joint_data if joint else None,
                        _run_setup(options), water=options.get("water"), version=version,
                        command=command, tiff=tiff)
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
-    res.joint, res.joint_error = joint_path, joint_error
+    res.joint, res.joint_error, res.joint_estimate = joint_path, joint_error, fit
     res.summary = write_summary(rows, root / "summary.csv")
     res.ifdo = write_ifdo(rows, records, joint_data, root / "ifdo.json", version)
     if res.joint is None:
@@ -538,7 +545,7 @@ def _remove(path: Path) -> None:
     try:
         path.unlink(missing_ok=True)
     except OSError as exc:
-        raise ValueError(f"out: cannot remove {path}: {exc.strerror or exc}") from None
+        raise InputError("out", f"cannot remove {path}: {exc.strerror or exc}") from None
 
 
 def _run_setup(options):
@@ -556,16 +563,16 @@ def _run_setup(options):
                         reflectances=None if chart is None else read_chart_reflectance(chart))
 
 
-def _joint(rows, records, root, options):
-    """Fit the dive as one water (measure.joint); (content, path, error)."""
-    try:
-        from .. import joint as joint_mod
-    except ImportError as exc:
-        return None, None, f"not fitted: measure.joint is not available ({exc})"
-    good = [records[r["image"]] for r in rows
+def _joint(rows, records, root, options, measured):
+    """Fit the dive as one water (measure.joint): the photos this run measured as the
+    JointPhoto objects its workers made (``measured``), an earlier run's from their
+    measurement.json; (JointEstimate, joint.json's content, path, error)."""
+    from .. import joint as joint_mod
+
+    good = [measured.get(r["image"]) or records[r["image"]] for r in rows
             if r["status"] in MEASURED and r["image"] in records]
     if not good:
-        return None, None, "not fitted: no photo was measured"
+        return None, None, None, "not fitted: no photo was measured"
     from ..auxiliary import auxiliary_record, dive_auxiliary
 
     setup = _run_setup(options)
@@ -574,11 +581,11 @@ def _joint(rows, records, root, options):
         # each photo's own budget, as it was measured: the run's, its own depth and distance sds
         fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"), auxiliary=aux)
     except ValueError as exc:
-        return None, None, f"not fitted: {exc}"
+        return None, None, None, f"not fitted: {exc}"
     data = strict_json(fit.to_dict() | {"auxiliary": auxiliary_record(
         aux, dict.fromkeys(["cdom", "secchi"] + [f"kd {float(b):g}" for b in aux.get("kd", {})],
                            "the dive's readings combined"))})
     path = root / "joint.json"
     with atomic(path) as tmp:
         tmp.write_text(json.dumps(data, indent=1, allow_nan=False) + "\n", encoding="utf-8")
-    return data, path, ""
+    return fit, data, path, ""

@@ -77,9 +77,11 @@ def run_job(job: dict) -> dict:
     -------
     dict
         ``status`` ('measured', 'no chart' or 'error') and ``record`` (measurement.json's
-        content) or ``error`` (why).
+        content) with ``photo`` (the photo as the joint fit takes it,
+        :meth:`measure.joint.JointPhoto.from_measurement`), or ``error`` (why).
     """
     from ..detect import ChartNotFound
+    from ..joint import JointPhoto
     from ..measurement import measure
     from ..output import write_outputs
 
@@ -100,7 +102,8 @@ def run_job(job: dict) -> dict:
                       tiff=job["tiff"], range=correction_range(inputs),
                       overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
-        return {"status": "measured", "record": record}
+        return {"status": "measured", "record": record,
+                "photo": JointPhoto.from_measurement(meas)}
     except ChartNotFound as exc:
         return {"status": "no chart", "error": str(exc)}
     except ValueError as exc:
