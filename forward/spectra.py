@@ -512,7 +512,8 @@ def srgb_8bit() -> tuple[np.ndarray, np.ndarray]:
     matrix = table["xyz_to_srgb"].reshape(3, 3)
     levels = table["encoding_8bit_level"]
     if levels.shape != (255,) or np.any(np.diff(levels) <= 0):
-        raise InputError(SRGB_CACHE, "expected 255 increasing levels")
+        raise RuntimeError(f"{SRGB_CACHE}: expected 255 increasing levels (the package's data "
+                           "table is damaged: reinstall uw3p)")
     return matrix, levels
 
 

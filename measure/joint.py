@@ -39,7 +39,7 @@ CARRIED_FLAGS = ("uncalibrated-camera", "unreliable-profile")
 START = ("chl", "cdom", "gain", "backscatter")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays: compared field by field where needed
 class JointPhoto:
     """One photograph as the joint fit takes it: typed, made from a :class:`measure.Measurement`
     in the run that measured it (:meth:`from_measurement`) or from its measurement.json when
@@ -96,7 +96,7 @@ class JointPhoto:
     @classmethod
     def from_record(cls, rec: dict) -> "JointPhoto":
         """The photo of a measurement.json's content."""
-        p, est = rec["patches"], rec.get("estimate") or {}
+        p, est = rec["patches"], rec["estimate"]
         sigma = [[np.nan if v is None else v for v in row] for row in p["sigma"]]
         return cls._made((rec.get("image") or {}).get("path"), p["rgb"], sigma,
                          p.get("clipped"), rec.get("light_field"), rec.get("inputs") or {},

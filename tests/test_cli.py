@@ -183,6 +183,13 @@ def test_estimate_batch_ids_json_and_refusals(tmp_path):
     assert code == 2 and err.startswith("uw3p estimate: error: --mode")
     code, _, err = run(["estimate", "--batch", str(f)])
     assert code == 2 and "--distance" in err
+    # a batch's bad options are named as options, from the error's argument
+    for extra, option in ((["--max-iter", "0"], "--max-iter"), (["--saturation", "-1"],
+                          "--saturation"), (["--wl-min", "500", "--wl-max", "450"],
+                          "--wl-min/--wl-max/--step"), (["--camera", "no such camera"],
+                          "--camera")):
+        code, _, err = run(["estimate", "--batch", str(f), "--distance", "2"] + extra)
+        assert code == 2 and err.startswith(f"uw3p estimate: error: {option}: "), err
 
 
 @pytest.mark.slow

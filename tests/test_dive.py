@@ -185,8 +185,9 @@ def test_a_dive_every_file_accounted_for_then_a_rerun_redoes_nothing(tmp_path, s
     (out / "a_dng" / MARKER).write_text(json.dumps(marker | {"image": "/elsewhere/a.dng",
                                                              "key": "another photo's key"}))
     before = _snapshot(out)
-    with pytest.raises(ValueError, match="^out: .*another photo.*--overwrite"):
+    with pytest.raises(ValueError, match="^out: .*another photo.*--overwrite") as refused:
         _run(d, out, shots)
+    assert refused.value.argument == "out"  # the command line says --out
     assert _snapshot(out) == before
     res4 = _run(d, out, shots, overwrite=True)
     assert {r["image"].split("/")[-1]: r["status"] for r in res4.rows}["a.dng"] == "measured"

@@ -141,9 +141,11 @@ def _chart_ids(msg: str, charts, offset: int) -> str:
 def _batch_error(exc, args, charts, offset):
     """A ``sca.estimate_batch`` error in the command's terms: the file and its chart ids."""
     argument = getattr(exc, "argument", None)
+    if argument is None:  # not an input error: said as it is
+        return exc
     where = {"rgb_stack": f"{args.batch}: ", "sigma": f"{args.batch}: the _sd columns: "}
-    if argument not in where:
-        return ValueError(_chart_ids(str(exc), charts, offset))
+    if argument not in where:  # the option is named from the argument (uw3p.cli)
+        return input_error(argument, _chart_ids(exc.reason, charts, offset))
     return input_error("--batch", where[argument] + _chart_ids(exc.reason, charts, offset))
 
 

@@ -24,7 +24,6 @@ photometric fields of the iFDO standard.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 from . import __version__
@@ -253,8 +252,8 @@ def _joint_line(j) -> str:
     """The joint estimate (:class:`sca.joint.JointEstimate`) on one line."""
     from measure.statements import one_line
 
-    def end(v):
-        return "inf" if not math.isfinite(float(v)) else f"{float(v):.4g}"
+    def end(v):  # inf, -inf and nan as Python writes them
+        return f"{float(v):.4g}"
     v = j.verdicts or {}
     return (f"joint: C {j.chl:.4g} mg m^-3 [{end(j.chl_ci[0])}, {end(j.chl_ci[1])}] "
             f"({v.get('chl', '?')}), a_CDOM(440) {j.cdom:.4g} m^-1 "

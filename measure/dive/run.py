@@ -130,10 +130,10 @@ def _no_photo_reason(folder, name: str, line: int, listed) -> str:
     return f"metadata: line {line}: {name}: {why}"
 
 
-def _conflicts(root: Path, conflicts: list) -> ValueError:
+def _conflicts(root: Path, conflicts: list) -> InputError:
     shown = "; ".join(conflicts[:MAX_CONFLICTS_SHOWN])
     more = len(conflicts) - MAX_CONFLICTS_SHOWN
-    return ValueError(f"out: {root}: {shown}" + (f"; and {more} more" if more > 0 else "")
+    return InputError("out", f"{root}: {shown}" + (f"; and {more} more" if more > 0 else "")
                       + "; nothing was written: give --overwrite to replace them, or a new "
                       "--out")
 

@@ -98,12 +98,12 @@ def run_job(job: dict) -> dict:
                                                    "corners_source", "time")})
         meas.inputs["auxiliary"] = auxiliary_record(aux, sources)
         meas.inputs["command"] = job["command"]
+        photo = JointPhoto.from_measurement(meas)  # what the dive's joint fit takes
         write_outputs(meas, job["out"], version=job["version"], report=job["report"],
                       tiff=job["tiff"], range=correction_range(inputs),
                       overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
-        return {"status": "measured", "record": record,
-                "photo": JointPhoto.from_measurement(meas)}
+        return {"status": "measured", "record": record, "photo": photo}
     except ChartNotFound as exc:
         return {"status": "no chart", "error": str(exc)}
     except ValueError as exc:
