@@ -24,7 +24,7 @@ _HOME = {
     "JointPhoto": "joint", "fit_joint": "joint",
     "Photo": "image", "demosaic": "image", "read_image": "image",
     "MEASURE_BLOCKING": "measurement", "Measurement": "measurement", "budget_for": "measurement",
-    "correction": "measurement", "measure": "measurement",
+    "correction": "correct", "measure": "measurement",
     "corrected_image": "output", "srgb_preview": "output", "write_outputs": "output",
     "Corrected": "correct", "CorrectionTable": "correct", "correct_image": "correct",
     "correction_table": "correct", "seathru_coefficients": "correct",

@@ -1,4 +1,5 @@
-"""Every pixel corrected along its own range, from the measured water.
+"""The colour correction from the measured water: at the chart's distance (the paper's Fig 11
+von Kries correction, :func:`correction`) and every pixel along its own range.
 
 The model (Blasinski & Farrell eqs 1-3 and 15, with the veiling light of eq 2 modelled as the
 simulator does) of a pixel of channel c at range r, in raw units:
@@ -12,7 +13,7 @@ rho_c the object's reflectance seen by channel c. The correction inverts it per 
     J_c = (raw_c - s_c(r)) / (gain t_c(r)),   t_c(r) = W_c(r) / W_c(air),
 
 J in the camera's units *in air* (a white reflector in air = 1 in the most sensitive channel):
-the paper's von Kries correction (Fig 11; :func:`measure.correction`) generalised from one
+the paper's von Kries correction (Fig 11; :func:`correction`) generalised from one
 distance to every pixel's own. Nothing is restated: W_c(r) is the estimators' own model
 function (:meth:`sca.model.ChartModel.predict` of a white reflector: the water's
 :meth:`forward.WaterTerms.optical_depth` with the fit's path model, Water constants, the
@@ -57,9 +58,9 @@ from .pixels import correct_pixels
 from .rangemap import read_range
 from forward.validate import InputError
 
-__all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE", "Corrected",
-           "CorrectionTable", "correct_image", "correction_table", "seathru_coefficients",
-           "srgb_encoding_lut"]
+__all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE",
+           "Corrected", "CorrectionTable", "correct_image", "correction", "correction_table",
+           "seathru_coefficients", "srgb_encoding_lut"]
 
 #: corrected.tiff: the corrected white patch's brightest channel is put at this fraction of
 #: full scale (a common factor of the gains; the correction's colour is its ratios).
@@ -190,6 +191,72 @@ def _veil_shape(cw: CorrectionWater, ranges) -> np.ndarray:
     rho = forward.veiling_light(setup.wavelengths, cw.chl, cw.cdom, cw.depth,
                                 np.asarray(ranges, float), illuminant=light, water=water)
     return rho @ setup.sensitivities
+
+
+def correction(estimate, setup, white_value=None, full_scale=65535.0):
+    """The paper's von Kries colour correction from the estimated attenuation.
+
+    corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
+    (P^T i) / ((1 + beta) (P_delta^T diag(i r) k)) of a white's response in air to its response
+    through the water as the fit found it (r: the surface daylight's change of colour, where the
+    budget has the ``daylight`` term; beta and delta: the camera's fitted channel balance and
+    curve shifts, where it has ``balance`` and ``camera_shift``, P_delta = P - delta dP/dlambda
+    to first order as :mod:`sca.model` takes them; the corrected white is that of the given
+    illuminant and the camera's nominal curves), times one common factor that puts the
+    corrected white patch's brightest channel at :data:`WHITE_TARGET` x ``full_scale``.
+
+    Parameters
+    ----------
+    estimate : sca.Estimate
+        A fit with ``attenuation`` k (q,) and ``backscatter`` (3,) in raw units.
+    setup : forward.ChartSetup
+        Camera sensitivities P and illuminant i of the fit.
+    white_value : array_like, (3,), optional
+        The white patch's raw values (raw units); without it no common factor is applied.
+    full_scale : float, optional
+        Full scale of the corrected image, raw units (default 65535, 16 bits).
+
+    Returns
+    -------
+    gains : numpy.ndarray, (3,)
+        Channel gains, dimensionless.
+    offset : numpy.ndarray, (3,)
+        Offsets, raw units.
+
+    References
+    ----------
+    H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
+    Electronic Imaging 2016, Fig 11 (von Kries correction with the estimated attenuation).
+    """
+    P, i = setup.sensitivities, setup.illuminant
+    light = i * estimate.attenuation
+    nuisance = estimate.nuisance or {}
+    shift = nuisance.get("daylight")
+    if shift:  # the surface light's colour as the fit found it (the budget's daylight term)
+        from forward.daylight import DaylightTilt
+
+        light = light * np.exp(DaylightTilt(setup.wavelengths,
+                                            setup.daylight_cct).log_ratio(float(shift)))
+    # the white through the water as the fit saw it: with the camera's fitted curve shifts (to
+    # first order, as sca.model takes them) and channel balance (the budget's camera terms), so
+    # that the correction inverts the whole colour path the fit found, not the water's part alone
+    P_fit = P
+    delta = nuisance.get("camera_shift")
+    if delta is not None:
+        from sca.model import curve_shift_derivative
+
+        P_fit = P + np.asarray(delta, float)[None, :] * curve_shift_derivative(P, setup.wavelengths)
+    through = P_fit.T @ light
+    balance = nuisance.get("balance")
+    if balance is not None:
+        through = through * (1.0 + np.asarray(balance, float))
+    vk = (P.T @ i) / through
+    offset = np.asarray(estimate.backscatter, float)
+    if white_value is not None:
+        top = float(np.max(vk * (np.asarray(white_value, float) - offset)))
+        if top > 0:
+            vk = vk * (WHITE_TARGET * full_scale / top)
+    return vk, offset
 
 
 def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | None = None,

@@ -3,10 +3,8 @@
 :func:`measure`: read (or take) the photo, sample the chart in every corner order and keep the
 one whose grey row falls from white to black (:mod:`measure.chart`), fit C, a_CDOM(440), the
 veiling light and the unknown exposure gain with :func:`sca.estimate` (``gain="free"``, weighted
-by the patches' standard errors), then assess it. :func:`correction` derives the paper's Fig 11
-von Kries correction from the estimated attenuation: corrected = gains * (raw - offset), offset
-the estimated veiling light, gains the ratio of a white's response in air to its response
-through the water.
+by the patches' standard errors), then assess it, and derive the paper's Fig 11 von Kries
+correction from the estimated attenuation (:func:`measure.correct.correction`).
 """
 
 from __future__ import annotations
@@ -40,13 +38,13 @@ from .chart import (
     pose,
     sample_patches,
 )
-from .correct import WHITE_TARGET
+from .correct import correction
 from .detect import find_chart
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
 from forward.validate import InputError
 
-__all__ = ["Measurement", "measure", "correction", "budget_for", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
+__all__ = ["Measurement", "measure", "budget_for", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
            "SATURATED_FRACTION", "ORIENTATION_CHI2"]
 
 #: Flags of the measurement itself that make it unreliable (besides sca.assess.BLOCKING):
@@ -83,8 +81,8 @@ class Measurement:
     corners : numpy.ndarray, (4, 2)
         The corners in pixels, in the chosen order.
     gains, offset : numpy.ndarray, (3,)
-        The colour correction corrected = gains * (raw - offset) (:func:`correction`; offset in
-        raw units).
+        The colour correction corrected = gains * (raw - offset) (:func:`measure.correct.correction`;
+        offset in raw units).
     fitted : numpy.ndarray, (3, 24)
         The model's patch values at the estimate (the budget's nuisances at their fitted
         values), raw units.
@@ -327,72 +325,6 @@ def _choose_orientation(photo, lay, cands, setup, depth, distance, water, uncert
     return "as given", c, s, fits.get("as given") or _fit(s, setup, depth, distance, water,
                                                           uncertain, mode, auxiliary), \
         ["orientation-unverified"], [f"orientation not verified: {why}; check --corners"]
-
-
-def correction(estimate: sca.Estimate, setup, white_value=None, full_scale=65535.0):
-    """The paper's von Kries colour correction from the estimated attenuation.
-
-    corrected = gains * (raw - offset): offset the estimated veiling light, gains the ratio
-    (P^T i) / ((1 + beta) (P_delta^T diag(i r) k)) of a white's response in air to its response
-    through the water as the fit found it (r: the surface daylight's change of colour, where the
-    budget has the ``daylight`` term; beta and delta: the camera's fitted channel balance and
-    curve shifts, where it has ``balance`` and ``camera_shift``, P_delta = P - delta dP/dlambda
-    to first order as :mod:`sca.model` takes them; the corrected white is that of the given
-    illuminant and the camera's nominal curves), times one common factor that puts the
-    corrected white patch's brightest channel at :data:`measure.correct.WHITE_TARGET` x ``full_scale``.
-
-    Parameters
-    ----------
-    estimate : sca.Estimate
-        A fit with ``attenuation`` k (q,) and ``backscatter`` (3,) in raw units.
-    setup : forward.ChartSetup
-        Camera sensitivities P and illuminant i of the fit.
-    white_value : array_like, (3,), optional
-        The white patch's raw values (raw units); without it no common factor is applied.
-    full_scale : float, optional
-        Full scale of the corrected image, raw units (default 65535, 16 bits).
-
-    Returns
-    -------
-    gains : numpy.ndarray, (3,)
-        Channel gains, dimensionless.
-    offset : numpy.ndarray, (3,)
-        Offsets, raw units.
-
-    References
-    ----------
-    H. Blasinski and J. Farrell, "A Three Parameter Underwater Image Formation Model", IS&T
-    Electronic Imaging 2016, Fig 11 (von Kries correction with the estimated attenuation).
-    """
-    P, i = setup.sensitivities, setup.illuminant
-    light = i * estimate.attenuation
-    nuisance = estimate.nuisance or {}
-    shift = nuisance.get("daylight")
-    if shift:  # the surface light's colour as the fit found it (the budget's daylight term)
-        from forward.daylight import DaylightTilt
-
-        light = light * np.exp(DaylightTilt(setup.wavelengths,
-                                            setup.daylight_cct).log_ratio(float(shift)))
-    # the white through the water as the fit saw it: with the camera's fitted curve shifts (to
-    # first order, as sca.model takes them) and channel balance (the budget's camera terms), so
-    # that the correction inverts the whole colour path the fit found, not the water's part alone
-    P_fit = P
-    delta = nuisance.get("camera_shift")
-    if delta is not None:
-        from sca.model import curve_shift_derivative
-
-        P_fit = P + np.asarray(delta, float)[None, :] * curve_shift_derivative(P, setup.wavelengths)
-    through = P_fit.T @ light
-    balance = nuisance.get("balance")
-    if balance is not None:
-        through = through * (1.0 + np.asarray(balance, float))
-    vk = (P.T @ i) / through
-    offset = np.asarray(estimate.backscatter, float)
-    if white_value is not None:
-        top = float(np.max(vk * (np.asarray(white_value, float) - offset)))
-        if top > 0:
-            vk = vk * (WHITE_TARGET * full_scale / top)
-    return vk, offset
 
 
 def _band(estimate: sca.Estimate, depth, distance) -> np.ndarray:

@@ -18,7 +18,7 @@ import forward
 import sca
 from forward.spectra import WHITE_PATCH
 from measure.camera import camera_setup, own_balance
-from measure.measurement import correction
+from measure.correct import correction
 
 REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
 needs_g7x = pytest.mark.skipif(not (REALDATA / "g7x").is_dir(),

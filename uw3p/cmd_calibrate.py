@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import os
 
-from .common import (input_error, EXIT_NOT_RELIABLE, EXIT_OK, add_chart_option, add_photo_options,
-                     camera_note, chart_from_args, check_spectra_args, read_photo, write_file)
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_chart_option, add_photo_options, camera_note,
+                     chart_from_args, check_spectra_args, input_error, read_photo, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 

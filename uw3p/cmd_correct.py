@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import __version__
-from .common import input_error, EXIT_NOT_RELIABLE, EXIT_OK, check_spectra_args, read_photo
+from .common import EXIT_NOT_RELIABLE, EXIT_OK, check_spectra_args, input_error, read_photo
 
 __all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import math
 
-from .common import (input_error, EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options,
-                     budget_text, camera_note, check_spectra_args, uncertain_from_args,
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options, budget_text,
+                     camera_note, check_spectra_args, input_error, uncertain_from_args,
                      water_from_args, wavelengths_from_args)
 
 __all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TARGET_NAMES",

@@ -24,10 +24,9 @@ import re
 
 from measure.csvsafe import safe_writer
 
-from .common import (input_error, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
-                     add_setup_options, atomic_open, auxiliary_from_args, budget_text,
-                     camera_note, check_spectra_args, json_text, setup_kwargs,
-                     uncertain_from_args)
+from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
+                     add_setup_options, atomic_open, auxiliary_from_args, budget_text, camera_note,
+                     check_spectra_args, input_error, json_text, setup_kwargs, uncertain_from_args)
 
 __all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
            "PROGRESS_BYTES", "QUANTITY_NAMES", "add_parser", "run"]

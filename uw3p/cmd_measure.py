@@ -27,10 +27,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import __version__
-from .common import (input_error, EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
+from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
                      add_budget_options, add_chart_option, add_photo_options, add_water_options,
                      auxiliary_from_args, camera_note, chart_from_args, check_spectra_args,
-                     read_photo, uncertain_from_args, water_from_args)
+                     input_error, read_photo, uncertain_from_args, water_from_args)
 
 __all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 

@@ -9,7 +9,7 @@ format ``uw3p estimate`` reads).
 
 from __future__ import annotations
 
-from .common import (input_error, EXIT_OK, add_setup_options, camera_note, check_spectra_args,
+from .common import (EXIT_OK, add_setup_options, camera_note, check_spectra_args, input_error,
                      water_from_args, wavelengths_from_args, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]

@@ -57,7 +57,7 @@ import sca
 from forward.spectra import WHITE_PATCH
 from measure.camera import camera_setup, patch_systematic
 from measure.lightfield import fit_light_field
-from measure.measurement import correction
+from measure.correct import correction
 
 from ..common import save_figure, style
 
