@@ -6,113 +6,39 @@ Units throughout: wavelengths in nm, absorption / scattering / attenuation coeff
 m^-1, chlorophyll ``chl`` (C) in mg m^-3, ``cdom`` = a_CDOM(440 nm) in m^-1, lengths
 (``depth``, ``distance``) in m; camera values in model units (a white reflector in air = 1 in
 the most sensitive channel).
+
+The public names are loaded on first use (PEP 562 module ``__getattr__``, as :mod:`sca` and
+:mod:`measure`): importing :mod:`forward` costs nothing until a name is asked for, and
+``forward.errors.InputError`` loads without the numerics (decision 0007-start-up).
 """
 
-from . import validate
-from .validate import InputError
-from .imaging import (
-    PATH_MODELS,
-    ChartSetup,
-    attenuation,
-    camera_response,
-    chart_setup,
-    path_length,
-    resolve_setup,
-    veiling_light,
-)
-from .render import camera_to_xyz_matrix, chart_image, chart_xyz, patch_srgb, patches_image
-from .sensor import SensorSettings, capture, sensor_noise
-from .simulate import ChartSimulation, simulate_chart
-from .spectra import (
-    DEFAULT_CAMERA,
-    LAMBDA_0_NM,
-    MODEL_RANGE_NM,
-    camera_sensitivities,
-    chart_reflectances,
-    cie_1931_cmfs,
-    illuminant_spd,
-    quadrature_weights,
-    wavelength_grid,
-)
-from .water import (
-    CDOM_SLOPE,
-    CHL_TERMS,
-    NAP_SLOPE,
-    PAPER_WATER,
-    Water,
-    WaterTerms,
-    phytoplankton_basis,
-    resolve_water,
-    table1,
-    absorption,
-    attenuation_coefficient,
-    backscattering,
-    cdom_absorption,
-    nap_absorption,
-    nap_absorption_440,
-    particle_scattering,
-    phytoplankton_absorption,
-    phytoplankton_absorption_440,
-    pure_water_absorption,
-    pure_water_scattering,
-    scattering,
-)
+from __future__ import annotations
 
-__all__ = [
-    "CDOM_SLOPE",
-    "CHL_TERMS",
-    "DEFAULT_CAMERA",
-    "InputError",
-    "LAMBDA_0_NM",
-    "MODEL_RANGE_NM",
-    "NAP_SLOPE",
-    "PAPER_WATER",
-    "PATH_MODELS",
-    "ChartSetup",
-    "ChartSimulation",
-    "SensorSettings",
-    "Water",
-    "WaterTerms",
-    "absorption",
-    "attenuation",
-    "attenuation_coefficient",
-    "backscattering",
-    "camera_response",
-    "camera_sensitivities",
-    "camera_to_xyz_matrix",
-    "capture",
-    "cdom_absorption",
-    "chart_image",
-    "chart_reflectances",
-    "chart_setup",
-    "chart_xyz",
-    "cie_1931_cmfs",
-    "illuminant_spd",
-    "imaging",
-    "nap_absorption",
-    "nap_absorption_440",
-    "particle_scattering",
-    "patch_srgb",
-    "patches_image",
-    "path_length",
-    "phytoplankton_absorption",
-    "phytoplankton_absorption_440",
-    "phytoplankton_basis",
-    "pure_water_absorption",
-    "pure_water_scattering",
-    "quadrature_weights",
-    "render",
-    "resolve_setup",
-    "resolve_water",
-    "scattering",
-    "sensor",
-    "sensor_noise",
-    "simulate",
-    "simulate_chart",
-    "spectra",
-    "table1",
-    "validate",
-    "veiling_light",
-    "water",
-    "wavelength_grid",
-]
+from .lazy import lazy_exports
+
+#: Where each public name lives (submodule of ``forward``).
+_HOME = {
+    "InputError": "errors",
+    "PATH_MODELS": "imaging", "ChartSetup": "imaging", "attenuation": "imaging",
+    "camera_response": "imaging", "chart_setup": "imaging", "path_length": "imaging",
+    "resolve_setup": "imaging", "veiling_light": "imaging",
+    "camera_to_xyz_matrix": "render", "chart_image": "render", "chart_xyz": "render",
+    "patch_srgb": "render", "patches_image": "render",
+    "SensorSettings": "sensor", "capture": "sensor", "sensor_noise": "sensor",
+    "ChartSimulation": "simulate", "simulate_chart": "simulate",
+    "DEFAULT_CAMERA": "spectra", "LAMBDA_0_NM": "spectra", "MODEL_RANGE_NM": "spectra",
+    "camera_sensitivities": "spectra", "chart_reflectances": "spectra", "cie_1931_cmfs": "spectra",
+    "illuminant_spd": "spectra", "quadrature_weights": "spectra", "wavelength_grid": "spectra",
+    "CDOM_SLOPE": "water", "CHL_TERMS": "water", "NAP_SLOPE": "water", "PAPER_WATER": "water",
+    "Water": "water", "WaterTerms": "water", "phytoplankton_basis": "water",
+    "resolve_water": "water", "table1": "water", "absorption": "water",
+    "attenuation_coefficient": "water", "backscattering": "water", "cdom_absorption": "water",
+    "nap_absorption": "water", "nap_absorption_440": "water", "particle_scattering": "water",
+    "phytoplankton_absorption": "water", "phytoplankton_absorption_440": "water",
+    "pure_water_absorption": "water", "pure_water_scattering": "water", "scattering": "water",
+}
+#: The public names: every name of :data:`_HOME` (the submodules load as attributes too:
+#: ``forward.water``).
+__all__ = list(_HOME)
+
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _HOME, __all__)

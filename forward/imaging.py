@@ -24,7 +24,7 @@ from .spectra import (
 )
 from .daylight import D_SERIES_CCT
 from .water import DIFFUSE_TERMS, PATH_MODELS, Water, resolve_water  # PATH_MODELS: re-exported
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "PATH_MODELS",

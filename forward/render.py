@@ -14,7 +14,7 @@ import numpy as np
 
 from .imaging import ChartSetup
 from .spectra import cie_1931_cmfs, quadrature_weights
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["camera_to_xyz_matrix", "chart_image", "chart_xyz", "patch_srgb", "patches_image"]
 

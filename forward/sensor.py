@@ -29,7 +29,7 @@ import numpy as np
 
 from . import validate
 from .spectra import cie_1931_cmfs, quadrature_weights
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "EXPOSURE_MODES",

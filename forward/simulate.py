@@ -12,7 +12,7 @@ from .imaging import ChartSetup, camera_response, path_length, resolve_setup, ve
 from .sensor import SensorSettings, capture
 from .spectra import DEFAULT_CAMERA
 from .water import Water, resolve_water
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["ChartSimulation", "simulate_chart"]
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from . import validate
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "COLOUR_CACHE",

@@ -11,7 +11,7 @@ optimisers and statistics) it does not use (decision 0007-start-up).
 
 from __future__ import annotations
 
-from sca.lazy import lazy_exports
+from forward.lazy import lazy_exports
 
 #: Where each public name lives (submodule of ``measure``).
 _HOME = {

@@ -25,7 +25,7 @@ R. T. Birge, "The calculation of errors by the method of least squares", Phys. R
 from __future__ import annotations
 
 import math
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["KINDS", "OPTIONS", "auxiliary_record", "combine_readings", "dive_auxiliary",
            "merge_auxiliary", "option_sources", "parse_kd", "parse_pair"]

@@ -25,7 +25,7 @@ import numpy as np
 
 import forward
 from forward.imaging import ChartSetup
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "CHART_PATCHES",

@@ -27,7 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["ChartLayout", "LAYOUTS", "parse_corners", "homography", "PatchSample",
            "sample_patches", "orientations", "grey_row_ok", "corners_outside", "pose",

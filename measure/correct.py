@@ -56,7 +56,7 @@ from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
 from .pixels import correct_pixels
 from .rangemap import read_range
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE",
            "Corrected", "CorrectionTable", "correct_image", "correction", "correction_table",

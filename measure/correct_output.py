@@ -20,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 
-from forward.validate import InputError
+from forward.errors import InputError
 
 from .imagefiles import TIFF_COMPRESSION, write_jpeg, write_srgb_tiff
 from .output import MARKER, TIFF_MODES, strict_json, write_folder

@@ -29,7 +29,7 @@ import numpy as np
 
 import forward
 from forward.water import COEFFICIENT_PARAMS, Water
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["CorrectionWater", "MODEL_NUISANCE", "correction_water", "exposure_ratio"]
 

@@ -56,7 +56,7 @@ import numpy as np
 from forward import spectra
 
 from .chart import CORNER_PATCHES, LAYOUTS, ChartLayout, corners_outside, orientations, pose
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "ADAPTIVE_BLOCKS",

@@ -19,7 +19,7 @@ import numpy as np
 from sca.compiled import KERNEL_LOCK
 
 from .pixels import bilinear_all, unpack
-from forward.validate import InputError
+from forward.errors import InputError
 
 # numba's fork-safe threading layer and the kernel lock: one place (sca.compiled)
 _KERNEL_LOCK = KERNEL_LOCK

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import sca.joint
-from forward.validate import InputError
+from forward.errors import InputError
 from forward.water import resolve_water
 from sca.budget import parse_sd
 

@@ -30,7 +30,7 @@ import numpy as np
 
 import sca
 from forward.water import resolve_water
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["FIELDS", "FIELD_FLOOR", "LIGHT_FIELD_ALPHA", "field_basis", "fit_light_field"]
 

@@ -42,7 +42,7 @@ from .correct import correction
 from .detect import find_chart
 from .image import Photo, read_image
 from .lightfield import FIELDS, fit_light_field
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["Measurement", "measure", "budget_for", "MEASURE_BLOCKING", "CLIPPED_SIGMA",
            "SATURATED_FRACTION", "ORIENTATION_CHI2"]

@@ -23,7 +23,7 @@ from forward.spectra import WHITE_PATCH, srgb_8bit
 
 from .image import demosaic
 from .imagefiles import TIFF_COMPRESSION
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_MODES",
            "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",

@@ -25,7 +25,7 @@ import os
 from pathlib import Path
 
 import numpy as np
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["MM_PER_M", "PLANE_PREFIX", "RANGE_EXTENSIONS", "parse_range", "read_range",
            "resample_range"]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from sca.derived import QUANTITIES, describe, verdict
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["HINTS", "LABELS", "estimate_values", "one_line", "statements"]
 

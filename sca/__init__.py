@@ -11,7 +11,7 @@ Blasinski & Farrell, "A Three Parameter Underwater Image Formation Model".
 
 from __future__ import annotations
 
-from .lazy import lazy_exports
+from forward.lazy import lazy_exports
 
 #: Where each public name lives (submodule of ``sca``).
 _HOME = {

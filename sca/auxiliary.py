@@ -39,7 +39,7 @@ from forward.water import BEAM_TERMS, COEFFICIENT_PARAMS, DIFFUSE_TERMS
 
 from .biooptical import case1_observations
 from .problem import Observation
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["AUXILIARY", "KD_MODEL_REL", "SECCHI_GAMMA", "SECCHI_GAMMA_REL", "SECCHI_NM",
            "auxiliary_observations", "cdom_observation", "kd_observation", "planned",

@@ -60,7 +60,7 @@ from .pathmodels import candidates, combine_batch
 from .projection import grid_best
 from .derived import derived_from_fit, quantity_names, verdicts_of
 from .quadrature import CERTIFY_SIGMA, reduction_error
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "CHUNK",

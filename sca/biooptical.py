@@ -54,7 +54,7 @@ from forward.spectra import read_table
 from forward.water import COEFFICIENT_PARAMS, NONWATER_ABSORPTION_TERMS
 
 from .problem import Observation
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["CASE1_QUANTITIES", "CASE1_TABLE", "CASE1_UNCERTAIN", "REFERENCE_NM", "Relation",
            "binds", "case1_observations", "fit_relation", "read_case1", "relation_observation"]

@@ -49,7 +49,7 @@ from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
                     profiled_information)
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["GAINS", "Z95", "Precision", "precision", "quantity_sd"]
 

@@ -37,7 +37,7 @@ from forward.water import COEFFICIENT_PARAMS, Water
 
 from .budget_defaults import BUDGET_SOURCES, DEFAULT_UNCERTAIN, REAL_WATER_UNCERTAIN
 from .model import covariance
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
            "SYSTEMATIC", "Budget", "prior_centre", "resolve_budget", "parse_sd",

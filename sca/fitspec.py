@@ -13,7 +13,7 @@ from forward import validate
 from forward.water import COEFFICIENT_PARAMS, Water
 
 from .model import GEOMETRY, check_names
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["GAINS", "DEFAULT_FREE", "FREEABLE", "FIXABLE", "FitSpec", "fit_spec", "parse_fix"]
 

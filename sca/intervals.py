@@ -32,7 +32,7 @@ import numpy as np
 
 from .lm import SINGULAR_PIVOT, evaluate, levenberg_marquardt
 from .problem import Problem
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",

@@ -49,7 +49,7 @@ from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
 from .problem import chl_from_u, du_chain, u_from_chl
 from .quadrature import CERTIFY_SIGMA, reduction_error
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "HETEROGENEITY_ALPHA",

@@ -59,7 +59,7 @@ from .trust_region import (
     update_radius,
 )
 from .verdict import assess, fit_lm
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
            "BOUND_CAP", "CHL_SCALE_MIN", "CDOM_SCALE_MIN", "PARAM_SCALE_MIN", "INIT_CHL",

@@ -16,7 +16,7 @@ from .loop import MODES, Estimator, over_path_models
 from .model import CHL_DERIVATIVE_FLOOR, lower_bound
 from .results import Estimate
 from .verdict import assess
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["estimate_least_squares", "residual_functions"]
 

@@ -31,7 +31,7 @@ from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
 from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
 from .projection import linear_part_stats
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",

@@ -20,7 +20,7 @@ import numpy as np
 from forward.water import PATH_MODELS
 
 from .assess import BLOCKING
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["PATH_MODEL_DELTA", "SPAN_FLAG", "candidates", "supported", "combine_batch",
            "combine_single"]

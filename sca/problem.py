@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
 

@@ -61,7 +61,7 @@ from .bound import Z95, Precision, precision
 from .budget import DEFAULT_UNCERTAIN
 from .derived import BANDS_NM, QUANTITIES
 from .pathmodels import PATH_MODEL_DELTA
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["AUXILIARY_OPTIONS", "C_BANDS", "MAX_PHOTOS", "SAMPLE_SD", "SECCHI_READING_REL",
            "TARGETS", "Design", "Prediction", "Protocol", "design", "ladder"]

@@ -51,7 +51,7 @@ from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
 from .lm import evaluate, levenberg_marquardt
 from .model import lower_bound, upper_cap
 from .problem import TINY, Evaluation, Problem, chl_from_u, u_from_chl
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = [
     "KD_MODEL_ERROR",

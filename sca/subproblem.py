@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import cvxpy as cp
 import numpy as np
-from forward.validate import InputError
+from forward.errors import InputError
 
 
 @dataclass

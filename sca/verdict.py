@@ -25,7 +25,7 @@ from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
 from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
 

@@ -39,7 +39,20 @@ def test_help_and_bad_input_load_no_numerics():
     bad = ("import io\nfrom uw3p.cli import main\n"
            "assert main(['measure', 'missing.dng', '--depth', '5', '--distance', '1', '--out', "
            "'x'], out=io.StringIO(), err=io.StringIO()) == 2")
-    assert _loaded(bad) <= {"numpy"}
+    assert _loaded(bad) == set()  # forward.InputError needs no numerics (forward.errors)
+
+
+def test_forward_loads_its_names_on_first_use():
+    assert _loaded("import forward") == set()
+    assert _loaded("from forward.errors import InputError") == set()
+    from forward.imaging import chart_setup
+    from forward.validate import InputError
+
+    assert forward.chart_setup is chart_setup and forward.InputError is InputError
+    assert all(getattr(forward, name) is not None for name in forward.__all__)
+    assert forward.water.Water is forward.Water  # submodules as attributes
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        forward.nonexistent  # noqa: B018
 
 
 def test_sca_loads_its_names_on_first_use():

@@ -626,8 +626,8 @@ def json_text(obj) -> str:
 
 # --------------------------------------------------------------------------- messages
 def input_error(argument: str, reason: str) -> ValueError:
-    """Bad input to the command: a :class:`forward.InputError` naming the argument (imported
-    on the first bad input, so that starting the command loads no numerics: decision
+    """Bad input to the command: a :class:`forward.InputError` naming the argument
+    (:mod:`forward.errors` imports nothing, so that a refusal loads no numerics: decision
     0007-start-up).
 
     Parameters
@@ -642,7 +642,7 @@ def input_error(argument: str, reason: str) -> ValueError:
     -------
     forward.InputError
     """
-    from forward.validate import InputError
+    from forward.errors import InputError
 
     return InputError(argument, reason)
 

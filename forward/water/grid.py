@@ -26,7 +26,7 @@ from .terms import (
     _sum_pieces,
     _TermInputs,
 )
-from forward.validate import InputError
+from forward.errors import InputError
 
 
 __all__ = ["WaterTerms"]

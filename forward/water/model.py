@@ -28,7 +28,7 @@ from ..spectra import (
     resample,
     wavelength_grid,
 )
-from forward.validate import InputError
+from forward.errors import InputError
 
 if TYPE_CHECKING:
     from .grid import WaterTerms

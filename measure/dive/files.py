@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..output import TEMP_PREFIX
 from .names import LOCK_FILE, RUN_FILES
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["TEMP_SUFFIX", "atomic", "clean_temp", "locked"]
 

@@ -28,7 +28,7 @@ import numpy as np
 from ..camera import file_digest
 from .files import atomic
 from .names import MANIFEST
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["FILE_OPTIONS", "check_manifest", "file_digest", "manifest",
            "manifest_digest", "write_manifest"]

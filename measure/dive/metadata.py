@@ -9,7 +9,7 @@ import io
 import math
 import re
 from pathlib import Path
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",

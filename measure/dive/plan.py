@@ -26,7 +26,7 @@ import numpy as np
 from ..output import read_marker, result_owner
 from .manifest import file_digest
 from .summary import CORRECTED, summary_row
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["complete_files", "correction_range", "holds_results", "photo_key", "plan_photo",
            "resolve_inputs"]

@@ -46,7 +46,7 @@ from .plan import holds_results, plan_photo
 from .plot import plot_survey
 from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
 from .survey import survey_dataset, write_survey
-from forward.validate import InputError
+from forward.errors import InputError
 
 __all__ = ["DiveWarning", "DiveResult", "check_scheduler", "measure_dive"]
 

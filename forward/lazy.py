@@ -1,7 +1,7 @@
 """PEP 562 lazy exports: a package's public names loaded from their submodules on first use.
 
-Used by :mod:`sca` and :mod:`measure` so that importing either costs nothing until a name is
-asked for (decision 0007-start-up). Imports nothing heavy itself.
+Used by :mod:`forward`, :mod:`sca` and :mod:`measure` so that importing any of them costs
+nothing until a name is asked for (decision 0007-start-up). Imports nothing heavy itself.
 """
 
 from __future__ import annotations
