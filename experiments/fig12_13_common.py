@@ -24,7 +24,7 @@ from .common import figures_dir, save_figure, style, write_csv
 from .estimation import condition_kw, distance_conditions, fig12_conditions, fit_header, fit_row, resolve
 from .grids import setting as get_setting
 
-__all__ = ["make", "correlations", "group_r", "accuracy", "accuracy_rows", "LABEL", "PLAIN",
+__all__ = ["make", "group_r", "accuracy", "accuracy_rows", "LABEL", "PLAIN",
            "ZERO", "GROUPINGS"]
 
 #: Estimates below this (mg m^-3 or m^-1; 1 % of the smallest true value of either grid) are
@@ -66,13 +66,6 @@ def accuracy(true, est) -> dict:
     return dict(r=r, r2=r * r, r_log=r_log, r2_log=r_log * r_log,
                 factor=float(np.exp(np.median(np.abs(np.log(ratio))))) if t.size else float("nan"),
                 bias=float(np.median(ratio)) if t.size else float("nan"), n=int(t.size))
-
-
-def correlations(results, depth, quantity):
-    """(Pearson r, Pearson r of log10 (estimates at least ZERO), n) at one depth."""
-    sel = [x for x in results if x["depth"] == depth]
-    a = accuracy([x[quantity] for x in sel], [x[quantity + "_hat"] for x in sel])
-    return a["r"], a["r_log"], a["n"]
 
 
 def group_r(results, depth, quantity, colour_by):

@@ -64,7 +64,7 @@ def _code_fingerprint() -> str:
 
     h = hashlib.sha256()
     root = Path(__file__).resolve().parents[1]
-    files = [p for pkg in ("forward", "sca") for p in sorted((root / pkg).glob("*.py"))]
+    files = [p for pkg in ("forward", "sca") for p in sorted((root / pkg).rglob("*.py"))]
     files += [Path(__file__).resolve(), Path(__file__).with_name("independent_world.py")]
     files += sorted((root / "data").glob("*.csv"))
     for path in files:

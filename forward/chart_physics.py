@@ -235,8 +235,8 @@ def fournier_forand(theta, n: float = FF_N, mu: float = FF_MU) -> np.ndarray:
 
 @functools.cache
 def _ff_inverse_cdf(points: int = 20000):
-    """(cdf, theta) of the forward-hemisphere part of the Fournier-Forand phase function, on a
-    logarithmic grid of theta from 1e-6 rad to pi/2, and the forward fraction."""
+    """(cdf, theta): the Fournier-Forand phase function's cumulative distribution over the
+    scattering angle, on a logarithmic grid of theta from 1e-6 rad to pi."""
     theta = np.geomspace(1e-6, np.pi, points)
     dens = 2 * np.pi * np.sin(theta) * fournier_forand(theta)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(theta))])

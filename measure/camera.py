@@ -144,19 +144,9 @@ def file_digest(path) -> str:
     return h.hexdigest()
 
 
-def chart_digest(path) -> str:
-    """The SHA-256 of a measured chart's file (what a profile and a measurement record).
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-
-    Returns
-    -------
-    str
-        Hex digest.
-    """
-    return file_digest(path)
+#: The SHA-256 of a measured chart's file (what a profile and a measurement record): the same
+#: digest as any file's (:func:`file_digest`).
+chart_digest = file_digest
 
 
 @dataclass

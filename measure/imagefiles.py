@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-__all__ = ["ICC_TAG", "JPEG_QUALITY", "JPEG_ROWS", "TIFF_COMPRESSION", "srgb_icc", "to_8bit",
+__all__ = ["JPEG_QUALITY", "JPEG_ROWS", "TIFF_COMPRESSION", "srgb_icc", "to_8bit",
            "write_jpeg", "write_srgb_tiff"]
 
 #: tifffile's options for a compressed corrected.tiff: Adobe deflate with the
@@ -34,8 +34,7 @@ TIFF_COMPRESSION = {"compression": "zlib", "compressionargs": {"level": 1}, "pre
 JPEG_QUALITY = 92
 #: Rows converted from 16 to 8 bits at a time (bounds the temporaries at 24 MP)
 JPEG_ROWS = 512
-#: TIFF tag InterColorProfile (TIFF/EP, ICC.1 annex B)
-ICC_TAG = 34675
+
 
 @functools.lru_cache(maxsize=1)
 def srgb_icc() -> bytes:

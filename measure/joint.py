@@ -88,31 +88,27 @@ class JointPhoto:
     def from_measurement(cls, meas) -> "JointPhoto":
         """The photo of a :class:`measure.Measurement` (no measurement.json made or read)."""
         e, s, inp = meas.estimate, meas.sample, meas.inputs
-        return cls._made(
-            getattr(meas.photo, "path", None), s.rgb, s.sigma, s.clipped, meas.light_field, inp,
-            {"chl": e.chl, "cdom": e.cdom, "gain": e.gain, "backscatter": e.backscatter},
-            meas.flags)
+        return cls._made(getattr(meas.photo, "path", None), s.rgb, s.sigma, s.clipped,
+                         meas.light_field, inp, {k: getattr(e, k) for k in START}, meas.flags)
 
     @classmethod
     def from_record(cls, rec: dict) -> "JointPhoto":
         """The photo of a measurement.json's content."""
         p, est = rec["patches"], rec["estimate"]
-        sigma = [[np.nan if v is None else v for v in row] for row in p["sigma"]]
-        return cls._made((rec.get("image") or {}).get("path"), p["rgb"], sigma,
+        return cls._made((rec.get("image") or {}).get("path"), p["rgb"], p["sigma"],
                          p.get("clipped"), rec.get("light_field"), rec.get("inputs") or {},
-                         {k: est.get(k) for k in ("chl", "cdom", "gain", "backscatter")},
-                         est.get("flags", ()))
+                         {k: est.get(k) for k in START}, est.get("flags", ()))
 
     @classmethod
     def _made(cls, path, rgb, sigma, clipped, light_field, inputs, start, flags):
         M = np.maximum(np.asarray(rgb, float), 0.0)
-        sig = np.asarray(sigma, float)
+        sig = np.asarray(sigma, float)  # None (JSON's NaN) -> nan
         clip = np.zeros(M.shape, bool) if clipped is None else np.asarray(clipped, float) > 0
         ok = np.isfinite(sig) & (sig > 0) & ~clip & (sig < CLIPPED_SIGMA * max(M.max(), 1e-300))
         lf = light_field or {}
-        field = None if lf.get("field") is None or lf.get("model") == "none" \
-            else np.asarray(lf["field"], float)
-        field = None if field is None or field.size == 0 else field
+        raw = lf.get("field")
+        field = None if raw is None or lf.get("model") == "none" or np.size(raw) == 0 \
+            else np.asarray(raw, float)
         depth, distance = float(inputs["depth_m"]), float(inputs["distance_m"])
         return cls(str(path or ""), M, np.where(ok, sig, np.inf), field, depth, distance,
                    _sd("depth", inputs.get("depth_sd"), depth),

@@ -75,7 +75,6 @@ __all__ = [
     "estimate_batch",
     "scale_test",
     "start_grid",
-    "verdicts_of",
 ]
 
 #: Coarse start grid of the batch (C in mg m^-3, a_CDOM in m^-1).

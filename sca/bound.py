@@ -51,7 +51,7 @@ from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_informatio
                     profiled_information)
 from forward.errors import InputError
 
-__all__ = ["GAINS", "Z95", "Precision", "precision", "quantity_sd"]
+__all__ = ["GAINS", "Z95", "Precision", "precision"]
 
 GAINS = ("known", "free", "channels")
 #: The 97.5 % point of the standard normal (95 % two-sided).

@@ -41,7 +41,7 @@ from .assess import BLOCKING, MISFIT_P, goodness
 from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
-from .derived import derived_from_fit, verdict
+from .derived import derived_from_fit, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
@@ -684,7 +684,6 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     """
     from forward.water import COEFFICIENT_PARAMS, PATH_MODELS
 
-    from .derived import quantity_sd
 
     depth = np.atleast_1d(np.asarray(depth, float))
     distance = np.atleast_1d(np.asarray(distance, float))

@@ -20,6 +20,7 @@ import numpy as np
 from forward.water import PATH_MODELS
 
 from .assess import BLOCKING
+from .derived import verdict, verdicts_of
 from forward.errors import InputError
 
 __all__ = ["PATH_MODEL_DELTA", "SPAN_FLAG", "candidates", "supported", "combine_batch",
@@ -141,7 +142,6 @@ def combine_batch(results: dict):
         fields["beam_attenuation_ci"] = np.stack(
             [np.where(okq, cis[..., 0], np.inf).min(axis=0),
              np.where(okq, cis[..., 1], -np.inf).max(axis=0)], axis=-1)
-    from .derived import verdicts_of
 
     fields["verdicts"] = verdicts_of(fields["chl_ci"], fields["cdom_ci"], qi)
     fields["budget"] = {k: {"sd": pick([e.budget[k]["sd"] for e in ests]),
@@ -183,7 +183,6 @@ def combine_single(results: dict):
     if cci is not None and all(e.beam_attenuation_ci is not None for e in sup):
         cci = np.stack([np.min([e.beam_attenuation_ci[:, 0] for e in sup], axis=0),
                         np.max([e.beam_attenuation_ci[:, 1] for e in sup], axis=0)], axis=-1)
-    from .derived import verdict
 
     chl_ci, cdom_ci = ints.get("chl", b.chl_ci), ints.get("cdom", b.cdom_ci)
     verdicts = {"chl": verdict(*chl_ci), "cdom": verdict(*cdom_ci),

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import os
 import sys
-from .common import input_error
+
+from forward.errors import InputError
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -74,7 +75,7 @@ def run(args, out, err) -> int:
 
     out_dir = Path(args.out)
     if out_dir.is_file():
-        raise input_error("--out", f"{out_dir} is a file; give a folder")
+        raise InputError("--out", f"{out_dir} is a file; give a folder")
     cmd = [sys.executable, "-m", "experiments.benchmark",
            "--out", str(out_dir / "results.json"), "--report", str(out_dir / "BENCHMARKS.md"),
            "--figure", str(out_dir / "benchmark_speed_error.png")] + (

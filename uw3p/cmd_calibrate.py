@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import os
 
+from forward.errors import InputError
+
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_chart_option, add_photo_options, camera_note,
-                     chart_from_args, check_spectra_args, input_error, read_photo, write_file)
+                     chart_from_args, check_spectra_args, read_photo, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -86,7 +88,7 @@ def run(args, out, err) -> int:
 
     check_spectra_args(args)
     if args.out.endswith(("/", "\\")) or os.path.isdir(args.out):
-        raise input_error("--out", f"{args.out} is a folder; give the profile's file name "
+        raise InputError("--out", f"{args.out} is a folder; give the profile's file name "
                          "(profile.json)")
     chart = chart_from_args(args)
     photo = read_photo(args, args.image)
@@ -104,7 +106,7 @@ def run(args, out, err) -> int:
         passing = [k for k, v in cands.items() if v[2]]
         hint = f" (it does {passing[0]})" if len(passing) == 1 else ""
         which = "in the order given" if args.corners is not None else "of the chart found"
-        raise input_error("corners", "the grey row (patches 19-24) does not fall from white to black "
+        raise InputError("corners", "the grey row (patches 19-24) does not fall from white to black "
                          f"{which}{hint}; give the corners next to patch 1, 6, 24, 19")
     sample = measure.sample_patches(photo, c, measure.LAYOUTS[args.layout])
     prof = measure.calibrate(sample, camera=args.camera, quantal=args.quantal,

@@ -15,8 +15,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from forward.errors import InputError
+
 from . import __version__
-from .common import EXIT_NOT_RELIABLE, EXIT_OK, check_spectra_args, input_error, read_photo
+from .common import EXIT_NOT_RELIABLE, EXIT_OK, check_spectra_args, read_photo
 
 __all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 
@@ -144,11 +146,11 @@ def run(args, out, err) -> int:
     check_spectra_args(args)
     src = Path(args.image)
     if not src.is_file():
-        raise input_error("image", f"file not found: {src}")
+        raise InputError("image", f"file not found: {src}")
     if not Path(args.water).is_file():
-        raise input_error("water", f"file not found: {args.water}")
+        raise InputError("water", f"file not found: {args.water}")
     if Path(args.out).is_file():
-        raise input_error("out", f"{args.out} is a file; give a folder (created if missing)")
+        raise InputError("out", f"{args.out} is a file; give a folder (created if missing)")
     from measure.output import check_out
 
     check_out(args.out, src, args.overwrite)  # a refusal before the work

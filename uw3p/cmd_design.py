@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import math
 
+from forward.errors import InputError
+
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_options, budget_text,
-                     camera_note, check_spectra_args, input_error, uncertain_from_args,
+                     camera_note, check_spectra_args, uncertain_from_args,
                      water_from_args, wavelengths_from_args)
 
 __all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TARGET_NAMES",
@@ -136,18 +138,18 @@ def parse_target(text: str) -> tuple:
     name, sep, value = text.partition("=")
     key = name.strip()
     if not sep or not key:
-        raise input_error("--target", f"expected NAME=PCT such as C=30%, got {text!r}")
+        raise InputError("--target", f"expected NAME=PCT such as C=30%, got {text!r}")
     key = {"C": "chl", "c": "c"}.get(key, key.lower())  # C is chlorophyll, c attenuation
     if key not in TARGET_NAMES and key not in LABELS:
-        raise input_error("--target", f"unknown name {name.strip()!r}; choose from C, a_CDOM, c, "
+        raise InputError("--target", f"unknown name {name.strip()!r}; choose from C, a_CDOM, c, "
                          "c443, c490, c555, c670, a_nw440, kd490")
     try:
         pct = float(value.strip().rstrip("%").strip())
     except ValueError:
-        raise input_error("--target", f"{name.strip()}'s value must be a percentage like 30%, "
+        raise InputError("--target", f"{name.strip()}'s value must be a percentage like 30%, "
                          f"got {value!r}") from None
     if not (math.isfinite(pct) and pct > 0):
-        raise input_error("--target", f"{name.strip()}'s value must be > 0 %, got {value!r}")
+        raise InputError("--target", f"{name.strip()}'s value must be > 0 %, got {value!r}")
     return TARGET_NAMES.get(key, key), pct / 100.0
 
 
@@ -254,7 +256,7 @@ def write_plan(path: str, protocol) -> None:
             for i, (d, r) in enumerate(protocol.photos, 1):
                 w.writerow([f"PHOTO_{i:02d}.dng", f"{d:g}", f"{r:g}"])
     except OSError as exc:
-        raise input_error("--plan", f"cannot write {path}: {exc.strerror or exc}") from None
+        raise InputError("--plan", f"cannot write {path}: {exc.strerror or exc}") from None
 
 
 def run(args, out, err) -> int:
@@ -291,9 +293,9 @@ def run(args, out, err) -> int:
 
     for opt, values in (("--depth", args.depth), ("--distance", args.distance)):
         if len(values) > 2:
-            raise input_error(opt, f"give one value or two (m), got {len(values)}")
+            raise InputError(opt, f"give one value or two (m), got {len(values)}")
     if not args.chl > 0:
-        raise input_error("--chl", f"must be > 0 (the precision is relative to C; give the "
+        raise InputError("--chl", f"must be > 0 (the precision is relative to C; give the "
                          f"smallest C you need to measure), got {args.chl:g}")
     targets = dict(parse_target(t) for t in (args.target or [DEFAULT_TARGET]))
     check_spectra_args(args)

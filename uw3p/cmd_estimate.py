@@ -24,9 +24,11 @@ import re
 
 from measure.csvsafe import safe_writer
 
+from forward.errors import InputError
+
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options, add_budget_options,
                      add_setup_options, atomic_open, auxiliary_from_args, budget_text, camera_note,
-                     check_spectra_args, input_error, json_text, setup_kwargs, uncertain_from_args)
+                     check_spectra_args, json_text, setup_kwargs, uncertain_from_args)
 
 __all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
            "PROGRESS_BYTES", "QUANTITY_NAMES", "add_parser", "run"]
@@ -144,8 +146,8 @@ def _batch_error(exc, args, charts, offset):
         return exc
     where = {"rgb_stack": f"{args.batch}: ", "sigma": f"{args.batch}: the _sd columns: "}
     if argument not in where:  # the option is named from the argument (uw3p.cli)
-        return input_error(argument, _chart_ids(exc.reason, charts, offset))
-    return input_error("--batch", where[argument] + _chart_ids(exc.reason, charts, offset))
+        return InputError(argument, _chart_ids(exc.reason, charts, offset))
+    return InputError("--batch", where[argument] + _chart_ids(exc.reason, charts, offset))
 
 
 def _geometry(args, depth, distance):
@@ -155,10 +157,10 @@ def _geometry(args, depth, distance):
     for name, arr, opt in (("depth", depth, args.depth), ("distance", distance, args.distance)):
         if not np.isnan(arr).all():  # the file has a <name>_m column
             if opt is not None:
-                raise input_error(f"--{name}", f"{args.batch} has a {name}_m column (one {name} per "
+                raise InputError(f"--{name}", f"{args.batch} has a {name}_m column (one {name} per "
                                  f"chart); give the {name} in the file or with --{name}, not both")
         elif opt is None:
-            raise input_error(f"--{name}", f"required unless the batch file has a {name}_m column")
+            raise InputError(f"--{name}", f"required unless the batch file has a {name}_m column")
         else:
             arr[:] = opt
     return depth, distance
@@ -236,7 +238,7 @@ def _auxiliary(args, sigma) -> dict:
     if aux and sigma is None:
         given = ", ".join(o for o, k in (("--cdom-sample", "cdom"), ("--secchi", "secchi"),
                                           ("--kd", "kd")) if k in aux)
-        raise input_error(given.split(", ")[0], f"a measurement is weighed against the patches' "
+        raise InputError(given.split(", ")[0], f"a measurement is weighed against the patches' "
                          "noise: the patch file needs its _sd columns (red_sd, green_sd, "
                          f"blue_sd) to fuse {given}")
     return aux
@@ -254,10 +256,10 @@ def _run_batch(args, out, err):
     from .patchfile import read_batch_csv
 
     if args.mode is not None:
-        raise input_error("--mode", "the batched solver (--batch) has one algorithm (variable "
+        raise InputError("--mode", "the batched solver (--batch) has one algorithm (variable "
                          "projection + Levenberg-Marquardt); omit --mode")
     if args.fix_cdom is not None:
-        raise input_error("--fix-cdom", "not available with --batch")
+        raise InputError("--fix-cdom", "not available with --batch")
     big_file = os.path.isfile(args.batch) and os.path.getsize(args.batch) >= PROGRESS_BYTES
     charts, M, sigma, depth, distance = read_batch_csv(args.batch,
                                                        progress=err if big_file else None)
@@ -405,12 +407,12 @@ def run(args, out, err) -> int:
     from .patchfile import read_patch_csv
 
     if (args.batch is None) == (args.measurements is None):
-        raise input_error("measurements", "give either a measurements CSV or --batch FILE")
+        raise InputError("measurements", "give either a measurements CSV or --batch FILE")
     check_spectra_args(args)
     if args.batch is not None:
         return _run_batch(args, out, err)
     if args.depth is None or args.distance is None:
-        raise input_error("--depth, --distance", "both are required")
+        raise InputError("--depth, --distance", "both are required")
     M, sigma = read_patch_csv(args.measurements)
     fix = {}
     if args.fix_backscatter is not None:
@@ -431,10 +433,10 @@ def run(args, out, err) -> int:
         if what in ("rgb", "sigma"):
             why = exc.reason
             if "expected" in why and "shape" in why:  # in the file's orientation
-                raise input_error("measurements", f"{args.measurements}: one row per patch and one "
+                raise InputError("measurements", f"{args.measurements}: one row per patch and one "
                                  f"column per channel expected; {msg} (channels x patches)"
                                  ) from None
-            raise input_error("measurements", f"{args.measurements}: "
+            raise InputError("measurements", f"{args.measurements}: "
                              f"{'the _sd columns: ' if what == 'sigma' else ''}{why}") from None
         raise
     if args.attenuation:

@@ -26,11 +26,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from forward.errors import InputError
+
 from . import __version__
 from .common import (EXIT_INTERRUPTED, EXIT_NOT_RELIABLE, EXIT_OK, add_auxiliary_options,
                      add_budget_options, add_chart_option, add_photo_options, add_water_options,
                      auxiliary_from_args, camera_note, chart_from_args, check_spectra_args,
-                     input_error, read_photo, uncertain_from_args, water_from_args)
+                     read_photo, uncertain_from_args, water_from_args)
 
 __all__ = ["BUFFERED", "NAME", "add_parser", "run"]
 
@@ -174,21 +176,21 @@ def run(args, out, err) -> int:
     """
     check_spectra_args(args)
     if not args.out:
-        raise input_error("--out", "empty (an unset shell variable?); give the output folder "
+        raise InputError("--out", "empty (an unset shell variable?); give the output folder "
                          "(created if missing)")
     src = Path(args.image)
     if not src.exists():
-        raise input_error("image", f"file not found: {src}")
+        raise InputError("image", f"file not found: {src}")
     if Path(args.out).is_file():
-        raise input_error("--out", f"{args.out} is a file; give a folder (created if missing)")
+        raise InputError("--out", f"{args.out} is a file; give a folder (created if missing)")
     if args.metadata is not None and not src.is_dir():
-        raise input_error("--metadata", "applies to a folder of photos; for one photo give "
+        raise InputError("--metadata", "applies to a folder of photos; for one photo give "
                          "--depth and --distance")
     err.write(camera_note(args.camera))
     if src.is_dir():
         return _measure_folder(args, src, out, err)
     if args.depth is None or args.distance is None:
-        raise input_error("--depth, --distance", "both are required")
+        raise InputError("--depth, --distance", "both are required")
     outdir = Path(args.out)
     code, row = _measure_one(args, src, outdir)
     e = row

@@ -9,7 +9,9 @@ format ``uw3p estimate`` reads).
 
 from __future__ import annotations
 
-from .common import (EXIT_OK, add_setup_options, camera_note, check_spectra_args, input_error,
+from forward.errors import InputError
+
+from .common import (EXIT_OK, add_setup_options, camera_note, check_spectra_args,
                      water_from_args, wavelengths_from_args, write_file)
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
@@ -75,7 +77,7 @@ def run(args, out, err) -> int:
     from .patchfile import patch_csv
 
     if args.out is not None and not args.out.lower().endswith((".json", ".csv")):
-        raise input_error("--out", f"must end in .json or .csv, got {args.out!r}")
+        raise InputError("--out", f"must end in .json or .csv, got {args.out!r}")
     check_spectra_args(args)
     err.write(camera_note(args.camera, wavelengths_from_args(args)))
     sim = forward.simulate_chart(args.chl, args.cdom, args.depth, args.distance, camera=args.camera,

@@ -13,6 +13,8 @@ import os
 import tempfile
 from pathlib import Path
 
+from forward.errors import InputError
+
 __all__ = [
     "EXIT_OK", "EXIT_NOT_RELIABLE", "EXIT_BAD_INPUT", "EXIT_INTERRUPTED",
     "add_setup_options", "add_water_options", "add_photo_options", "add_budget_options",
@@ -20,7 +22,6 @@ __all__ = [
     "uncertain_from_args", "budget_text", "check_spectra_args", "camera_note",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
     "write_file", "write_atomic", "atomic_open", "json_text", "option_message", "plain",
-    "input_error",
 ]
 
 #: Exit status: success (every estimate reliable / converged).
@@ -179,7 +180,7 @@ def auxiliary_from_args(args) -> dict:
     for item in getattr(args, "kd", None) or []:
         band, pair = parse_kd("--kd", item)
         if band in out.get("kd", {}):
-            raise input_error("--kd", f"the band {band:g} nm is given twice")
+            raise InputError("--kd", f"the band {band:g} nm is given twice")
         out.setdefault("kd", {})[band] = pair
     return out
 
@@ -260,9 +261,9 @@ def uncertain_from_args(args) -> dict:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep or not name:
-            raise input_error("--uncertain", f"expected NAME=SD, got {item!r}")
+            raise InputError("--uncertain", f"expected NAME=SD, got {item!r}")
         if name not in NUISANCE + SYSTEMATIC:
-            raise input_error("--uncertain", f"unknown name {name!r}; choose from "
+            raise InputError("--uncertain", f"unknown name {name!r}; choose from "
                              f"{', '.join(NUISANCE + SYSTEMATIC)}")
         value = value.strip()
         out[name] = value if value.endswith("%") else _float(f"--uncertain {name}", value)
@@ -273,7 +274,7 @@ def _float(option, value) -> float:
     try:
         return float(value)
     except ValueError:
-        raise input_error(option, f"expected a number, got {value!r}") from None
+        raise InputError(option, f"expected a number, got {value!r}") from None
 
 
 def budget_text(budget: dict, name: str = "chl") -> str:
@@ -347,10 +348,10 @@ def check_spectra_args(args) -> None:
             continue
         p = Path(value)
         if p.is_dir():
-            raise input_error(f"--{opt}", f"{p} is a folder, not a file")
+            raise InputError(f"--{opt}", f"{p} is a folder, not a file")
         if (opt == "profile" or str(value).lower().endswith((".csv", ".txt", ".json"))) \
                 and not p.exists():
-            raise input_error(f"--{opt}", f"file not found: {p}")
+            raise InputError(f"--{opt}", f"file not found: {p}")
 
 
 def camera_note(camera, wavelengths=None) -> str:
@@ -428,7 +429,7 @@ def wavelengths_from_args(args):
 
     step = _RANGE_STEP_NM if args.step is None else args.step
     if not step > 0:
-        raise input_error("--step", f"must be > 0, got {step}")
+        raise InputError("--step", f"must be > 0, got {step}")
     return np.arange(args.wl_min, args.wl_max + step / 2, step)
 
 
@@ -459,14 +460,14 @@ def water_from_args(args):
     for opt in ("cdom_slope", "nap_slope"):  # eqs 6, 7: absorption falls with wavelength
         value = getattr(args, opt)
         if value is not None and not value > 0:
-            raise input_error(f"--{opt.replace('_', '-')}", f"must be > 0 nm^-1 (the absorption "
+            raise InputError(f"--{opt.replace('_', '-')}", f"must be > 0 nm^-1 (the absorption "
                              f"falls with wavelength, eqs 6-7), got {value:g}")
     try:
         return forward.Water(**kw)
     except ValueError as exc:
         if getattr(exc, "argument", None) is None:
             raise
-        raise input_error("--" + exc.argument.replace("_", "-"), exc.reason) from None
+        raise InputError("--" + exc.argument.replace("_", "-"), exc.reason) from None
 
 
 def setup_kwargs(args) -> dict:
@@ -534,19 +535,19 @@ def atomic_open(path, option: str = "--out"):
     """
     p = Path(path)
     if p.is_dir():
-        raise input_error(option, f"{p} is a folder; give a file name")
+        raise InputError(option, f"{p} is a folder; give a file name")
     if not p.parent.is_dir():
-        raise input_error(option, f"cannot write {p}: its folder does not exist")
+        raise InputError(option, f"cannot write {p}: its folder does not exist")
     try:
         fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
     except OSError as exc:
-        raise input_error(option, f"cannot write {p}: {exc.strerror}") from None
+        raise InputError(option, f"cannot write {p}: {exc.strerror}") from None
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             yield fh
         os.replace(tmp, p)
     except OSError as exc:
-        raise input_error(option, f"cannot write {p}: {exc.strerror}") from None
+        raise InputError(option, f"cannot write {p}: {exc.strerror}") from None
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -625,28 +626,6 @@ def json_text(obj) -> str:
 
 
 # --------------------------------------------------------------------------- messages
-def input_error(argument: str, reason: str) -> ValueError:
-    """Bad input to the command: a :class:`forward.InputError` naming the argument
-    (:mod:`forward.errors` imports nothing, so that a refusal loads no numerics: decision
-    0007-start-up).
-
-    Parameters
-    ----------
-    argument : str
-        The option or argument, as the command line spells it (``--depth``) or as the library
-        does (``depth``: :func:`option_message` says the option).
-    reason : str
-        Why the value is refused.
-
-    Returns
-    -------
-    forward.InputError
-    """
-    from forward.errors import InputError
-
-    return InputError(argument, reason)
-
-
 def plain(text: str) -> str:
     """Help text without reStructuredText markup (double backticks)."""
     return text.replace("``", "")

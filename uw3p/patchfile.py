@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from measure.csvsafe import safe_writer
+
 from forward.errors import InputError
 
 __all__ = ["RGB", "BATCH_EXTRA", "CHANNEL_ALIASES", "read_patch_csv", "read_batch_csv",

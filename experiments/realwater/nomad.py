@@ -40,15 +40,13 @@ from sca.spectral import (
 
 from ..common import save_figure, style, write_csv
 from .estimators import MOREL_TABLE, morel_coefficients
-from .nomad_data import (CHL_CLASSES, MIN_KD_BANDS, NOMAD_FILE, REALDATA, NomadStations,
-                         cdom_440, load_nomad, realdata_dir)
+from .nomad_data import (_GRID_443, CHL_CLASSES, MIN_KD_BANDS, NomadStations, cdom_440,
+                         load_nomad)
 
 __all__ = [
     "CHL_CLASSES",
     "MIN_KD_BANDS",
     "MOREL_1988_TABLE",
-    "NOMAD_FILE",
-    "REALDATA",
     "REPORT_BANDS",
     "NomadStations",
     "fit_stations",
@@ -57,7 +55,6 @@ __all__ = [
     "load_nomad",
     "morel_1988_kd",
     "ratio_table",
-    "realdata_dir",
     "run",
     "write_inverse_csv",
 ]
@@ -66,8 +63,6 @@ __all__ = [
 REPORT_BANDS = (411, 443, 489, 510, 555, 670, 683)
 #: File of ``data/`` with Morel's (1988) K_w, chi, e.
 MOREL_1988_TABLE = MOREL_TABLE
-#: A grid around 443 nm (forward's grids need >= 3 wavelengths; index 1 is 443 nm).
-_GRID_443 = np.array([440.0, 443.0, 446.0])
 #: The same around 555 nm.
 _GRID_555 = np.array([550.0, 555.0, 560.0])
 #: The figures show a band only where at least this share of the group's stations have it

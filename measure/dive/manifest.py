@@ -30,8 +30,7 @@ from .files import atomic
 from .names import MANIFEST
 from forward.errors import InputError
 
-__all__ = ["FILE_OPTIONS", "check_manifest", "file_digest", "manifest",
-           "manifest_digest", "write_manifest"]
+__all__ = ["FILE_OPTIONS", "check_manifest", "manifest", "manifest_digest", "write_manifest"]
 
 #: Options of ``measure.measure`` that may name a file (recorded by its content's hash)
 FILE_OPTIONS = ("profile", "camera", "illuminant", "chart_reflectance")

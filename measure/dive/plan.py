@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..output import read_marker, result_owner
-from .manifest import file_digest
+from ..camera import file_digest
 from .summary import CORRECTED, summary_row
 from forward.errors import InputError
 
