@@ -24,12 +24,16 @@ from .auxiliary import dive_auxiliary
 from .measurement import CLIPPED_SIGMA
 from .output import strict_json
 
-__all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "PER_PHOTO_TERMS", "JointPhoto", "fit_joint",
-           "joint_photo"]
+__all__ = ["CARRIED_FLAGS", "EXCLUDED_FLAGS", "PER_PHOTO_TERMS", "READING_DEPENDENT", "JointPhoto",
+           "fit_joint", "joint_photo"]
 
 #: A photo whose own measurement has one of these flags does not enter the joint fit.
 EXCLUDED_FLAGS = ("misfit", "not-converged", "saturated", "orientation-unverified",
                   "noise-unknown")
+#: Of those, the flags a wrong auxiliary reading can raise on a good photo's own fit: a photo
+#: whose reading contradicts it (``reading-conflict``) is not left out for them, so that the
+#: joint fit never drops photos to agree with a reading (it tests the reading itself).
+READING_DEPENDENT = ("misfit", "not-converged")
 #: Terms of the uncertainty budget that are each photo's own (its depth and distance sds);
 #: the others (the water's constants, the camera's, the chart's) are shared by the photos
 PER_PHOTO_TERMS = ("depth", "distance")
@@ -203,6 +207,8 @@ def fit_joint(records, *, setup, water=None, uncertain=None, path_models=None,
     used, excluded = [], {}
     for i, ph in enumerate(photos):
         bad = sorted(set(ph.flags) & set(EXCLUDED_FLAGS))
+        if "reading-conflict" in ph.flags:  # its misfit may be the reading's: the dive decides
+            bad = [b for b in bad if b not in READING_DEPENDENT]
         if bad:
             excluded[_name(ph, i)] = "its own fit is flagged " + ", ".join(bad)
         else:

@@ -179,8 +179,8 @@ class Measurement:
                 "reliable": self.reliable, "flags": list(self.flags), "fit_rms": e.fit_rms,
                 "chi2_dof": e.chi2_dof, "chi2_p": e.chi2_p, "dof": e.dof,
                 "converged": e.converged, "status": e.status,
-                "budget": e.budget, "nuisance": {k: np.asarray(v, float).tolist()
-                                                 for k, v in e.nuisance.items()},
+                "consistency": e.consistency, "budget": e.budget,
+                "nuisance": {k: np.asarray(v, float).tolist() for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
                           "model unit", "backscatter": "raw units", "wavelengths": "nm",
                           "quantities": "m^-1 (sca.derived.QUANTITIES)",

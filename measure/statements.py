@@ -14,7 +14,7 @@ import math
 from sca.derived import QUANTITIES, describe, verdict
 from forward.errors import InputError
 
-__all__ = ["HINTS", "LABELS", "estimate_values", "one_line", "statements"]
+__all__ = ["HINTS", "LABELS", "consistency_lines", "estimate_values", "one_line", "statements"]
 
 #: name -> (label for people, units) of every reported quantity, in the order they are said.
 LABELS = {"chl": ("C", "mg m^-3"), "cdom": ("a_CDOM(440)", "m^-1"),
@@ -80,7 +80,8 @@ def estimate_values(result) -> tuple:
 
 def statements(result, where: str = "photo", given=()) -> list:
     """One plain sentence per reported quantity: measured, only an upper bound, or not
-    constrained (:func:`sca.derived.describe`), with what would narrow C and a_CDOM.
+    constrained (:func:`sca.derived.describe`), with what would narrow C and a_CDOM; then
+    a sentence per reading or prior that contradicts the photos (:func:`consistency_lines`).
 
     Parameters
     ----------
@@ -111,7 +112,7 @@ def statements(result, where: str = "photo", given=()) -> list:
         lo, hi = intervals[k]
         out.append(describe(label, v, lo, hi, units, where=f"this {where}",
                             narrow=_hint(where, k, given)))
-    return out
+    return out + consistency_lines(result)
 
 
 def one_line(result, names=None) -> str:
@@ -148,3 +149,39 @@ def one_line(result, names=None) -> str:
                      (("measured", groups["measured"]),
                       ("only an upper bound", groups["upper bound"]),
                       ("not constrained", groups["not constrained"])))
+
+
+def consistency_lines(result) -> list:
+    """What the tests of the readings and priors against the photos found, in words: a line per
+    reading in conflict and per nuisance pulled beyond its threshold (:mod:`sca.consistency`);
+    none where everything agrees.
+
+    Parameters
+    ----------
+    result : sca.Estimate or sca.joint.JointEstimate
+        Its ``consistency`` ({} where nothing was tested).
+
+    Returns
+    -------
+    list of str
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> r = SimpleNamespace(consistency={"readings": {"cdom": {"delta_chi2": 19.3, "p": 1.1e-5,
+    ...     "conflict": True}}, "pulls": {"cdom_slope": -3.6}, "pull_max": 3.5,
+    ...     "conflict_p": 1e-3})
+    >>> for line in consistency_lines(r):
+    ...     print(line)
+    the reading cdom contradicts the photos (Delta chi^2 19.3, p 1.1e-05): not reliable, and every number fused with it suspect
+    the budget's cdom_slope is pulled -3.6 of its prior's sds (beyond 3.5): a prior bent to fit
+    """
+    c = (result.get("consistency") if isinstance(result, dict)
+         else getattr(result, "consistency", None)) or {}
+    out = [f"the reading {k} contradicts the photos (Delta chi^2 {v['delta_chi2']:.3g}, p "
+           f"{v['p']:.2g}): not reliable, and every number fused with it suspect"
+           for k, v in c.get("readings", {}).items() if v["conflict"]]
+    out += [f"the budget's {k} is pulled {v:+.2g} of its prior's sds (beyond "
+            f"{c['pull_max']:g}): a prior bent to fit"
+            for k, v in c.get("pulls", {}).items() if abs(v) > c.get("pull_max", math.inf)]
+    return out

@@ -14,6 +14,9 @@ One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (decisi
   two or more values tied at the chart's maximum), ``dark`` (the grey row's white-black contrast below
   :data:`DARK_SNR` standard deviations in every channel), ``patch-order`` (the grey row of a
   ColorChecker not falling from white to black);
+* **readings and priors against the photos** (:mod:`sca.consistency`): ``reading-conflict``
+  (an auxiliary reading's likelihood-ratio test below ``CONFLICT_P``) and ``nuisance-pulled``
+  (a prior's pull beyond ``PULL_MAX`` of its sds);
 * ``reliable`` is True only when no flag of :data:`BLOCKING` is raised.
 """
 
@@ -55,7 +58,7 @@ GREY_ROW = tuple(range(WHITE_PATCH, WHITE_PATCH + 6))
 #: Flags that make an estimate unreliable; any other flag is information.
 BLOCKING = ("not-converged", "misfit", "noise-unknown", "unbounded-chl", "unbounded-cdom",
             "interval-failed", "interval-approximate", "no-interval", "dark", "saturated",
-            "patch-order", "scale-mismatch")
+            "patch-order", "scale-mismatch", "reading-conflict", "nuisance-pulled")
 #: Flags that describe the estimate without making it unreliable.
 INFORMATIVE = ("at-bound-chl", "at-bound-cdom")
 

@@ -41,6 +41,7 @@ from .assess import (
     profile_delta,
 )
 from .auxiliary import auxiliary_observations
+from .consistency import finalize_batch, nuisance_pulls, objectives_alone
 from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
@@ -214,6 +215,10 @@ class BatchEstimate:
     #: name -> (N,) verdict of 'chl', 'cdom' and every quantity: 'measured', 'upper bound' or
     #: 'not constrained' (:func:`sca.derived.verdict`)
     verdicts: dict = field(default_factory=dict)
+    #: the readings and priors tested against the photos (:mod:`sca.consistency`):
+    #: {'readings': {name: {'delta_chi2': (N,), 'p': (N,), 'conflict': (N,)}}, 'pulls':
+    #: {nuisance: (N,) pull in its prior's sds}, 'pull_max', 'conflict_p'}
+    consistency: dict = field(default_factory=dict)
 
     def __len__(self):
         return self.chl.size
@@ -374,12 +379,28 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     if quadrature not in QUADRATURES:
         raise InputError("quadrature", f"must be one of {QUADRATURES}, got {quadrature!r}")
     if len(models) == 1:
-        return _estimate_batch(rgb_stack, water=water, **kw)
-    results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
-                                  **kw) for m in models}
-    out = combine_batch(results)
+        out = _estimate_batch(rgb_stack, water=water, **kw)
+        out.consistency, table = finalize_batch([out], np.zeros(len(out), int))
+    else:
+        results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
+                                      **kw) for m in models}
+        out = combine_batch(results)
+        best = np.array([models.index(m) for m in out.path_model], int)
+        out.consistency, table = finalize_batch(list(results.values()), best)
+    out.flags, out.reliable = _with_flags(out.flags, out.reliable, table)
     out.elapsed_s = time.perf_counter() - t0
     return out
+
+
+def _with_flags(flags, reliable, table):
+    """Per-chart flags with the raised ones of ``table`` (blocking) appended, and reliable."""
+    raised = np.column_stack([np.asarray(v, bool) for v in table.values()]) if table else None
+    if raised is None or not raised.any():
+        return flags, reliable
+    names = list(table)
+    out = [tuple(dict.fromkeys(tuple(f) + tuple(n for j, n in enumerate(names) if raised[i, j])))
+           for i, f in enumerate(flags)]
+    return out, np.asarray(reliable, bool) & ~raised.any(axis=1)
 
 
 def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, illuminant,
@@ -486,6 +507,8 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         quantity_intervals=quantity_intervals, beam_attenuation=out["c"],
         beam_attenuation_ci=out["c_ci"],
         verdicts=verdicts_of(chl_ci, cdom_ci, quantity_intervals),
+        consistency={kind: {k.split(":", 1)[1]: out[k] for k in out if k.startswith(f"{key}:")}
+                     for kind, key in (("alone", "alone"), ("pulls", "pull"))},
     )
 
 
@@ -723,6 +746,10 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
                            res["budget"]["gain"]["sd"] ** 2, np.inf)
         res["gain_ci"] = gain_wald(gain, var, f, dof, noise_known)
     values = prob.params(idx, theta)
+    if prob.observations:  # what each reading adds to the fit (sca.consistency)
+        alone = objectives_alone(prob, theta, (start_values(prob, geometry),))
+        res.update({f"alone:{k}": v for k, v in alone.items()})
+    res.update({f"pull:{k}": v for k, v in nuisance_pulls(prob, theta).items()})
     p = len(prob.names)
     ends = np.full((N, p, 2), np.nan)
     codes = np.full((N, p, 2), BOUND_FAILED)

@@ -41,6 +41,7 @@ from .assess import BLOCKING, MISFIT_P, goodness
 from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
+from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
 from .derived import derived_from_fit, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
@@ -99,7 +100,8 @@ class JointEstimate:
         No blocking flag (:data:`JOINT_BLOCKING`).
     flags : tuple of str
         'misfit', 'not-converged', 'unbounded-chl', 'unbounded-cdom', 'heterogeneous',
-        'path-model-span' (information).
+        'reading-conflict', 'nuisance-pulled' (:mod:`sca.consistency`), 'path-model-span'
+        (information).
     chi2, dof, chi2_p : float, int, float
         Goodness of fit of the joint model (priors' terms included in chi2).
     heterogeneity : dict
@@ -151,6 +153,10 @@ class JointEstimate:
     wavelengths: list = field(default_factory=list)
     #: name -> verdict of 'chl', 'cdom' and every quantity (:func:`sca.derived.verdict`)
     verdicts: dict = field(default_factory=dict)
+    #: the readings and the budget's priors tested against the photos (:mod:`sca.consistency`):
+    #: {'readings': {name: {'delta_chi2', 'p', 'conflict'}}, 'pulls': {nuisance: pull in its
+    #: prior's sds}, 'pull_max', 'conflict_p'}
+    consistency: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """joint.json's content (plain numbers; ``inf`` for open interval ends)."""
@@ -513,6 +519,17 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         flags.append("not-converged")
     if float(p) < MISFIT_P:
         flags.append("misfit")
+    consistency, table = _consistency(fits, models, best)
+    for k, v in consistency["readings"].items():
+        if v["conflict"]:
+            notes.append(f"the reading '{k}' contradicts the photos (likelihood-ratio "
+                         f"Delta chi^2 = {v['delta_chi2']:.3g}, p = {v['p']:.2g}): every "
+                         "number fused with it is suspect")
+    for k, v in consistency["pulls"].items():
+        if abs(v) > consistency["pull_max"]:
+            notes.append(f"the budget's '{k}' is pulled {v:+.2g} of its prior's sds from its "
+                         "centre: the fit bends a prior to agree with the photos")
+    flags += [k for k, v in table.items() if v[0]]
     het = _heterogeneity(lambda groups, theta0: fit(best, p_indep, groups, theta0), prob, theta,
                          f, names)
     if not het["one_water"]:
@@ -551,7 +568,17 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         dof=int(dof), chi2_p=float(p), heterogeneity=het, path_model=best,
         path_models={pm: float(fits[pm][2]) for pm in models}, photos=photos,
         photo_scatter=float(scatter),
-        nuisance=nuisance, uncertain=budget, converged=converged, notes=notes)
+        nuisance=nuisance, uncertain=budget, converged=converged, notes=notes,
+        consistency=consistency)
+
+
+def _consistency(fits, models, best):
+    """The readings and priors of the dive tested against its photos (:mod:`sca.consistency`)
+    over the path models: (record, flag table)."""
+    alones = [objectives_alone(fits[pm][0], fits[pm][1][None]) for pm in models]
+    pulls = nuisance_pulls(fits[best][0], fits[best][1][None])
+    tests, table = combined([[fits[pm][2]] for pm in models], alones, pulls)
+    return consistency_records(tests, pulls), table
 
 
 def _photo_scatter(fit, base) -> float:

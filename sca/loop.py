@@ -44,8 +44,10 @@ from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
+from .assess import is_reliable
 from .auxiliary import auxiliary_observations
 from .budget import resolve_budget
+from .consistency import add_flags, finalize_single
 from .pathmodels import candidates, combine_single
 from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
@@ -867,8 +869,12 @@ def over_path_models(est: "Estimator", path_models, sigma, run, kw) -> Estimate:
     models = candidates(path_models, est.water, sigma is not None and not est.budget.exact)
     first = run(est)
     if len(models) == 1:
+        consistency, table = finalize_single([first], 0)
+        flags = add_flags(first.flags, table)
         return dataclasses.replace(first, path_models=(est.water.path_model,),
-                                   path_objective={est.water.path_model: first.objective})
+                                   path_objective={est.water.path_model: first.objective},
+                                   consistency=consistency, flags=flags,
+                                   reliable=is_reliable(flags))
     results = {models[0]: first}
     for m in models[1:]:
         results[m] = run(Estimator(water=dataclasses.replace(est.water, path_model=m), **kw))

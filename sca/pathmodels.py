@@ -20,6 +20,7 @@ import numpy as np
 from forward.water import PATH_MODELS
 
 from .assess import BLOCKING
+from .consistency import add_flags, finalize_single
 from .derived import verdict, verdicts_of
 from forward.errors import InputError
 
@@ -176,7 +177,8 @@ def combine_single(results: dict):
         flags += [x for x in e.flags if x in _INTERVAL_FLAGS]
     if len(sup) > 1:
         flags.append(SPAN_FLAG)
-    flags = tuple(dict.fromkeys(flags))
+    consistency, table = finalize_single(ests, int(best[0]))
+    flags = add_flags(tuple(dict.fromkeys(flags)), table)
     qi = {k: span(lambda e, k=k: e.quantity_intervals[k]) for k in b.quantity_intervals
           if all(k in e.quantity_intervals for e in sup)}
     cci = b.beam_attenuation_ci
@@ -190,6 +192,7 @@ def combine_single(results: dict):
     return dataclasses.replace(
         b, chl_ci=chl_ci, cdom_ci=cdom_ci, quantity_intervals=qi, beam_attenuation_ci=cci,
         verdicts=verdicts, intervals={**b.intervals, **ints}, flags=flags,
+        consistency=consistency,
         reliable=not any(x in BLOCKING for x in flags),
         path_models=tuple(names[j] for j in np.flatnonzero(ok[0])),
         path_objective={n: float(e.objective) for n, e in zip(names, ests)})

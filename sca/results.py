@@ -186,6 +186,10 @@ class Estimate:
     #: name -> verdict of 'chl', 'cdom' and every quantity: 'measured', 'upper bound' or
     #: 'not constrained' (:func:`sca.derived.verdict`)
     verdicts: dict = field(default_factory=dict)
+    #: the readings and priors tested against the photos (:mod:`sca.consistency`):
+    #: {'readings': {name: {'delta_chi2', 'p', 'conflict'}}, 'pulls': {nuisance: pull in its
+    #: prior's sds}, 'pull_max', 'conflict_p'}; {} where no budget or reading applies
+    consistency: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Every field, JSON-ready (arrays as lists).

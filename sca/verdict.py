@@ -20,6 +20,7 @@ from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
+from .consistency import nuisance_pulls, objectives_alone
 from .derived import derived_from_fit, verdict
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
@@ -272,6 +273,20 @@ def _shares(est, st, x) -> dict:
             for n, v in out.items()}
 
 
+def _consistency(est, st, start) -> dict:
+    """What :mod:`sca.consistency` needs of this fit under its path model: the objective
+    without each auxiliary reading ('alone', from the optimum and from the fit of the photos
+    alone, ``start``) and each prior's pull ('pulls'); the path models' union decides
+    (:func:`sca.consistency.finalize_single`)."""
+    prob = _problem(est, st)
+    if prob.prior_mean is None and not prob.observations:
+        return {}
+    theta = _theta(est, st, prob)
+    alone = objectives_alone(prob, theta, () if start is None else (start,))
+    return {"alone": {k: float(v[0]) for k, v in alone.items()},
+            "pulls": {k: float(v[0]) for k, v in nuisance_pulls(prob, theta).items()}}
+
+
 def _profile(est, st, dof):
     """95 % profile-likelihood intervals of every free name (z = 1), the budget's nuisances
     profiled: {name: (lo, hi)} and the BOUND_* codes of (chl low, chl high, cdom low, cdom
@@ -334,8 +349,10 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
+    start = _theta(est, st, _problem(est, st)) if est.observations else None
     _refine(est, st)
     _certify(est, st)
+    consistency = _consistency(est, st, start)
     mdl, x = st.mdl, st.x
     names = est.spec.names
     n_s = 0 if not est.free_s else int(np.sum(np.asarray(x["s"]) > 0))
@@ -400,6 +417,6 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         trials=[f * unit for f in st.trials], path_model=est.water.path_model,
         gain=float(x["gain"]), gain_ci=gain_ci, values=values, intervals=ints,
         uncertain=dict(est.budget.sd) if st.noise_known and not est.budget.exact else {},
-        budget=shares, nuisance=dict(st.nuisance),
+        budget=shares, nuisance=dict(st.nuisance), consistency=consistency,
         **_derived(est, st, dof, intervals),
     )
