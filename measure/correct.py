@@ -30,8 +30,9 @@ veil, not as its level (decision 0047-per-pixel-correction).
 Far and unknown ranges: the correction along a range amplifies the direct signal (and its
 noise) by 1 / t_c(r). Ranges beyond ``max_range``, or beyond the range at which a channel's
 transmission along the range alone, t_c(r) / t_c(0), falls below 1 / ``max_gain``, are
-corrected as at that range (the cap, :data:`MAX_GAIN`); unknown ranges (0 or NaN in a map) as
-at ``unknown`` (default the chart's distance: today's single-distance correction).
+corrected as at that range (the cap, :data:`MAX_GAIN`; +inf in a map too); unknown ranges (0,
+NaN, -inf or negative in a map) as at ``unknown`` (default the chart's distance: today's
+single-distance correction). Both are counted and reported (decision 0062-range-map-checks).
 
 Not modelled: the object's own depth where it differs from the photo's (the light that reaches
 a deeper object has come further down; a seafloor seen from above is lit as at the camera's
@@ -400,7 +401,9 @@ class Corrected:
     table : CorrectionTable
     photo : Photo
     ranges : dict
-        What the range was: ``kind``, min / max / unknown fraction, the cap.
+        What the range was: ``kind``, the finite min / max (m), ``unknown_fraction`` and
+        ``capped_fraction`` (of the photo's pixels, as corrected), the cap and, for a map,
+        ``map_values`` (:func:`measure.rangemap.census`) and ``map_values_treated``.
     notes : list of str
     """
 
@@ -428,8 +431,9 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         The water (:func:`measure.correctwater.correction_water`: measurement.json, joint.json
         or a survey record).
     range : float, str, os.PathLike or numpy.ndarray
-        A distance (m), a range map (float TIFF m, 16-bit PNG mm, .npy m; 0 or NaN unknown) or
-        ``"plane:A,B,C"`` (:func:`measure.rangemap.read_range`).
+        A distance (m), a range map (float TIFF m, 16-bit PNG mm, .npy m; 0, NaN, -inf or
+        negative unknown, +inf beyond the cap; the photo's aspect) or ``"plane:A,B,C"``
+        (:func:`measure.rangemap.range_and_census`).
     max_gain, max_range, unknown :
         The cap and the unknown ranges (:func:`correction_table`).
     white : float, optional
