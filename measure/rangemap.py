@@ -179,12 +179,15 @@ def _check_units(arr: np.ndarray, units: str, name: str) -> None:
     """Refuse a map whose values are implausible in its documented units (decision
     0062-range-map-checks)."""
     known = arr[np.isfinite(arr) & (arr > 0)]
-    if units == "mm" and known.max() < PNG_METRES_BELOW_MM:
-        raise InputError("range", f"{name}: every range of this 16-bit PNG (millimetres) is below "
-                         f"{PNG_METRES_BELOW_MM} mm (largest {known.max():g}): it looks written "
-                         "in metres; multiply it by 1000, or save metres as a float TIFF or .npy")
+    if units == "mm":
+        if known.max() < PNG_METRES_BELOW_MM:
+            raise InputError("range", f"{name}: every range of this 16-bit PNG (millimetres) is "
+                             f"below {PNG_METRES_BELOW_MM} mm (largest {known.max():g}): it looks "
+                             "written in metres; multiply it by 1000, or save metres as a float "
+                             "TIFF or .npy")
+        return
     median = float(np.median(known))
-    if units == "m" and median > FLOAT_MM_MEDIAN_M:
+    if median > FLOAT_MM_MEDIAN_M:
         raise InputError("range", f"{name}: the median range is {median:g} m (over "
                          f"{FLOAT_MM_MEDIAN_M:g} m): it looks written in millimetres; divide "
                          "it by 1000, or save millimetres as a 16-bit PNG")
