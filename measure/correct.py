@@ -30,8 +30,9 @@ veil, not as its level (decision 0047-per-pixel-correction).
 Far and unknown ranges: the correction along a range amplifies the direct signal (and its
 noise) by 1 / t_c(r). Ranges beyond ``max_range``, or beyond the range at which a channel's
 transmission along the range alone, t_c(r) / t_c(0), falls below 1 / ``max_gain``, are
-corrected as at that range (the cap, :data:`MAX_GAIN`); unknown ranges (0 or NaN in a map) as
-at ``unknown`` (default the chart's distance: today's single-distance correction).
+corrected as at that range (the cap, :data:`MAX_GAIN`; +inf in a map too); unknown ranges (0,
+NaN, -inf or negative in a map) as at ``unknown`` (default the chart's distance: today's
+single-distance correction). Both are counted and reported (decision 0063-range-map-checks).
 
 Not modelled: the object's own depth where it differs from the photo's (the light that reaches
 a deeper object has come further down; a seafloor seen from above is lit as at the camera's
@@ -55,7 +56,7 @@ from sca.compiled import KERNEL_LOCK
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
 from .pixels import correct_pixels
-from .rangemap import read_range
+from .rangemap import VALUE_KINDS, range_and_census
 from forward.errors import InputError
 
 __all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE",
@@ -400,7 +401,9 @@ class Corrected:
     table : CorrectionTable
     photo : Photo
     ranges : dict
-        What the range was: ``kind``, min / max / unknown fraction, the cap.
+        What the range was: ``kind``, the finite min / max (m), ``unknown_fraction`` and
+        ``capped_fraction`` (of the photo's pixels, as corrected), the cap and, for a map,
+        ``map_values`` (:func:`measure.rangemap.census`) and ``map_values_treated``.
     notes : list of str
     """
 
@@ -428,8 +431,9 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         The water (:func:`measure.correctwater.correction_water`: measurement.json, joint.json
         or a survey record).
     range : float, str, os.PathLike or numpy.ndarray
-        A distance (m), a range map (float TIFF m, 16-bit PNG mm, .npy m; 0 or NaN unknown) or
-        ``"plane:A,B,C"`` (:func:`measure.rangemap.read_range`).
+        A distance (m), a range map (float TIFF m, 16-bit PNG mm, .npy m; 0, NaN, -inf or
+        negative unknown, +inf beyond the cap; the photo's aspect) or ``"plane:A,B,C"``
+        (:func:`measure.rangemap.range_and_census`).
     max_gain, max_range, unknown :
         The cap and the unknown ranges (:func:`correction_table`).
     white : float, optional
@@ -488,9 +492,9 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
             raise InputError(name, f"must be in (0, 1], got {v!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
+    rng, counts = range_and_census(range, photo.size)  # a refusal before the table
     table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,
                              **water_options)
-    rng = read_range(range, photo.size)
     has_map = not isinstance(rng, float)
     H, W = photo.data.shape[:2]
     A, B = table.factors()
@@ -510,24 +514,44 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                  float(table.unknown), float(table.cap), table.step, A, B, M, lut,
                  float(white_linear * UINT16_MAX), lin16, s16, flt,
                  np.array([linear, srgb, float_output]))
-    if has_map:
-        known = np.isfinite(rng)
-        summary = {"kind": "map", "min_m": float(np.nanmin(rng)), "max_m": float(np.nanmax(rng)),
-                   "unknown_fraction": float(1 - known.mean()),
-                   "capped_fraction": float((rng[known] > table.cap).mean()) if known.any() else 0.0}
-    else:
-        summary = {"kind": "constant", "min_m": float(rng), "max_m": float(rng),
-                   "unknown_fraction": 0.0, "capped_fraction": float(rng > table.cap)}
-    summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
-    notes = list(table.water.notes)
-    if summary["capped_fraction"] > 0:
-        notes.append(f"{100 * summary['capped_fraction']:.1f} % of the pixels lie beyond "
-                     f"{table.cap:.2f} m ({table.cap_reason}): corrected as at that range")
-    if summary["unknown_fraction"] > 0:
-        notes.append(f"{100 * summary['unknown_fraction']:.1f} % of the pixels have no range: "
-                     f"corrected as at {table.unknown:.2f} m")
+    summary, notes = _range_summary(rng, counts, table)
     return Corrected(lin16 if linear else None, s16 if srgb else None,
                      flt if float_output else None, table, photo, summary, notes)
+
+
+def _range_summary(rng, counts, table: CorrectionTable):
+    """What the range was and what was done with it: the ``ranges`` of :class:`Corrected`
+    (fractions of the photo's pixels, as the pixels were corrected: NaN at ``unknown``, beyond
+    the cap, +inf included, at the cap; ``map_values``: the map's :func:`measure.rangemap.census`
+    as given) and the notes."""
+    if counts is None:
+        summary = {"kind": "constant" if isinstance(rng, float) else "map",
+                   "min_m": float(np.min(rng)), "max_m": float(np.max(rng)),
+                   "unknown_fraction": 0.0, "capped_fraction": float(np.mean(rng > table.cap))}
+    else:
+        finite = rng[np.isfinite(rng)]
+        summary = {"kind": "map", "min_m": float(finite.min()) if finite.size else None,
+                   "max_m": float(finite.max()) if finite.size else None,
+                   "unknown_fraction": float(np.isnan(rng).mean()),
+                   "capped_fraction": float((rng > table.cap).mean()),
+                   "map_values": counts, "map_values_treated": dict(VALUE_KINDS)}
+    summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
+    notes = list(table.water.notes)
+    no_range = [k for k, v in VALUE_KINDS.items() if v == "no range"]
+    if summary["capped_fraction"] > 0:
+        notes.append(f"{100 * summary['capped_fraction']:.1f} % of the pixels lie beyond "
+                     f"{table.cap:.2f} m ({table.cap_reason}{_odd_values(counts, ['+inf'])}): "
+                     "corrected as at that range")
+    if summary["unknown_fraction"] > 0:
+        notes.append(f"{100 * summary['unknown_fraction']:.1f} % of the pixels have no range"
+                     f"{_odd_values(counts, no_range)}: corrected as at {table.unknown:.2f} m")
+    return summary, notes
+
+
+def _odd_values(counts, kinds) -> str:
+    """The map's values of ``kinds`` that it holds, counted (text for a note; '' for no map)."""
+    held = [f"{k} {counts[k]}" for k in kinds if counts[k]] if counts else []
+    return f"; of the map's {counts['pixels']} values: {', '.join(held)}" if held else ""
 
 
 def seathru_coefficients(table: CorrectionTable) -> dict:

@@ -48,7 +48,8 @@ def add_parser(sub):
                    help="measurement.json of uw3p measure, or joint.json of a dive")
     p.add_argument("--range", required=True, metavar="RANGE",
                    help="camera-to-object range: a distance in m, a range map (float TIFF in m, "
-                        "16-bit PNG in mm, .npy in m; 0 or NaN unknown; resampled to the photo) "
+                        "16-bit PNG in mm, .npy in m; 0, NaN or < 0 unknown, +inf beyond the "
+                        "cap; the photo's aspect, resampled to it) "
                         "or plane:A,B,C (A + B u + C v m, u and v across the photo in [-1, 1])")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--depth", type=float, default=None,
@@ -170,9 +171,12 @@ def run(args, out, err) -> int:
     written = write_corrected(corr, args.out, record=record, version=__version__,
                               tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite)
     r = corr.ranges
-    out.write(f"range            {r['kind']}: {r['min_m']:.3g}-{r['max_m']:.3g} m"
+    span = "no finite range" if r["min_m"] is None else f"{r['min_m']:.3g}-{r['max_m']:.3g} m"
+    out.write(f"range            {r['kind']}: {span}"
               + (f", {100 * r['unknown_fraction']:.1f} % unknown" if r["unknown_fraction"] else "")
-              + f"; capped at {r['cap_m']:.3g} m ({r['cap_reason']})\n"
+              + f"; capped at {r['cap_m']:.3g} m ({r['cap_reason']})"
+              + (f", {100 * r['capped_fraction']:.1f} % beyond" if r["capped_fraction"] else "")
+              + "\n"
               f"water            C {corr.table.water.chl:.4g} mg m^-3, a_CDOM(440) "
               f"{corr.table.water.cdom:.4g} m^-1, depth {corr.table.water.depth:.3g} m "
               f"({corr.table.water.source})\n")
