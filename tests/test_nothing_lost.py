@@ -1,0 +1,111 @@
+"""Issue 45 ("Nothing lost, nothing silently wrong"): a correction never deletes what it reads
+or a measurement; a plan never overwrites a file; ifdo.json's exposure factor is one quantity;
+outputs follow the user's umask; unclear inputs are one-line errors naming the option."""
+
+import io
+import json
+import os
+import stat
+
+import pytest
+
+import measure
+from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from uw3p.cli import main
+
+W, H = 360, 240
+FAST = {"uncertain": {}, "light_field": "none"}
+
+
+@pytest.fixture(scope="module")
+def shot(tmp_path_factory):
+    """One chart photo measured, its results in tmp/R (measurement.json, report.png, ...)."""
+    tmp = tmp_path_factory.mktemp("nothing_lost")
+    corners = default_corners(W, H)
+    path = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
+                                         width=W, height=H, seed=2), corners), tmp / "A.dng")
+    meas = measure.measure(path, corners=corners, depth=5.0, distance=1.5, **FAST)
+    measure.write_outputs(meas, tmp / "R", report=False)
+    return {"dng": path, "meas": meas, "R": tmp / "R", "tmp": tmp}
+
+
+def _run(argv):
+    """``uw3p`` in-process: (exit status, stdout, stderr)."""
+    out, err = io.StringIO(), io.StringIO()
+    code = main(argv, out, err)
+    return code, out.getvalue(), err.getvalue()
+
+
+def _contents(folder):
+    return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+
+def test_correct_refuses_the_measurement_folder_that_holds_its_water(shot):
+    """`uw3p correct A.dng --water R/measurement.json --out R` deleted R's measurement.json,
+    corrected.png ... (the folder counted as the same photo's results): now exit 2, one line
+    naming --out, and R byte for byte as it was."""
+    before = _contents(shot["R"])
+    code, _, err = _run(["correct", str(shot["dng"]), "--water",
+                         str(shot["R"] / "measurement.json"), "--range", "1.5",
+                         "--out", str(shot["R"])])
+    assert code == 2
+    assert err.count("\n") == 1 and "--out" in err and "input" in err
+    assert _contents(shot["R"]) == before
+
+
+def test_correct_refuses_a_measurement_folder_of_the_same_photo(shot, tmp_path):
+    """A measurement's folder (a measurement.json of the same photo) is never replaced by a
+    correction, even when the --water file lies elsewhere."""
+    water = tmp_path / "water.json"
+    water.write_bytes((shot["R"] / "measurement.json").read_bytes())
+    before = _contents(shot["R"])
+    code, _, err = _run(["correct", str(shot["dng"]), "--water", str(water), "--range", "1.5",
+                         "--out", str(shot["R"])])
+    assert code == 2
+    assert err.count("\n") == 1 and "--out" in err and "measurement" in err
+    assert _contents(shot["R"]) == before
+
+
+def test_write_corrected_refuses_a_folder_holding_its_range_map(shot, tmp_path):
+    """The library refuses too: a range map inside the output folder survives."""
+    import numpy as np
+
+    from forward.errors import InputError
+
+    out = tmp_path / "C"
+    out.mkdir()
+    rmap = out / "range.npy"
+    np.save(rmap, np.full((24, 36), 1.5, np.float32))
+    corr = measure.correct_image(shot["meas"].photo, shot["meas"], rmap, linear=False)
+    with pytest.raises(InputError) as exc:
+        measure.write_corrected(corr, out, record={}, tiff="none", inputs=[rmap])
+    assert exc.value.argument == "out"
+    assert sorted(p.name for p in out.iterdir()) == ["range.npy"]
+
+
+def test_ifdo_exposure_factor_is_one_quantity_for_measured_and_chartless_rows(shot, tmp_path):
+    """ifdo.json's photometric-exposure-factor-RGB held the von Kries gains (~10) for a measured
+    photo and model units per raw unit (~0.001) for a chartless frame: now both are corrected.tiff
+    units per raw unit at the chart's distance. The same photo as both kinds of row (same
+    exposure, same water, same range) gives factors that agree to within the white they
+    normalise (the white patch, a perfect white)."""
+    import numpy as np
+
+    from measure.correct import seathru_coefficients
+    from measure.dive.ifdo import ifdo_fields
+    from measure.dive.summary import CORRECTED, MEASURED
+
+    meas = shot["meas"]
+    corr = measure.correct_image(meas.photo, meas, 1.5, linear=False)
+    measure.write_corrected(corr, tmp_path / "frame", record={
+        "seathru": seathru_coefficients(corr.table)}, tiff="none", jpeg=False)
+    rows = [{"image": "/d/A.dng", "status": sorted(MEASURED)[0]},
+            {"image": "/d/frame.dng", "status": CORRECTED, "out": str(tmp_path / "frame")}]
+    items = ifdo_fields(rows, {"/d/A.dng": meas.to_dict()})["image-set-items"]
+    key = "photometric-exposure-factor-RGB"
+    measured = np.array(items["A.dng"]["image-photometric-calibration"][key])
+    chartless = np.array(items["frame.dng"]["image-photometric-calibration"][key])
+    assert measured == pytest.approx(meas.gains)
+    ratio = chartless / measured
+    assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
+    assert ratio == pytest.approx(np.full(3, ratio.mean()), rel=1e-3)  # one common factor
