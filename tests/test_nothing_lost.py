@@ -109,3 +109,26 @@ def test_ifdo_exposure_factor_is_one_quantity_for_measured_and_chartless_rows(sh
     ratio = chartless / measured
     assert np.all((ratio > 0.7) & (ratio < 1.3)), ratio
     assert ratio == pytest.approx(np.full(3, ratio.mean()), rel=1e-3)  # one common factor
+
+
+def test_result_folders_and_run_files_follow_the_umask(shot, tmp_path):
+    """Under umask 022 a photo's result folder was 0700 and a dive's summary.csv, ifdo.json,
+    run.json ... 0600 (tempfile's private modes kept by the rename): now 0755 and 0644, from
+    the writers themselves (measure.write_outputs, the dive's atomic files, the CLI's)."""
+    from measure.dive.files import atomic
+    from uw3p.common import write_atomic
+
+    old = os.umask(0o022)
+    try:
+        measure.write_outputs(shot["meas"], tmp_path / "m", report=False, tiff="none")
+        with atomic(tmp_path / "summary.csv") as tmp:
+            tmp.write_text("image\n", encoding="utf-8")
+        write_atomic(tmp_path / "plan.csv", lambda fh: fh.write("image\n"))
+    finally:
+        os.umask(old)
+
+    def mode(p):
+        return stat.S_IMODE(p.stat().st_mode)
+    assert mode(tmp_path / "m") == 0o755
+    files = [*(tmp_path / "m").iterdir(), tmp_path / "summary.csv", tmp_path / "plan.csv"]
+    assert {p.name: mode(p) for p in files} == {p.name: 0o644 for p in files}
