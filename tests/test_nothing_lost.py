@@ -6,6 +6,7 @@ import io
 import json
 import os
 import stat
+from pathlib import Path
 
 import pytest
 
@@ -132,3 +133,64 @@ def test_result_folders_and_run_files_follow_the_umask(shot, tmp_path):
     assert mode(tmp_path / "m") == 0o755
     files = [*(tmp_path / "m").iterdir(), tmp_path / "summary.csv", tmp_path / "plan.csv"]
     assert {p.name: mode(p) for p in files} == {p.name: 0o644 for p in files}
+
+
+DESIGN = ["design", "--chl", "1", "--cdom", "0.1", "--camera-only", "--target", "C=20%"]
+
+
+def test_a_plan_never_overwrites_the_dives_metadata(tmp_path):
+    """`uw3p design --plan dive.csv` over a dive.csv with real depths replaced it with
+    placeholder rows without a word: now refused (exit 2, --plan named, the file as it was);
+    --overwrite replaces it and says what it wrote (the path and the number of rows)."""
+    plan = tmp_path / "dive.csv"
+    plan.write_text("image,depth_m,distance_m\nIMG_0101.ORF,4.8,1.2\n", encoding="utf-8")
+    before = plan.read_bytes()
+    argv = DESIGN + ["--depth", "5", "--distance", "1", "--plan", str(plan)]
+    code, out, err = _run(argv)
+    assert code == 2 and err.count("\n") == 1
+    assert err.startswith("uw3p design: error: --plan: ") and "--overwrite" in err
+    assert plan.read_bytes() == before and out == ""
+    code, out, err = _run(argv + ["--overwrite"])
+    assert code == 0, err
+    rows = plan.read_text(encoding="utf-8").splitlines()
+    assert rows[1:] == ["PHOTO_01.dng,5,1"]
+    assert f"wrote {plan}: {len(rows) - 1} row(s)" in out
+
+
+@pytest.mark.parametrize("distance", [["0"], ["-1"], ["0", "2"]])
+def test_design_refuses_a_distance_not_above_zero(distance):
+    """`--distance 0` planned photos "from 0 m" (the light crossing no water to the chart)."""
+    code, out, err = _run(DESIGN + ["--depth", "5", "--distance", *distance])
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith("uw3p design: error: --distance: ") and "> 0" in err
+
+
+def test_design_refuses_depths_beyond_daylights_reach():
+    """`--depth 2 500` recommended photos at 251-500 m: refused, naming --depth and the limit
+    (cmd_design.daylight_depth of the guessed water); a depth within it is still designed."""
+    from forward import Water
+    from uw3p.cmd_design import daylight_depth
+
+    reach = daylight_depth(1.0, 0.1, Water())
+    assert 15 < reach < 500
+    code, out, err = _run(DESIGN + ["--depth", "2", "500", "--distance", "1"])
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith("uw3p design: error: --depth: 500 m is beyond daylight's reach")
+    assert f"{reach:.0f} m" in err
+    assert _run(DESIGN + ["--depth", "2", f"{0.9 * reach:.1f}", "--distance", "1"])[0] in (0, 1)
+
+
+def test_metadata_with_two_columns_of_one_kd_band_is_refused(shot, tmp_path):
+    """kd_490 and kd_490.0 name the same quantity; one was silently kept. Now one line naming
+    --metadata and both columns, nothing measured."""
+    dive = tmp_path / "dive"
+    dive.mkdir()
+    (dive / "A.dng").write_bytes(Path(shot["dng"]).read_bytes())
+    meta = tmp_path / "dive.csv"
+    meta.write_text("image,depth_m,distance_m,kd_490,kd_490_sd,kd_490.0,kd_490.0_sd\n"
+                    "A.dng,5,1.5,0.1,0.01,0.3,0.01\n", encoding="utf-8")
+    code, _, err = _run(["measure", str(dive), "--metadata", str(meta),
+                         "--out", str(tmp_path / "out")])
+    assert code == 2 and err.count("\n") == 1
+    assert "--metadata" in err and "kd_490 " in err and "kd_490.0" in err
+    assert not (tmp_path / "out" / "A_dng").exists()
