@@ -61,6 +61,7 @@ from forward.errors import InputError
 
 __all__ = ["MAX_GAIN", "SEARCH_RANGE_M", "WHITE_TARGET", "SRGB_LUT_BITS", "TABLE_SIZE",
            "Corrected", "CorrectionTable", "correct_image", "correction", "correction_table",
+           "linear_factor",
            "seathru_coefficients", "srgb_encoding_lut"]
 
 #: corrected.tiff: the corrected white patch's brightest channel is put at this fraction of
@@ -554,6 +555,29 @@ def _odd_values(counts, kinds) -> str:
     return f"; of the map's {counts['pixels']} values: {', '.join(held)}" if held else ""
 
 
+def linear_factor(table: CorrectionTable, white_linear: float = WHITE_TARGET) -> np.ndarray:
+    """The factor per channel from a raw value (above black and the veiling light) to the
+    linear corrected image's value (corrected.tiff, :func:`correct_image`) at the table's
+    reference distance: the quantity of ``measure.Measurement.gains`` (the von Kries gains of
+    ``uw3p measure``'s corrected.tiff, which put the white patch rather than a perfect white at
+    ``white_linear``), for a photo corrected without a chart of its own.
+
+    Parameters
+    ----------
+    table : CorrectionTable
+    white_linear : float, optional
+        A perfect white reflector's most sensitive channel in the linear image, fraction of full
+        scale (default :data:`WHITE_TARGET`, :func:`correct_image`'s).
+
+    Returns
+    -------
+    numpy.ndarray, (3,)
+        corrected.tiff units per raw unit.
+    """
+    t = [np.interp(table.reference, table.ranges, table.transmission[:, c]) for c in range(3)]
+    return white_linear * UINT16_MAX / (table.gain * np.asarray(t))
+
+
 def seathru_coefficients(table: CorrectionTable) -> dict:
     """The correction in the form of Sea-thru's image formation model, per channel.
 
@@ -561,8 +585,8 @@ def seathru_coefficients(table: CorrectionTable) -> dict:
 
     z the range (m), J_c the scene at the photo's depth seen from range 0 (raw units),
     fitted to the table (least squares in the logarithm through z = 0, over 0 to the cap);
-    ``white_balance`` maps J to the white of air (1 / (gain t_c(0))). The exact
-    per-range table is given beside.
+    ``white_balance`` maps J to the white of air (1 / (gain t_c(0))); ``exposure_factor`` is
+    :func:`linear_factor`. The exact per-range table is given beside.
 
     Parameters
     ----------
@@ -572,7 +596,8 @@ def seathru_coefficients(table: CorrectionTable) -> dict:
     -------
     dict
         ``beta_D`` (3,) m^-1, ``beta_B`` (3,) m^-1, ``B_inf`` (3,) raw units, ``white_balance``
-        (3,) model units per raw unit, ``table`` (ranges, transmission, veil), units, and how
+        (3,) model units per raw unit, ``exposure_factor`` (3,) corrected.tiff units per raw
+        unit (:func:`linear_factor`), ``table`` (ranges, transmission, veil), units, and how
         well the exponentials fit (``rms_log``).
 
     References
@@ -599,6 +624,7 @@ def seathru_coefficients(table: CorrectionTable) -> dict:
         "channels": ["red", "green", "blue"],
         "beta_D": beta_d.tolist(), "beta_B": beta_b.tolist(), "B_inf": binf.tolist(),
         "white_balance": (1.0 / (table.gain * t[0])).tolist(),
+        "exposure_factor": linear_factor(table).tolist(),
         "rms_log": {"beta_D": rms_d.tolist(), "beta_B": rms_b.tolist()},
         "range_m": [0.0, float(table.cap)],
         "table": {"range_m": z[:: max(1, z.size // 64)].tolist(),
@@ -610,7 +636,9 @@ def seathru_coefficients(table: CorrectionTable) -> dict:
                   "cdom_ci": list(w.cdom_ci), "path_model": w.water.path_model,
                   "source": w.source, "reliable": w.reliable},
         "units": {"beta_D": "m^-1", "beta_B": "m^-1", "B_inf": "raw units (DN above black)",
-                  "white_balance": "model units in air per raw unit", "range_m": "m",
+                  "white_balance": "model units in air per raw unit",
+                  "exposure_factor": "corrected.tiff units per raw unit above the veiling "
+                                     "light, at the reference distance", "range_m": "m",
                   "transmission": "dimensionless, t_c(z) = W_c(z) / W_c(air)",
                   "veil": "raw units", "gain": "raw units per model unit"},
     }

@@ -11,6 +11,11 @@
   uncertainty;
 - ``complete.json`` last: the folder is written whole (a temporary folder renamed into place,
   as :func:`measure.write_outputs` does) or not at all.
+
+The folder is replaced whole, so a correction never goes into a folder that holds one of its
+inputs (the photo, the water's measurement.json or joint.json, the range map) or a measurement
+(a measurement.json: the results of ``uw3p measure`` or of a dive's photo): that is refused,
+naming ``out`` (:func:`check_correct_out`), and nothing is written or removed.
 """
 
 from __future__ import annotations
@@ -23,9 +28,9 @@ from pathlib import Path
 from forward.errors import InputError
 
 from .imagefiles import TIFF_COMPRESSION, write_jpeg, write_srgb_tiff
-from .output import MARKER, TIFF_MODES, strict_json, write_folder
+from .output import MARKER, TIFF_MODES, check_out, strict_json, write_folder
 
-__all__ = ["NOT_MODELLED", "write_corrected"]
+__all__ = ["NOT_MODELLED", "check_correct_out", "write_corrected"]
 
 #: What the correction does not model (recorded in correction.json)
 NOT_MODELLED = (
@@ -43,8 +48,50 @@ def _json(path: Path, data) -> None:
                     encoding="utf-8")
 
 
+def _inside(path, folder: Path) -> bool:
+    """``path`` is ``folder`` or lies in it (symbolic links resolved)."""
+    p = Path(path).resolve()
+    return p == folder or folder in p.parents
+
+
+def check_correct_out(outdir, image, inputs=(), overwrite: bool = False) -> None:
+    """Refuse an output folder whose replacement would delete an input or a measurement
+    (checked before the photo is corrected, too, so that a refusal comes first).
+
+    Parameters
+    ----------
+    outdir : str or os.PathLike
+        The correction's folder.
+    image : str or os.PathLike
+        The photo.
+    inputs : iterable of str or os.PathLike, optional
+        The other files the correction reads (the water's file, the range map); paths that do
+        not exist (a range given as a number) are skipped.
+    overwrite : bool, optional
+        Another photo's corrected results may be replaced (:func:`measure.output.check_out`).
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming ``out``: what :func:`measure.output.check_out` refuses; the folder holds (or is)
+        one of the inputs; it holds a measurement.json.
+    """
+    check_out(outdir, image, overwrite)
+    out = Path(outdir)
+    folder = out.resolve()
+    for src in (image, *inputs):
+        if src is not None and Path(src).exists() and _inside(src, folder):
+            raise InputError("out", f"{out} holds {src}, an input of this correction (the "
+                             "folder is replaced whole); give another folder")
+    if (out / "measurement.json").exists():
+        raise InputError("out", f"{out} holds a measurement (measurement.json: the results of "
+                         "uw3p measure or of a dive's photo), which a correction never replaces; "
+                         "give another folder")
+
+
 def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str = "compressed",
-                    jpeg: bool = True, overwrite: bool = False, marker: dict | None = None) -> dict:
+                    jpeg: bool = True, overwrite: bool = False, marker: dict | None = None,
+                    inputs=()) -> dict:
     """Write a corrected photo's folder, whole or not at all.
 
     Parameters
@@ -52,8 +99,9 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
     corr : measure.correct.Corrected
         With ``srgb`` (and ``linear`` unless ``tiff='none'``).
     outdir : str or os.PathLike
-        The folder (replaced when it holds results of the same photo; another photo's only
-        with ``overwrite``).
+        The folder (replaced when it holds a correction of the same photo; another photo's only
+        with ``overwrite``; never when it holds an input or a measurement:
+        :func:`check_correct_out`).
     record : dict
         correction.json's content.
     version : str, optional
@@ -66,6 +114,9 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
     overwrite : bool, optional
     marker : dict, optional
         More entries of complete.json.
+    inputs : iterable of str or os.PathLike, optional
+        The other files the correction read (the water's file, the range map): the folder may
+        not hold them.
 
     Returns
     -------
@@ -74,11 +125,12 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
 
     Raises
     ------
-    ValueError
-        Naming ``tiff`` or ``out``.
+    forward.errors.InputError
+        Naming ``tiff`` or ``out`` (:func:`check_correct_out`).
     """
     if tiff not in TIFF_MODES:
         raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
+    check_correct_out(outdir, corr.photo.path, inputs, overwrite)
 
     def write(tmp: Path) -> list:
         names = ["correction.json"]

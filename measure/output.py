@@ -21,6 +21,7 @@ import numpy as np
 import forward
 from forward.spectra import WHITE_PATCH, srgb_8bit
 
+from .filemodes import follow_umask
 from .image import demosaic
 from .imagefiles import TIFF_COMPRESSION
 from forward.errors import InputError
@@ -507,6 +508,7 @@ def write_folder(outdir, image, overwrite: bool, write) -> dict:
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(dir=out.parent, prefix=f"{TEMP_PREFIX}{out.name}-"))
+        follow_umask(tmp, folder=True)  # the folder renamed into place: not mkdtemp's 0700
     except OSError as exc:
         raise InputError("out", f"cannot create {out}: {exc.strerror}") from None
     try:

@@ -7,7 +7,9 @@ water (measure.correct).
 
 Writes corrected_srgb.tif (16-bit sRGB with its ICC profile), corrected.jpg, corrected.tiff
 (linear camera RGB) and correction.json (the coefficients in Sea-thru's form, the range, the
-cap, the water) into DIR, whole or not at all. Exit status 0 when the water's measurement is
+cap, the water) into DIR, whole or not at all. DIR is replaced whole, so it may not hold the
+photo, the --water file, the --range map or a measurement (a measurement.json of uw3p measure
+or a dive's photo): that is refused, naming --out (exit 2), and nothing is written or removed. Exit status 0 when the water's measurement is
 reliable, 1 when it is not, 2 bad input.
 """
 
@@ -51,7 +53,10 @@ def add_parser(sub):
                         "16-bit PNG in mm, .npy in m; 0, NaN or < 0 unknown, +inf beyond the "
                         "cap; the photo's aspect, resampled to it) "
                         "or plane:A,B,C (A + B u + C v m, u and v across the photo in [-1, 1])")
-    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--out", required=True,
+                   help="output folder (created if missing; replaced whole, so it may not hold "
+                        "the photo, the --water file, the --range map or a measurement.json: "
+                        "refused)")
     p.add_argument("--depth", type=float, default=None,
                    help="the photo's depth, m (default the chart's)")
     p.add_argument("--photo", default=None,
@@ -152,9 +157,10 @@ def run(args, out, err) -> int:
         raise InputError("water", f"file not found: {args.water}")
     if Path(args.out).is_file():
         raise InputError("out", f"{args.out} is a file; give a folder (created if missing)")
-    from measure.output import check_out
+    from measure.correct_output import check_correct_out
 
-    check_out(args.out, src, args.overwrite)  # a refusal before the work
+    inputs = (args.water, args.range)
+    check_correct_out(args.out, src, inputs, args.overwrite)  # a refusal before the work
     photo = read_photo(args, src)
     corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
                          max_range=args.max_range, unknown=args.unknown, white=args.white,
@@ -169,7 +175,8 @@ def run(args, out, err) -> int:
 
         record["uncertainty"] = correction_spread(corr.table.water)
     written = write_corrected(corr, args.out, record=record, version=__version__,
-                              tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite)
+                              tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite,
+                              inputs=inputs)
     r = corr.ranges
     span = "no finite range" if r["min_m"] is None else f"{r['min_m']:.3g}-{r['max_m']:.3g} m"
     out.write(f"range            {r['kind']}: {span}"

@@ -3,7 +3,7 @@
     uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%]
                 [--target a_CDOM=10%] [--target c=5%] [--lux 20000] [--camera ...]
                 [--sample-sd 0.0025] [--secchi-sd M] [--no-auxiliary] [--max-photos 12]
-                [--camera-only] [--plan dive.csv]
+                [--camera-only] [--plan plan.csv [--overwrite]]
 
 A thin wrapper of :func:`sca.design` (:mod:`sca.protocols`): for a guessed water and the depths
 and distances a dive can use, the cheapest protocol (photos x depths x distances, with or
@@ -13,7 +13,12 @@ Predictions use the default uncertainty budget; ``--camera-only`` gives the came
 (photon and read noise only), labelled as such. The advice ends with how to follow it: what to
 photograph and measure on the dive and the ``uw3p measure`` command that fits it (a dive: its
 folder, the metadata CSV ``--plan`` writes, ``--joint``; the auxiliary measurement as
-``--cdom-sample`` or ``--secchi``).
+``--cdom-sample`` or ``--secchi``). ``--plan`` never replaces an existing file (a dive's
+metadata with real depths) unless ``--overwrite`` is given.
+
+Refused before any work (exit 2, naming the option): a ``--distance`` not > 0, a ``--depth``
+beyond daylight's reach in the guessed water (:func:`daylight_depth`, decision
+0064-daylight-reach), an existing ``--plan`` file without ``--overwrite``.
 
 Exit status: 0 when a protocol meets every target, 1 when none does, 2 for bad input (the
 message names the option).
@@ -29,8 +34,9 @@ from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_budget_options, add_setup_o
                      camera_note, check_spectra_args, uncertain_from_args,
                      water_from_args, wavelengths_from_args)
 
-__all__ = ["NAME", "BUFFERED", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX", "TARGET_NAMES",
-           "add_parser", "follow", "parse_target", "run", "write_plan"]
+__all__ = ["NAME", "BUFFERED", "DAYLIGHT_FLOOR", "DEFAULT_TARGET", "PLAN_COLUMNS", "SAY_MAX",
+           "TARGET_NAMES", "add_parser", "check_dive", "daylight_depth", "follow", "parse_target",
+           "run", "write_plan"]
 
 #: The subcommand's name.
 NAME = "design"
@@ -45,6 +51,9 @@ SAY_MAX = 10.0
 TARGET_NAMES = {"c": "c", "chl": "chl", "a_cdom": "cdom", "cdom": "cdom",
                 "c443": "c_443", "c490": "c_490", "c555": "c_555", "c670": "c_670",
                 "a_nw440": "a_nw_440", "a_nw": "a_nw_440", "kd490": "kd_490", "kd": "kd_490"}
+#: The deepest chart a design considers is where the downwelling daylight at the most
+#: penetrating wavelength falls to this fraction of the surface's (decision 0064-daylight-reach)
+DAYLIGHT_FLOOR = 1e-4
 #: Columns of the metadata CSV ``--plan`` writes (:data:`measure.dive.metadata.METADATA_COLUMNS`).
 PLAN_COLUMNS = ("image", "depth_m", "distance_m")
 #: How each target is named in the output.
@@ -105,7 +114,10 @@ def add_parser(sub):
     p.add_argument("--plan", default=None, metavar="CSV",
                    help="write the protocol's photos as a dive's metadata CSV (image, depth_m, "
                         "distance_m; the image names are placeholders to replace with the "
-                        "photos' file names) for uw3p measure --metadata")
+                        "photos' file names) for uw3p measure --metadata; an existing file is "
+                        "refused unless --overwrite")
+    p.add_argument("--overwrite", action="store_true",
+                   help="let --plan replace an existing file")
     add_setup_options(p)
     add_budget_options(p)
     p.set_defaults(func=run, option_names={"chl": "--chl", "cdom": "--cdom",
@@ -232,31 +244,91 @@ def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
             f"  where          {'; '.join(said)}; profile.json from uw3p calibrate"]
 
 
-def write_plan(path: str, protocol) -> None:
+def write_plan(path: str, protocol) -> int:
     """Write ``protocol``'s photos as a dive's metadata CSV (:data:`PLAN_COLUMNS`; the image
-    names PHOTO_01.dng, ... are placeholders for the photos' file names).
+    names PHOTO_01.dng, ... are placeholders for the photos' file names), whole or not at all.
 
     Parameters
     ----------
     path : str
-        The CSV file to write.
+        The CSV file to write (replaced if it exists: :func:`run` refuses that without
+        ``--overwrite``).
     protocol : sca.protocols.Protocol
+
+    Returns
+    -------
+    int
+        The number of rows (photos) written.
 
     Raises
     ------
-    ValueError
+    forward.errors.InputError
         Naming ``--plan`` when the file cannot be written.
     """
     import csv
 
-    try:
-        with open(path, "w", encoding="utf-8", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(PLAN_COLUMNS)
-            for i, (d, r) in enumerate(protocol.photos, 1):
-                w.writerow([f"PHOTO_{i:02d}.dng", f"{d:g}", f"{r:g}"])
-    except OSError as exc:
-        raise InputError("--plan", f"cannot write {path}: {exc.strerror or exc}") from None
+    from .common import write_atomic
+
+    def rows(fh):
+        w = csv.writer(fh)
+        w.writerow(PLAN_COLUMNS)
+        for i, (d, r) in enumerate(protocol.photos, 1):
+            w.writerow([f"PHOTO_{i:02d}.dng", f"{d:g}", f"{r:g}"])
+    write_atomic(path, rows, "--plan")
+    return len(protocol.photos)
+
+
+def daylight_depth(chl, cdom, water, wavelengths=None) -> float:
+    """The depth at which the downwelling daylight at the most penetrating wavelength falls to
+    :data:`DAYLIGHT_FLOOR` of the surface's: ln(1 / floor) / min K_d, K_d = (a + b_b) / mu_d
+    of the guessed water (whatever the path model: daylight goes down diffusely).
+
+    Parameters
+    ----------
+    chl, cdom : float
+        The guessed water, mg m^-3 and m^-1.
+    water : forward.Water
+    wavelengths : array_like, optional
+        nm (default 400-700 nm).
+
+    Returns
+    -------
+    float
+        m.
+    """
+    from forward.spectra import wavelength_grid
+    from forward.water import DIFFUSE_TERMS
+
+    kd = water.on_grid(wavelength_grid(wavelengths)).path_coefficient(
+        chl, cdom, terms=DIFFUSE_TERMS)[0]
+    return math.log(1.0 / DAYLIGHT_FLOOR) / float(kd.min())
+
+
+def check_dive(args, water, wavelengths) -> None:
+    """Refuse what the design cannot answer, before its work: a ``--distance`` not > 0, a
+    ``--depth`` beyond :func:`daylight_depth`, an existing ``--plan`` without ``--overwrite``.
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming ``--distance``, ``--depth`` or ``--plan``.
+    """
+    from pathlib import Path
+
+    if not all(r > 0 for r in args.distance):
+        raise InputError("--distance", "the camera-to-chart distance must be > 0 m (the light "
+                         f"must cross water to the chart), got {' '.join(map(str, args.distance))}")
+    if args.cdom >= 0 and all(math.isfinite(d) for d in args.depth):
+        reach = daylight_depth(args.chl, args.cdom, water, wavelengths)
+        if max(args.depth) > reach:
+            raise InputError("--depth", f"{max(args.depth):g} m is beyond daylight's reach in "
+                             f"the guessed water: below {reach:.0f} m under "
+                             f"{100 * DAYLIGHT_FLOOR:g} % of the surface light is left at any "
+                             "wavelength (decision 0064-daylight-reach); give depths up to "
+                             f"{reach:.0f} m")
+    if args.plan and Path(args.plan).exists() and not args.overwrite:
+        raise InputError("--plan", f"{args.plan} exists (a dive's metadata?); give a new file "
+                         "name, or --overwrite to replace it")
 
 
 def run(args, out, err) -> int:
@@ -268,6 +340,7 @@ def run(args, out, err) -> int:
         Parsed options: ``chl`` (mg m^-3), ``cdom`` (m^-1), ``depth`` and ``distance`` (one or
         two values, m), ``target`` (``NAME=PCT`` strings), ``max_photos``, ``sample_sd``,
         ``secchi_sd``, ``no_auxiliary``, ``camera_only``, ``plan`` (a CSV path or None),
+        ``overwrite``,
         ``lux``, ``exposure``, ``gain`` and the setup and budget options.
     out : text stream
         The budget, the targets, what one photo gives, the protocol (or the best one and its
@@ -285,7 +358,7 @@ def run(args, out, err) -> int:
     ------
     ValueError
         Bad input (``--chl`` not > 0, ``--lux`` not > 0, a malformed ``--target``, three
-        depths, ...); the message names the option.
+        depths, :func:`check_dive`'s refusals, ...); the message names the option.
     """
     import forward
     from sca import design
@@ -301,10 +374,12 @@ def run(args, out, err) -> int:
     check_spectra_args(args)
     sensor = forward.SensorSettings(illuminance_lux=args.lux, exposure_mode=args.exposure)
     wl = wavelengths_from_args(args)
+    water = water_from_args(args)
+    check_dive(args, water, wl)
     err.write(camera_note(args.camera, wl))
     uncertain = {} if args.camera_only else uncertain_from_args(args)
     kw = dict(camera=args.camera, illuminant=args.illuminant, reflectances=args.reflectances,
-              wavelengths=wl, water=water_from_args(args), sensor=sensor)
+              wavelengths=wl, water=water, sensor=sensor)
     depth = args.depth[0] if len(args.depth) == 1 else tuple(args.depth)
     distance = args.distance[0] if len(args.distance) == 1 else tuple(args.distance)
     d = design(args.chl, args.cdom, depth=depth, distance=distance, targets=targets,
@@ -386,10 +461,10 @@ def run(args, out, err) -> int:
                      f"{why}.")
     shown = d.protocol if d.meets else d.best
     if args.plan:
-        write_plan(args.plan, shown.protocol)
-        lines.append(f"plan             {args.plan}: the {'' if d.meets else 'best '}protocol's "
-                     f"{shown.protocol.n_photos} photo(s) as the metadata CSV (replace the "
-                     "placeholder image names)")
+        n = write_plan(args.plan, shown.protocol)
+        lines.append(f"plan             wrote {args.plan}: {n} row(s), the "
+                     f"{'' if d.meets else 'best '}protocol's photos as the metadata CSV "
+                     "(replace the placeholder image names)")
     out.write("\n".join(lines) + "\n")
     return EXIT_OK if d.meets else EXIT_NOT_RELIABLE
 

@@ -533,6 +533,8 @@ def atomic_open(path, option: str = "--out"):
         The file cannot be written (a folder, a missing folder, no permission); the message
         names ``option`` and the reason.
     """
+    from measure.filemodes import follow_umask
+
     p = Path(path)
     if p.is_dir():
         raise InputError(option, f"{p} is a folder; give a file name")
@@ -544,6 +546,7 @@ def atomic_open(path, option: str = "--out"):
         raise InputError(option, f"cannot write {p}: {exc.strerror}") from None
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            follow_umask(tmp)  # renamed into place: the user's umask, not mkstemp's 0600
             yield fh
         os.replace(tmp, p)
     except OSError as exc:

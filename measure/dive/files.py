@@ -16,6 +16,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from ..filemodes import follow_umask
 from ..output import TEMP_PREFIX
 from .names import LOCK_FILE, RUN_FILES
 from forward.errors import InputError
@@ -53,6 +54,7 @@ def atomic(path: Path):
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
         os.close(fd)
+        follow_umask(tmp)  # renamed into place: the user's umask, not mkstemp's 0600
     except OSError as exc:
         raise InputError("out", f"cannot write {path}: {_why(exc)}") from None
     try:

@@ -7,8 +7,14 @@ fields uw3p knows -- to be merged into the dive's iFDO, whose core fields (UUIDs
 positions, licence) are the user's:
 
 - ``photometric-sequence-white-balancing``: how the images were white-balanced;
-- ``photometric-exposure-factor-RGB``: per image, the RGB factors applied (here the
-  correction's factors at the image's reference range: model units in air per raw unit);
+- ``photometric-exposure-factor-RGB``: per image, the RGB factors applied to it (iFDO: the
+  factors that turn the recorded pixel values into the corrected ones), one quantity for every
+  image: the factor per channel from a raw value (above black and the veiling light) to the
+  image's corrected.tiff (16-bit linear camera RGB in air) at the chart's distance. For a
+  measured photo it is its von Kries gains (measurement.json ``correction.gains``), for a
+  chartless frame :func:`measure.correct.linear_factor` (correction.json
+  ``seathru.exposure_factor``); the two differ by the white they put at 80 % of full scale (the
+  white patch, a perfect white). A correction.json without it (older) gives no field;
 - ``photometric-sequence-illumination-type`` and ``-description``: sunlight;
 - ``photometric-water-properties-description``: the water measured (C, a_CDOM(440), their
   95 % intervals, the attenuation model).
@@ -97,8 +103,9 @@ def ifdo_fields(rows, records, joint_data=None) -> dict:
                 corr = json.loads((Path(row["out"]) / "correction.json").read_text("utf-8"))
             except (OSError, ValueError):
                 continue
-            items[name] = {"image-photometric-calibration": {
-                "photometric-exposure-factor-RGB": corr["seathru"]["white_balance"]}}
+            factor = corr["seathru"].get("exposure_factor")
+            items[name] = {"image-photometric-calibration": {} if factor is None else {
+                "photometric-exposure-factor-RGB": factor}}
     return {"image-set-header": header, "image-set-items": items}
 
 

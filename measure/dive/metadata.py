@@ -208,7 +208,8 @@ def _range_map(csv_path: Path, value: str, where: str):
 
 def _auxiliary_pairs(p: Path, names) -> dict:
     """kind (or ('kd', nm)) -> (value column, sd column) of the measurement columns of a
-    header; each value column must come with its sd column and the reverse."""
+    header; each value column must come with its sd column and the reverse, and two columns
+    of one band (``kd_490``, ``kd_490.0``) are refused."""
     pairs = {k: v for k, v in AUXILIARY_COLUMNS.items() if v[0] in names or v[1] in names}
     for c in names:
         m = KD_COLUMN.match(c)
@@ -217,7 +218,12 @@ def _auxiliary_pairs(p: Path, names) -> dict:
             if not 400.0 <= nm <= 700.0:
                 raise InputError("metadata", f"{p} line 1: column {c}: the band {nm:g} nm lies "
                                  "outside 400-700 nm")
-            pairs[("kd", nm)] = (f"kd_{m.group(1)}", f"kd_{m.group(1)}_sd")
+            col = f"kd_{m.group(1)}"
+            other = pairs.get(("kd", nm), (col,))[0]
+            if other != col:
+                raise InputError("metadata", f"{p} line 1: columns {other} and {col} name the "
+                                 f"same quantity (K_d at {nm:g} nm); keep one")
+            pairs[("kd", nm)] = (col, f"{col}_sd")
     for value, sd in pairs.values():
         if (value in names) != (sd in names):
             have, lack = (value, sd) if value in names else (sd, value)
