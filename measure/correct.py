@@ -52,6 +52,7 @@ import forward
 from forward.water import COEFFICIENT_PARAMS
 from sca.compiled import KERNEL_LOCK
 
+from .correctcamera import check_photo_camera
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
 from .pixels import correct_pixels
@@ -443,7 +444,10 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         For :func:`measure.read_image`.
     **water_options
         For :func:`measure.correctwater.correction_water` (``setup``, ``depth``, ``photo``,
-        ``exposure_ratio``, ``model``).
+        ``exposure_ratio``, ``model``, ``camera``, ``quantal``, ``illuminant``, ``profile``).
+        The photo's EXIF Make and Model are checked against the water's recorded camera
+        (:func:`measure.correctcamera.check_photo_camera`): another camera is refused naming
+        ``camera`` unless ``camera`` (other curves) is given.
 
     Returns
     -------
@@ -453,7 +457,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     ------
     ValueError
         Naming the argument: ``image``, ``water``, ``range``, ``max_gain``, ``max_range``,
-        ``unknown``, ``white``, ``white_linear``.
+        ``unknown``, ``white``, ``white_linear``, ``camera``, ``profile``, ``depth``.
 
     References
     ----------
@@ -490,6 +494,9 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                                                               white_level=white_level)
     table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,
                              **water_options)
+    use = table.water.camera
+    if use is not None:  # the photo's camera against the water's (EXIF Make and Model)
+        check_photo_camera(photo.camera, use, other_curves=water_options.get("camera") is not None)
     rng = read_range(range, photo.size)
     has_map = not isinstance(rng, float)
     H, W = photo.data.shape[:2]
@@ -519,7 +526,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         summary = {"kind": "constant", "min_m": float(rng), "max_m": float(rng),
                    "unknown_fraction": 0.0, "capped_fraction": float(rng > table.cap)}
     summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
-    notes = list(table.water.notes)
+    notes = list(table.water.notes) + (list(use.notes) if use is not None else [])
     if summary["capped_fraction"] > 0:
         notes.append(f"{100 * summary['capped_fraction']:.1f} % of the pixels lie beyond "
                      f"{table.cap:.2f} m ({table.cap_reason}): corrected as at that range")
@@ -528,6 +535,20 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                      f"corrected as at {table.unknown:.2f} m")
     return Corrected(lin16 if linear else None, s16 if srgb else None,
                      flt if float_output else None, table, photo, summary, notes)
+
+
+def applied(table: CorrectionTable, water_file=None) -> dict:
+    """What a correction applied, for correction.json: the water's file and its SHA-256
+    (:func:`measure.camera.file_digest`; None for a water given in memory), the camera and
+    calibration (:meth:`measure.correctcamera.CameraUse.to_dict`), the depths the water was
+    measured at and whether the photo's depth lies outside them (``extrapolated``)."""
+    from .camera import file_digest
+
+    w = table.water
+    return {"water_file": None if water_file is None else {
+                "path": str(water_file), "sha256": file_digest(water_file)},
+            "camera": None if w.camera is None else w.camera.to_dict(),
+            "depth_span_m": list(w.span), "extrapolated": w.extrapolated}
 
 
 def seathru_coefficients(table: CorrectionTable) -> dict:
