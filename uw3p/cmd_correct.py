@@ -74,7 +74,8 @@ def add_parser(sub):
                    help="the TIFFs lossless deflate (default), uncompressed, or none")
     p.add_argument("--no-jpeg", action="store_true", help="do not write corrected.jpg")
     p.add_argument("--uncertainty", action="store_true",
-                   help="also the ΔE00 spread over the water's 95 %% intervals (correction.json)")
+                   help="also the ΔE00 spread over the water's 95 %% intervals, and what a depth "
+                        "outside the measured ones may cost (correction.json)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an output folder that holds another photo's results")
     p.add_argument("--camera", default=None,
@@ -160,9 +161,10 @@ def run(args, out, err) -> int:
               "command": getattr(args, "command_line", ""), "version": __version__}
     record.update(applied(corr.table, args.water))
     if args.uncertainty:
-        from measure.correct_uncertainty import correction_spread
+        from measure.correct_uncertainty import correction_spread, extrapolation_spread
 
-        record["uncertainty"] = correction_spread(corr.table.water)
+        record["uncertainty"] = correction_spread(corr.table.water) | {
+            "extrapolation": extrapolation_spread(corr.table.water)}
     written = write_corrected(corr, args.out, record=record, version=__version__,
                               tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite)
     r = corr.ranges
