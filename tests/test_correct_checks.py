@@ -199,3 +199,25 @@ def test_a_chartless_frame_carries_the_dive_waters_verdict(shot, tmp_path):
     assert near["reliable"] is False and near["flags"] == "two-waters"
     assert deeper["flags"] == "two-waters extrapolated"
     assert far["status"] == "no chart" and "depth" in far["error"]
+
+
+def test_a_dives_joint_json_records_the_camera_that_correct_applies(shot, tmp_path):
+    """joint.json of a dive names the photos' camera and calibration as measurement.json does;
+    correcting with it applies that calibration."""
+    import shutil
+
+    from measure import dive
+
+    d = tmp_path / "dive"
+    d.mkdir()
+    shutil.copy(shot["dng"], d / "a.dng")
+    text = " ".join(f"{x:.2f},{y:.2f}" for x, y in default_corners(W, H))
+    res = dive.measure_dive(d, out=tmp_path / "out", depth=5.0, distance=1.5, corners=text,
+                            profile=str(shot["profile"]), scheduler="synchronous", joint=True,
+                            report=False, figure=False, **FAST)
+    assert res.joint is not None, res.joint_error
+    cam = json.loads(res.joint.read_text())["camera"]
+    assert (cam["make"], cam["model"]) == (MAKE, MODEL)
+    assert cam["profile"]["sha256"] == profile_digest(load_profile(shot["profile"]))
+    w = correction_water(str(res.joint))
+    assert w.camera.profile["sha256"] == cam["profile"]["sha256"]
