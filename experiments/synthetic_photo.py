@@ -154,9 +154,9 @@ def mosaic_from_values(scene: Scene, corners, patches, frame, veil, *,
 
 
 def write_dng(mosaic, path, *, black=BLACK_LEVELS_DN, white=WHITE_LEVEL_DN,
-              exposure_s=1 / 125, f_number=5.6, iso=400) -> str:
-    """Write an RGGB mosaic as an uncompressed 16-bit DNG (pidng); returns the path written
-    (pidng appends '.dng')."""
+              exposure_s=1 / 125, f_number=5.6, iso=400, make="uw3p", model="synthetic") -> str:
+    """Write an RGGB mosaic as an uncompressed 16-bit DNG (pidng), its EXIF Make and Model
+    ``make`` and ``model``; returns the path written (pidng appends '.dng')."""
     from pidng.core import RAW2DNG, DNGTags, Tag
     from pidng.defs import CalibrationIlluminant, CFAPattern, DNGVersion, PhotometricInterpretation
     from pidng.dng import Type
@@ -179,9 +179,9 @@ def write_dng(mosaic, path, *, black=BLACK_LEVELS_DN, white=WHITE_LEVEL_DN,
     t.set(Tag.ColorMatrix1, [[1, 1], [0, 1], [0, 1], [0, 1], [1, 1], [0, 1], [0, 1], [0, 1], [1, 1]])
     t.set(Tag.CalibrationIlluminant1, CalibrationIlluminant.D65)
     t.set(Tag.AsShotNeutral, [[1, 1], [1, 1], [1, 1]])
-    t.set(Tag.Make, "uw3p")
-    t.set(Tag.Model, "synthetic")
-    t.set(Tag.UniqueCameraModel, "uw3p synthetic")
+    t.set(Tag.Make, make)
+    t.set(Tag.Model, model)
+    t.set(Tag.UniqueCameraModel, f"{make} {model}")
     t.set(Tag.ExposureTime, [[1, int(round(1 / exposure_s))]])
     t.set(Tag.FNumber, [[int(round(f_number * 10)), 10]])
     t.set((ISO_SPEED_RATINGS_TAG, Type.Short), int(iso))

@@ -34,12 +34,15 @@ __all__ = [
     "PATCH_SD_MAX",
     "Profile",
     "calibrate",
+    "camera_record",
     "camera_setup",
     "chart_digest",
+    "curves_digest",
     "file_digest",
     "load_profile",
     "own_balance",
     "patch_systematic",
+    "profile_digest",
     "read_chart_reflectance",
 ]
 
@@ -207,6 +210,57 @@ class Profile:
     def to_json(self) -> str:
         """The profile as indented JSON text (what ``uw3p calibrate`` writes)."""
         return json.dumps(asdict(self), indent=1) + "\n"
+
+
+def profile_digest(profile: Profile) -> str:
+    """The SHA-256 of a profile's content (its JSON, :meth:`Profile.to_json`): the same
+    calibration gives the same digest wherever its file lies."""
+    import hashlib
+
+    return hashlib.sha256(profile.to_json().encode()).hexdigest()
+
+
+def curves_digest(camera) -> str:
+    """The SHA-256 of a camera's curves as read (:func:`forward.camera_sensitivities`, their
+    own balance, on the default grid; float64 little-endian bytes)."""
+    import hashlib
+
+    sens = forward.camera_sensitivities(camera, normalise=False)
+    return hashlib.sha256(np.ascontiguousarray(sens, "<f8").tobytes()).hexdigest()
+
+
+def camera_record(camera, *, quantal: bool = False, illuminant=None, profile=None,
+                  profile_path=None, photo=None) -> dict:
+    """What a measurement records of its camera (measurement.json's and joint.json's
+    ``camera``): the curves' name and digest (:func:`curves_digest`), the photo's EXIF Make
+    and Model (None where unknown), the calibration profile (its gains, the file's path where
+    it was read from one, its digest :func:`profile_digest`) and the illuminant.
+
+    Parameters
+    ----------
+    camera : str, path or array
+        The curves (as :func:`camera_setup`).
+    quantal : bool, optional
+    illuminant : str or array, optional
+    profile : Profile, optional
+    profile_path : str or os.PathLike, optional
+        The profile's file.
+    photo : measure.Photo, optional
+        The photo measured (its ``camera``: EXIF Make and Model).
+
+    Returns
+    -------
+    dict
+    """
+    exif = getattr(photo, "camera", None) or {}
+    prof = None if profile is None else {
+        "gains": profile.gains, "illuminant": profile.illuminant, "image": profile.image,
+        "path": None if profile_path is None else str(profile_path),
+        "sha256": profile_digest(profile)}
+    return {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),
+            "curves_sha256": curves_digest(camera), "make": exif.get("make"),
+            "model": exif.get("model"), "profile": prof,
+            "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
 
 
 def load_profile(path) -> Profile:

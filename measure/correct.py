@@ -53,6 +53,7 @@ import forward
 from forward.water import COEFFICIENT_PARAMS
 from sca.compiled import KERNEL_LOCK
 
+from .correctcamera import check_photo_camera
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
 from .pixels import correct_pixels
@@ -448,7 +449,10 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         For :func:`measure.read_image`.
     **water_options
         For :func:`measure.correctwater.correction_water` (``setup``, ``depth``, ``photo``,
-        ``exposure_ratio``, ``model``).
+        ``exposure_ratio``, ``model``, ``camera``, ``quantal``, ``illuminant``, ``profile``).
+        The photo's EXIF Make and Model are checked against the water's recorded camera
+        (:func:`measure.correctcamera.check_photo_camera`): another camera is refused naming
+        ``camera`` unless ``camera`` (other curves) is given.
 
     Returns
     -------
@@ -458,7 +462,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     ------
     ValueError
         Naming the argument: ``image``, ``water``, ``range``, ``max_gain``, ``max_range``,
-        ``unknown``, ``white``, ``white_linear``.
+        ``unknown``, ``white``, ``white_linear``, ``camera``, ``profile``, ``depth``.
 
     References
     ----------
@@ -496,6 +500,9 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     rng, counts = range_and_census(range, photo.size)  # a refusal before the table
     table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,
                              **water_options)
+    use = table.water.camera
+    if use is not None:  # the photo's camera against the water's (EXIF Make and Model)
+        check_photo_camera(photo.camera, use, other_curves=water_options.get("camera") is not None)
     has_map = not isinstance(rng, float)
     H, W = photo.data.shape[:2]
     A, B = table.factors()
@@ -515,16 +522,16 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                  float(table.unknown), float(table.cap), table.step, A, B, M, lut,
                  float(white_linear * UINT16_MAX), lin16, s16, flt,
                  np.array([linear, srgb, float_output]))
-    summary, notes = _range_summary(rng, counts, table)
+    summary, notes = _range_summary(rng, counts, table, () if use is None else use.notes)
     return Corrected(lin16 if linear else None, s16 if srgb else None,
                      flt if float_output else None, table, photo, summary, notes)
 
 
-def _range_summary(rng, counts, table: CorrectionTable):
+def _range_summary(rng, counts, table: CorrectionTable, camera_notes=()):
     """What the range was and what was done with it: the ``ranges`` of :class:`Corrected`
     (fractions of the photo's pixels, as the pixels were corrected: NaN at ``unknown``, beyond
     the cap, +inf included, at the cap; ``map_values``: the map's :func:`measure.rangemap.census`
-    as given) and the notes."""
+    as given) and the notes (the water's, the camera's, then the range's)."""
     if counts is None:
         summary = {"kind": "constant" if isinstance(rng, float) else "map",
                    "min_m": float(np.min(rng)), "max_m": float(np.max(rng)),
@@ -537,7 +544,7 @@ def _range_summary(rng, counts, table: CorrectionTable):
                    "capped_fraction": float((rng > table.cap).mean()),
                    "map_values": counts, "map_values_treated": dict(VALUE_KINDS)}
     summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
-    notes = list(table.water.notes)
+    notes = list(table.water.notes) + list(camera_notes)
     no_range = [k for k, v in VALUE_KINDS.items() if v == "no range"]
     if summary["capped_fraction"] > 0:
         notes.append(f"{100 * summary['capped_fraction']:.1f} % of the pixels lie beyond "
@@ -576,6 +583,20 @@ def linear_factor(table: CorrectionTable, white_linear: float = WHITE_TARGET) ->
     """
     t = [np.interp(table.reference, table.ranges, table.transmission[:, c]) for c in range(3)]
     return white_linear * UINT16_MAX / (table.gain * np.asarray(t))
+
+
+def applied(table: CorrectionTable, water_file=None) -> dict:
+    """What a correction applied, for correction.json: the water's file and its SHA-256
+    (:func:`measure.camera.file_digest`; None for a water given in memory), the camera and
+    calibration (:meth:`measure.correctcamera.CameraUse.to_dict`), the depths the water was
+    measured at and whether the photo's depth lies outside them (``extrapolated``)."""
+    from .camera import file_digest
+
+    w = table.water
+    return {"water_file": None if water_file is None else {
+                "path": str(water_file), "sha256": file_digest(water_file)},
+            "camera": None if w.camera is None else w.camera.to_dict(),
+            "depth_span_m": list(w.span), "extrapolated": w.extrapolated}
 
 
 def seathru_coefficients(table: CorrectionTable) -> dict:

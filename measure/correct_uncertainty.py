@@ -20,10 +20,17 @@ decision 0007-start-up) of the corrected colours from those of the fitted water:
 Lab is computed from the camera's values in air through :func:`forward.camera_to_xyz_matrix`
 (a white reflector Y = 1) under D65 (``skimage.color.xyz2lab``). An open interval (``inf``) leaves the spread unbounded
 (reported as None with a note).
+
+A photo corrected at a depth outside the depths the water was measured at
+(:attr:`measure.correctwater.CorrectionWater.extrapolated`) keeps the measured veiling light;
+:func:`extrapolation_spread` is what that costs if the veil changes with depth as the model
+says: the ΔE00 of the 18 % grey corrected with the measured veil, seen with the veil scaled by
+the model's V_c(r0) at the photo's depth over that at the nearest measured depth.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -32,10 +39,10 @@ import forward
 import sca
 from forward.spectra import WHITE_PATCH
 
-from .correct import MAX_GAIN, _white_response, correction_table
+from .correct import MAX_GAIN, _veil_shape, _white_response, correction_table
 from .correctwater import CorrectionWater
 
-__all__ = ["GREY_RANGES_M", "GREY_REFLECTANCE", "correction_spread"]
+__all__ = ["GREY_RANGES_M", "GREY_REFLECTANCE", "correction_spread", "extrapolation_spread"]
 
 #: Ranges at which a grey's spread is reported, m (a diver's near field to the visibility
 #: limit of clear water)
@@ -153,3 +160,48 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
                              "max": float(worst_chart.max())}
     out["grey_de00"] = [{"range_m": float(rr), "de00": float(d)} for rr, d in zip(r, worst_grey)]
     return out
+
+
+def _interp(table, r, values) -> np.ndarray:
+    """(n, 3) a table's per-range values at the ranges r (clipped to the cap)."""
+    rr = np.clip(r, 0, table.cap)
+    return np.stack([np.interp(rr, table.ranges, values[:, c]) for c in range(3)], axis=-1)
+
+
+def extrapolation_spread(water: CorrectionWater, *, ranges=GREY_RANGES_M,
+                         max_gain: float = MAX_GAIN) -> dict | None:
+    """The ΔE00 a depth outside the measured ones may cost: an 18 % grey corrected with the
+    measured veiling light, seen with the veil the model predicts at the photo's depth.
+
+    Parameters
+    ----------
+    water : measure.correctwater.CorrectionWater
+        Its ``extrapolated`` and ``span``.
+    ranges : sequence of float, optional
+        Ranges (m) of the grey (default :data:`GREY_RANGES_M`).
+    max_gain : float, optional
+        The correction's cap.
+
+    Returns
+    -------
+    dict or None
+        ``depth_m``, ``measured_depth_m`` (the nearest measured), ``veil_ratio`` (3,),
+        ``grey_de00`` [{range_m, de00}], ``method``; None when the depth is not extrapolated.
+    """
+    if water.extrapolated is None:
+        return None
+    near = float(np.clip(water.depth, *water.span))
+    r0 = [water.distance]
+    ratio = _veil_shape(water, r0)[0] / _veil_shape(dataclasses.replace(water, depth=near), r0)[0]
+    ratio = np.where(np.isfinite(ratio), ratio, 1.0)
+    used = correction_table(water, max_gain=max_gain)
+    r = np.asarray(ranges, float)
+    air = water.setup.white_response
+    seen = (used.gain * GREY_REFLECTANCE * _interp(used, r, used.transmission) * air
+            + ratio * _interp(used, r, used.veil))
+    de = _de(_lab(water.setup, used.apply(seen, r)), _lab(water.setup, GREY_REFLECTANCE * air))
+    return {"method": "an 18 % grey corrected with the measured veiling light, seen with it "
+                      "scaled by the model's veil at the photo's depth over the nearest measured "
+                      "depth's; CIEDE2000 against the grey in air",
+            "depth_m": water.depth, "measured_depth_m": near, "veil_ratio": ratio.tolist(),
+            "grey_de00": [{"range_m": float(a), "de00": float(d)} for a, d in zip(r, de)]}

@@ -32,6 +32,8 @@ TIFF_EXTENSIONS = (".tif", ".tiff")
 RAW_EXTENSIONS = (".dng", ".nef", ".cr2", ".cr3", ".arw", ".orf", ".rw2", ".raf", ".pef", ".srw")
 #: EXIF tags recorded (TIFF tag codes)
 EXIF_TAGS = {33434: "exposure_s", 33437: "f_number", 34855: "iso"}
+#: TIFF tags naming the camera that took the photo (TIFF tag codes; text)
+CAMERA_TAGS = {271: "make", 272: "model"}
 #: LibRaw's colour letters -> the model's channel index (both greens of a Bayer CFA are green)
 CHANNEL_OF_LETTER = {"R": 0, "G": 1, "B": 2}
 #: Full scale of a 16-bit image (the ``uint16`` output of :func:`demosaic`)
@@ -61,6 +63,8 @@ class Photo:
         The black level that was subtracted per channel, raw units.
     exposure : dict
         ``exposure_s`` (s), ``f_number``, ``iso`` where the file has them.
+    camera : dict
+        ``make`` and ``model`` (TIFF/EXIF Make and Model) where the file has them.
     """
 
     path: str
@@ -71,6 +75,7 @@ class Photo:
     white: np.ndarray
     black: np.ndarray
     exposure: dict = field(default_factory=dict)
+    camera: dict = field(default_factory=dict)
 
     @property
     def size(self) -> tuple:
@@ -78,8 +83,20 @@ class Photo:
         return (int(self.data.shape[1]), int(self.data.shape[0]))
 
 
-def _exif(path) -> dict:
-    """Exposure time (s), f-number and ISO from the file's TIFF/EXIF tags, where present."""
+def _tag_value(val):
+    """A TIFF tag's value as a float (a rational divided out) or, for text, stripped text."""
+    if isinstance(val, bytes):
+        val = val.decode("ascii", "replace")
+    if isinstance(val, str):
+        return val.strip("\x00 ")
+    if isinstance(val, tuple) and len(val) == 2 and val[1]:
+        return val[0] / val[1]
+    return float(val[0] if isinstance(val, tuple) and len(val) >= 1 else val)
+
+
+def _exif(path) -> tuple:
+    """(exposure, camera): exposure time (s), f-number and ISO (:data:`EXIF_TAGS`), and Make
+    and Model (:data:`CAMERA_TAGS`) from the file's TIFF/EXIF tags, where present."""
     import tifffile
 
     out = {}
@@ -92,18 +109,14 @@ def _exif(path) -> dict:
                 if exif is not None and isinstance(exif.value, dict):
                     pools.append({k: v for k, v in exif.value.items()})
                 for pool in pools:
-                    for code, name in EXIF_TAGS.items():
+                    for code, name in (EXIF_TAGS | CAMERA_TAGS).items():
                         val = pool.get(code, pool.get(tifffile.TIFF.TAGS.get(code, "")))
-                        if val is None or name in out:
-                            continue
-                        if isinstance(val, tuple) and len(val) == 2 and val[1]:
-                            val = val[0] / val[1]
-                        elif isinstance(val, tuple) and len(val) >= 1:
-                            val = val[0]
-                        out[name] = float(val)
+                        if val is not None and name not in out:
+                            out[name] = _tag_value(val)
     except Exception:  # not a TIFF container: no metadata, which is allowed
-        return {}
-    return out
+        return {}, {}
+    return ({n: out[n] for n in EXIF_TAGS.values() if n in out},
+            {n: out[n] for n in CAMERA_TAGS.values() if out.get(n)})
 
 
 def read_image(path, *, black_level=None, white_level=None) -> Photo:
@@ -123,7 +136,8 @@ def read_image(path, *, black_level=None, white_level=None) -> Photo:
     Returns
     -------
     Photo
-        The image in raw units with the black level subtracted, its clip mask and exposure.
+        The image in raw units with the black level subtracted, its clip mask, exposure and
+        camera (EXIF Make and Model).
 
     Raises
     ------
@@ -183,7 +197,7 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
         unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
     black3 = np.array([blacks[[i for i in used if lut[i] == c]].mean()
                        if any(lut[i] == c for i in used) else np.nan for c in range(3)])
-    return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, _exif(p))
+    return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, *_exif(p))
 
 
 def _read_tiff(p: Path, black_level, white_level) -> Photo:
@@ -203,7 +217,7 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
     black = _levels("black_level", 0.0 if black_level is None else black_level, 3)
     clipped = np.any(rgb >= white, axis=-1)
     data = rgb.astype(np.float32) - black.astype(np.float32)
-    return Photo(str(p), "rgb", data, None, clipped, white - black, black, _exif(p))
+    return Photo(str(p), "rgb", data, None, clipped, white - black, black, *_exif(p))
 
 
 def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> np.ndarray:

@@ -27,7 +27,7 @@ from sca.budget import parse_sd
 from sca.budget_defaults import MEASURED_CHART_PATCH
 
 from .auxiliary import auxiliary_record
-from .camera import Profile, camera_setup, chart_digest, load_profile, read_chart_reflectance
+from .camera import Profile, camera_record, camera_setup, chart_digest, load_profile, read_chart_reflectance
 from .chart import (
     LAYOUTS,
     ChartLayout,
@@ -91,7 +91,9 @@ class Measurement:
         (dimensionless; lower, upper): from the attenuation coefficient's own interval and the
         budget's sd of the path length (conservative where the geometry is uncertain).
     camera : dict
-        The camera, its profile and the illuminant used.
+        The camera (its curves' name and digest, the photo's EXIF Make and Model), its
+        profile (gains, file path, digest) and the illuminant used
+        (:func:`measure.camera.camera_record`).
     photo : Photo
         The photograph.
     setup : forward.ChartSetup
@@ -477,8 +479,9 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
         raise InputError("mode", f"must be one of {sca.MODES}, got {mode!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
+    profile_path = None
     if isinstance(profile, (str, bytes)) or hasattr(profile, "__fspath__"):
-        profile = load_profile(profile)
+        profile_path, profile = os.path.abspath(os.fsdecode(profile)), load_profile(profile)
     if profile is not None and not isinstance(profile, Profile):
         raise InputError("profile", "expected a measure.Profile or the path of a profile JSON")
     depth = validate.scalar("depth", depth)
@@ -553,11 +556,8 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     fitted = _fitted(est, fit_setup, water, depth, distance)
     gains, offset = correction(est, setup, sample.rgb[:, WHITE_PATCH])
     band = _band(est, depth, distance)
-    cam = {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),
-           "profile": None if profile is None else {"gains": profile.gains,
-                                                    "illuminant": profile.illuminant,
-                                                    "image": profile.image},
-           "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
+    cam = camera_record(camera, quantal=quantal, illuminant=illuminant, profile=profile,
+                        profile_path=profile_path, photo=photo)
     inputs = {"depth_m": depth, "distance_m": distance,
               "depth_sd": est.uncertain.get("depth"), "distance_sd": est.uncertain.get("distance"),
               "uncertain": dict(est.uncertain),

@@ -80,33 +80,29 @@ def add_parser(sub):
                    help="the TIFFs lossless deflate (default), uncompressed, or none")
     p.add_argument("--no-jpeg", action="store_true", help="do not write corrected.jpg")
     p.add_argument("--uncertainty", action="store_true",
-                   help="also the ΔE00 spread over the water's 95 %% intervals (correction.json)")
+                   help="also the ΔE00 spread over the water's 95 %% intervals, and what a depth "
+                        "outside the measured ones may cost (correction.json)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an output folder that holds another photo's results")
     p.add_argument("--camera", default=None,
-                   help="camera name or CSV (default: the measurement's; joint.json: Nikon 5100 "
-                        "(NPL))")
+                   help="camera name or CSV (default: the water's recorded camera; a photo of "
+                        "another camera (EXIF Make/Model) is refused without it)")
     p.add_argument("--quantal", action="store_true", help="the camera curves act on photons")
-    p.add_argument("--profile", default=None, help="camera profile from uw3p calibrate")
-    p.add_argument("--illuminant", default=None, help="surface illuminant (default D65)")
+    p.add_argument("--profile", default=None,
+                   help="camera profile from uw3p calibrate (default: the one the water was "
+                        "measured with, at its recorded path)")
+    p.add_argument("--illuminant", default=None,
+                   help="surface illuminant (default the water's, D65)")
     p.add_argument("--black-level", type=float, default=None, help="override the file's, raw units")
     p.add_argument("--white-level", type=float, default=None, help="override the file's, raw units")
     p.set_defaults(func=run)
     return p
 
 
-def _setup(args):
-    """The camera set-up the options ask for (None: the measurement's own)."""
-    if args.camera is None and args.profile is None and args.illuminant is None \
-            and not args.quantal:
-        return None
-    import forward
-    import measure
-
-    prof = measure.load_profile(args.profile) if args.profile else None
-    return measure.camera_setup(args.camera or forward.DEFAULT_CAMERA, quantal=args.quantal,
-                                illuminant=args.illuminant,
-                                gains=None if prof is None else prof.gains)
+def _camera_options(args) -> dict:
+    """The camera options given (None: the water's recorded camera and calibration)."""
+    return {"camera": args.camera, "quantal": True if args.quantal else None,
+            "illuminant": args.illuminant, "profile": args.profile}
 
 
 def _exposure(args, photo, water_path):
@@ -146,7 +142,7 @@ def run(args, out, err) -> int:
     ValueError
         Bad input, naming the option (``--water``, ``--range``, ``--out``, ...).
     """
-    from measure.correct import MAX_GAIN, correct_image, seathru_coefficients
+    from measure.correct import MAX_GAIN, applied, correct_image, seathru_coefficients
     from measure.correct_output import NOT_MODELLED, write_corrected
 
     check_spectra_args(args)
@@ -164,16 +160,18 @@ def run(args, out, err) -> int:
     photo = read_photo(args, src)
     corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
                          max_range=args.max_range, unknown=args.unknown, white=args.white,
-                         linear=args.tiff != "none", setup=_setup(args), depth=args.depth,
-                         photo=args.photo, exposure_ratio=_exposure(args, photo, args.water))
+                         linear=args.tiff != "none", depth=args.depth, photo=args.photo,
+                         exposure_ratio=_exposure(args, photo, args.water), **_camera_options(args))
     record = {"image": str(src), "range": {"given": str(args.range)} | corr.ranges,
               "seathru": seathru_coefficients(corr.table), "notes": corr.notes,
               "not_modelled": list(NOT_MODELLED), "white_Y": args.white,
               "command": getattr(args, "command_line", ""), "version": __version__}
+    record.update(applied(corr.table, args.water))
     if args.uncertainty:
-        from measure.correct_uncertainty import correction_spread
+        from measure.correct_uncertainty import correction_spread, extrapolation_spread
 
-        record["uncertainty"] = correction_spread(corr.table.water)
+        record["uncertainty"] = correction_spread(corr.table.water) | {
+            "extrapolation": extrapolation_spread(corr.table.water)}
     written = write_corrected(corr, args.out, record=record, version=__version__,
                               tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite,
                               inputs=inputs)

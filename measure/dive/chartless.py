@@ -7,7 +7,10 @@ EXIF or the default), along its range (its ``range_map``, else ``range_m``, else
 ``distance_m``), with the veiling light and gain of the dive photo nearest in depth, scaled by
 the two photos' EXIF exposure ratio where both are known. Its folder (corrected_srgb.tif,
 corrected.jpg, corrected.tiff, correction.json, complete.json) is written whole or not at all,
-its row's status becomes "corrected with the dive's water". complete.json records the frame's
+its row's status becomes "corrected with the dive's water", its ``reliable`` and ``flags`` those
+of the joint water (``extrapolated`` added when the frame's depth lies outside the dive's
+photos' depths, by at most :data:`measure.correctwater.DEPTH_EXTRAPOLATION_MAX_M`; a frame
+farther is not corrected and its row says why). complete.json records the frame's
 key and the joint water's digest: a rerun with the same inputs and the same joint water leaves
 it as it is; a changed joint water corrects it again.
 """
@@ -39,6 +42,13 @@ def _reference(joint_data, records, depth):
     return name, rec
 
 
+def _water_verdict(joint_data: dict, extrapolated) -> dict:
+    """A corrected frame's ``reliable`` and ``flags``: the joint water's, and ``extrapolated``
+    when the frame's depth lies outside the dive's measured depths."""
+    flags = list(joint_data.get("flags") or []) + (["extrapolated"] if extrapolated else [])
+    return {"reliable": bool(joint_data.get("reliable", False)), "flags": " ".join(flags)}
+
+
 def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, version="",
                    command="", tiff="compressed") -> int:
     """Correct the chartless frames of a dive with its joint water (rows updated in place).
@@ -68,7 +78,7 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
     int
         The number of frames corrected now.
     """
-    from ..correct import correct_image, seathru_coefficients
+    from ..correct import applied, correct_image, seathru_coefficients
     from ..correct_output import NOT_MODELLED, write_corrected
     from ..correctwater import exposure_ratio
     from ..image import read_image
@@ -86,6 +96,7 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
         job = jobs.get(row["image"])
         marker = read_marker(row["out"]) if row.get("out") else None
         if row["status"] == CORRECTED and marker is not None and marker.get("water") == digest:
+            row.update(_water_verdict(joint_data, marker.get("extrapolated")))
             continue  # corrected earlier with this very water
         inputs = job["inputs"] if job else {k: row.get(k) for k in
                                             ("depth_m", "distance_m", "range_m", "range_map")}
@@ -102,13 +113,16 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
             record = {"image": row["image"], "range": {"given": str(correction_range(inputs))}
                       | corr.ranges, "seathru": seathru_coefficients(corr.table),
                       "notes": corr.notes, "not_modelled": list(NOT_MODELLED),
-                      "water_digest": digest, "command": command, "version": version}
+                      "water_digest": digest, "command": command, "version": version
+                      } | applied(corr.table)
             write_corrected(corr, row["out"], record=record, version=version, tiff=tiff,
-                            overwrite=True, marker={"key": key, "water": digest,
-                                                    "corrected": True})
+                            overwrite=True, marker={
+                                "key": key, "water": digest, "corrected": True,
+                                "extrapolated": corr.table.water.extrapolated is not None})
         except ValueError as exc:
             row["status"], row["error"] = "no chart", f"no chart; not corrected: {exc}"
             continue
         row["status"], row["error"] = CORRECTED, "; ".join(corr.notes)
+        row.update(_water_verdict(joint_data, corr.table.water.extrapolated))
         done += 1
     return done

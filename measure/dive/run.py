@@ -582,7 +582,10 @@ def _joint(rows, records, root, options, measured):
         fit = joint_mod.fit_joint(good, setup=setup, water=options.get("water"), auxiliary=aux)
     except ValueError as exc:
         return None, None, None, f"not fitted: {exc}"
-    data = strict_json(fit.to_dict() | {"auxiliary": auxiliary_record(
+    # the camera the dive was measured with (every photo's record holds the run's)
+    camera = next((records[r["image"]].get("camera") for r in rows
+                   if r["status"] in MEASURED and r["image"] in records), None)
+    data = strict_json(fit.to_dict() | {"camera": camera, "auxiliary": auxiliary_record(
         aux, dict.fromkeys(["cdom", "secchi"] + [f"kd {float(b):g}" for b in aux.get("kd", {})],
                            "the dive's readings combined"))})
     path = root / "joint.json"
