@@ -44,7 +44,7 @@ from .auxiliary import auxiliary_observations
 from .consistency import finalize_batch, nuisance_pulls, objectives_alone
 from .budget import resolve_budget, variance_shares
 from .fitspec import fit_spec
-from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
+from .intervals import BOUND_FAILED, BOUND_FOUND, BOUND_OPEN, profile_intervals
 from .limits import EXACT_FIT, MAX_RGB
 from .charts import ChartProblem
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
@@ -761,6 +761,10 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
         # the intervals of the free names; the nuisances are profiled, not bounded
         ends, codes = profile_intervals(prob, theta, f, delta, H, caps,
                                         which=range(len(spec.names)))
+        # the upper ends of C and a_CDOM (LM coordinates) where found: the derived quantities'
+        # intervals hold their profile points where C or a_CDOM sits at its bound
+        upper = {j: np.where(codes[:, j, 1] == BOUND_FOUND, ends[:, j, 1], np.nan)
+                 for j, n in enumerate(spec.names) if n in ("chl", "cdom")}
         if prob.chl_col >= 0:
             ends[:, prob.chl_col] = np.where(ends[:, prob.chl_col] > 0,
                                              ends[:, prob.chl_col], 0.0) ** (1.0 / mdl.e0)
@@ -770,7 +774,8 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     res["ci_codes"] = _chl_cdom_codes(spec.names, codes)
     # what the photos measure: the water's optical properties with their own intervals
     sigma2 = 1.0 if noise_known else f / np.maximum(dof, 1)
-    derived = derived_from_fit(prob, theta, H, mdl.water, mdl.full.wavelengths, sigma2)
+    derived = derived_from_fit(prob, theta, H, mdl.water, mdl.full.wavelengths, sigma2,
+                               ends=upper if intervals and spec.names else None)
     for name, (value, ci) in derived["quantities"].items():
         res[f"q:{name}"], res[f"qci:{name}"] = value, ci
     res["c"], res["c_ci"] = derived["c"], derived["c_ci"]

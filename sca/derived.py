@@ -18,7 +18,9 @@ h(theta) of the fitted parameters, computed by the one physics (:mod:`forward.wa
 Intervals: the delta method on the logarithm (h > 0): sd(ln h) = sqrt(grad h^T Sigma grad h) / h,
 with Sigma the covariance of the fitted parameters (the uncertainty budget's nuisances included)
 from the one rule (:func:`sca.model.covariance_from_information`), the 95 % interval
-h exp(-/+ 1.96 sd(ln h)). For a well determined quantity (a few percent) this is the profile
+h exp(-/+ 1.96 sd(ln h)); where C or a_CDOM sits at its lower bound, widened to hold h at the
+profile points of their upper ends (:func:`bound_points`, decision
+0066-derived-intervals-at-the-bounds). For a well determined quantity (a few percent) this is the profile
 likelihood's interval to second order; its coverage is tested on worlds the estimator did not
 make (HONESTY.md). Where several path models are supported the intervals span them, as C's.
 
@@ -34,9 +36,9 @@ from scipy import special
 
 from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, NONWATER_ABSORPTION_TERMS
 
-__all__ = ["BANDS_NM", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF", "QUANTITIES", "SPECTRUM_BLOCK",
-           "VERDICTS", "delta_interval", "derived_from_fit", "describe", "quantity_names",
-           "quantity_sd", "quantity_values", "spectrum_values", "verdict", "verdicts_of"]
+__all__ = ["BANDS_NM", "BOUND_POINT_MAX_ITER", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF",
+           "QUANTITIES", "SPECTRUM_BLOCK", "VERDICTS", "bound_points", "delta_interval",
+           "derived_from_fit", "describe", "quantity_names", "quantity_sd", "quantity_values", "spectrum_values", "verdict", "verdicts_of"]
 
 #: The standard bands of the beam attenuation, nm (ocean-colour bands: SeaWiFS/MODIS 443, 490,
 #: 555, 670).
@@ -262,7 +264,82 @@ def _gradient(prob, names, chain, derivs, shape):
     return grad
 
 
-def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry=None) -> dict:
+#: Levenberg-Marquardt iterations of each profile point at a parameter's interval end
+#: (:func:`bound_points`).
+BOUND_POINT_MAX_ITER = 100
+
+
+def bound_points(prob, theta, ends: dict) -> list:
+    """The profile points at the upper ends of parameters whose estimate sits at its lower
+    bound: for each column j of ``ends``, theta with column j held at its upper end and every
+    other column at its optimum there (the one Levenberg-Marquardt), for the units where a
+    column of ``ends`` is at its bound; theta itself elsewhere.
+
+    A derived quantity h is, at such a point, a value the data allow (the point lies on the
+    boundary of the parameter's 95 % profile-likelihood region), and the delta method at the
+    bound cannot see it: at C = 0 the terms of C that grow faster than u = C^e0 (b_p, a_NAP)
+    have no derivative, so c(670)'s interval collapsed to the water's own (decision
+    0066-derived-intervals-at-the-bounds).
+
+    Parameters
+    ----------
+    prob : sca.problem.Problem
+    theta : ndarray, (N, p)
+        The optima.
+    ends : dict
+        Column j -> (N,) its upper interval end (theta's coordinates; non-finite: none).
+
+    Returns
+    -------
+    list of ndarray, (N, p)
+        One point per column of ``ends``.
+    """
+    from .lm import LM_TOL, levenberg_marquardt
+
+    theta = np.asarray(theta, float)
+    at = np.zeros(theta.shape[0], bool)
+    for j in ends:
+        at |= theta[:, j] <= prob.lower[j]
+    out = []
+    for j, upper in ends.items():
+        upper = np.asarray(upper, float).reshape(-1)
+        rows = np.flatnonzero(at & np.isfinite(upper) & (upper > theta[:, j]))
+        point = theta.copy()
+        if rows.size:
+            start = theta[rows].copy()
+            start[:, j] = upper[rows]
+            hold = np.zeros(start.shape, bool)
+            hold[:, j] = True
+            point[rows], _, _, _ = levenberg_marquardt(
+                prob, start, max_iter=BOUND_POINT_MAX_ITER, tol=LM_TOL,
+                f_exact=np.zeros(rows.size), hold=hold, rows=rows)
+        out.append(point)
+    return out
+
+
+def _widen(ci, values):
+    """``ci`` (S + (2,)) widened to hold ``values`` (S) where they are finite."""
+    ok = np.isfinite(values)
+    lo = np.where(ok, np.minimum(ci[..., 0], values), ci[..., 0])
+    hi = np.where(ok, np.maximum(ci[..., 1], values), ci[..., 1])
+    return np.stack([lo, hi], axis=-1)
+
+
+def _water_params(prob, theta, geometry):
+    """The water's parameters (and the geometry) of the units at ``theta``."""
+    N = theta.shape[0]
+    params = prob.params(np.arange(N), theta)
+    out = {k: np.asarray(v, float).reshape(N) for k, v in params.items()
+           if k in ("chl", "cdom") or k in COEFFICIENT_PARAMS}
+    if geometry is None:
+        out.update({k: np.asarray(params[k], float).reshape(N) for k in ("depth", "distance")})
+    else:
+        out.update({k: np.broadcast_to(np.asarray(v, float), (N,)) for k, v in geometry.items()})
+    return params, out
+
+
+def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry=None,
+                     ends=None) -> dict:
     """Every derived quantity of the fits of ``prob`` at ``theta`` with its 95 % interval.
 
     Parameters
@@ -284,6 +361,10 @@ def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry
     geometry : dict, optional
         'depth' and 'distance' (N,) at which the path's coefficient is evaluated, held (a
         dive's photos each have their own: its median); default the fits' own, free or not.
+    ends : dict, optional
+        Column j -> (N,) the upper end of its 95 % interval (theta's coordinates): where a
+        column of ``ends`` sits at its lower bound, every interval also holds the quantity at
+        the profile points of those ends (:func:`bound_points`).
 
     Returns
     -------
@@ -294,26 +375,22 @@ def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry
     from .model import covariance_from_information
 
     N = theta.shape[0]
-    idx = np.arange(N)
-    params = prob.params(idx, theta)
     names = prob.names
+    params, water_params = _water_params(prob, theta, geometry)
     chain = prob.chain(params)
     cov = covariance_from_information(H) * np.asarray(sigma2, float).reshape(-1, 1, 1)
-    water_params = {k: np.asarray(v, float).reshape(N) for k, v in params.items()
-                    if k in ("chl", "cdom") or k in COEFFICIENT_PARAMS}
-    wrt = prob.free
-    if geometry is None:
-        water_params.update({k: np.asarray(params[k], float).reshape(N)
-                             for k in ("depth", "distance")})
-    else:
-        water_params.update({k: np.broadcast_to(np.asarray(v, float), (N,))
-                             for k, v in geometry.items()})
-        wrt = tuple(n for n in wrt if n not in geometry)
+    wrt = prob.free if geometry is None else tuple(n for n in prob.free if n not in geometry)
+    points = [_water_params(prob, t, geometry)[1] for t in bound_points(prob, theta, ends)] \
+        if ends else []
     out = {"quantities": {}, "wavelengths": np.asarray(wavelengths, float)}
+    at_points = [quantity_values(water, p) for p in points]
     for name, (value, derivs) in quantity_values(water, water_params, wrt).items():
         value = np.broadcast_to(value, (N,)).astype(float)
         grad = _gradient(prob, names, chain, derivs, (N,))
-        out["quantities"][name] = (value, delta_interval(value, grad, cov))
+        ci = delta_interval(value, grad, cov)
+        for q in at_points:
+            ci = _widen(ci, np.broadcast_to(q[name][0], (N,)))
+        out["quantities"][name] = (value, ci)
     q = np.size(wavelengths)
     c = np.empty((N, q))
     ci = np.empty((N, q, 2))
@@ -325,6 +402,10 @@ def derived_from_fit(prob, theta, H, water, wavelengths, sigma2=1.0, *, geometry
         grad = _gradient(prob, names, chain[sl], derivs, (n, q))
         c[sl] = val
         ci[sl] = delta_interval(val, grad, cov[sl])
+        for p in points:
+            at, _ = spectrum_values(water, {k: np.asarray(v)[sl] for k, v in p.items()},
+                                    wavelengths)
+            ci[sl] = _widen(ci[sl], at)
     out["c"], out["c_ci"] = c, ci
     return out
 

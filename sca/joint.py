@@ -280,14 +280,22 @@ def _intervals(prob: DiveProblem, theta, f_min):
 
 
 # --------------------------------------------------------------------------- set-up
-def _derived(prob: DiveProblem, theta, depth, distance) -> dict:
+def _derived(prob: DiveProblem, theta, depth, distance, intervals) -> dict:
     """What the dive measures (:func:`sca.derived.derived_from_fit`) at one depth and distance
-    (the photos' median), on the full grid."""
+    (the photos' median), on the full grid; ``intervals`` (:func:`_intervals`) give the upper
+    ends of C and a_CDOM whose profile points the quantities' intervals hold where C or a_CDOM
+    sits at its bound."""
     H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H
     full = prob.models[0].full
+    ends = {}
+    for name in ("chl", "cdom"):
+        hi = intervals[name][1]
+        if np.isfinite(hi):
+            ends[int(prob.layout[name][0])] = np.array(
+                [u_from_chl(hi, prob.models[0].e0) if name == "chl" else hi])
     return derived_from_fit(prob, theta[None], H, prob.water, full.wavelengths,
                             geometry={"depth": np.array([depth]),
-                                      "distance": np.array([distance])})
+                                      "distance": np.array([distance])}, ends=ends)
 
 
 def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_correlation):
@@ -499,7 +507,8 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         flags += fl
         for k in cis:
             cis[k] = [min(cis[k][0], ints[k][0]), max(cis[k][1], ints[k][1])]
-        derived[pm] = _derived(fits[pm][0], fits[pm][1], np.median(depth), np.median(distance))
+        derived[pm] = _derived(fits[pm][0], fits[pm][1], np.median(depth), np.median(distance),
+                               ints)
     if ok_mask.sum() > 1:
         flags.append(SPAN_FLAG)
         notes.append("the intervals span the path models the data cannot tell apart: "

@@ -230,7 +230,13 @@ def _derived(est, st, dof, intervals) -> dict:
     theta = _theta(est, st, prob)
     H = evaluate(prob, np.arange(1), theta, True).H
     sigma2 = 1.0 if st.noise_known else st.f / max(dof, 1)
-    d = derived_from_fit(prob, theta, H, est.water, st.mdl.wavelengths, sigma2)
+    ends = {}  # the upper ends of C and a_CDOM, LM coordinates (sca.derived.bound_points)
+    for n in ("chl", "cdom"):
+        if n in est.spec.names and n in intervals and np.isfinite(intervals[n][1]):
+            hi = intervals[n][1]
+            ends[prob.names.index(n)] = np.array([u_from_chl(hi, st.mdl.e0) if n == "chl"
+                                                  else hi])
+    d = derived_from_fit(prob, theta, H, est.water, st.mdl.wavelengths, sigma2, ends=ends)
     out.update(quantities={k: float(v[0]) for k, (v, _) in d["quantities"].items()},
                quantity_intervals={k: tuple(float(a) for a in ci[0])
                                    for k, (_, ci) in d["quantities"].items()},
