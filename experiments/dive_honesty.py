@@ -29,7 +29,7 @@ photo alone by :func:`sca.estimate_batch` (the same budget). Two kinds of dive:
    (must be 0).
 
 The report gives, for each kind, the fraction reliable, each quantity's coverage (C,
-a_CDOM(440), the path's attenuation coefficient at 443-670 nm, a_nw(440), K_d(490)) with its
+a_CDOM(440), the path's attenuation coefficient at 443-670 nm, a_nw(440)) with its
 binomial test, the median joint 95 % half-width of each, and the joint C interval's width
 against the median single photo's.
 """
@@ -431,8 +431,8 @@ def _prior_section(s: dict, command: str) -> list[str]:
         "dive fitted by `sca.joint.estimate_joint` (default budget, no calibration), each photo "
         "alone by `sca.estimate_batch` (same budget). Coverage among the reliable dives is "
         "tested **two-sided** (the world is drawn from the budget's own priors, so the "
-        "intervals must hold the truth 95 % of the time, no less and no more; K_d(490) is "
-        "reported, not tested: HONESTY.md says why). Half-width (hi - lo) / 2 / truth. Seed "
+        "intervals must hold the truth 95 % of the time, no less and no more; every quantity "
+        "shown is tested, K_d(490) is not published). Half-width (hi - lo) / 2 / truth. Seed "
         f"{s['seed']}, {s['workers']} worker processes, {s['seconds']:.0f} s; a joint fit took "
         f"{s['joint_s_median']:.1f} s (median).",
         "",

@@ -145,17 +145,13 @@ NOMINAL_JOINT = 0.90
 #: many misses; two-sided: too many or too few).
 CONSISTENCY_P = 0.01
 #: Every reported quantity (the key of ``BatchEstimate.quantities`` or 'chl', 'cdom') and its
-#: label: C, a_CDOM(440), the path's attenuation coefficient at the standard bands, the
-#: non-water absorption at 440 nm and K_d(490) (:mod:`sca.derived`).
+#: label: C, a_CDOM(440), the path's attenuation coefficient at the standard bands and the
+#: non-water absorption at 440 nm (:mod:`sca.derived`; K_d(490) is not published: decision
+#: 0067-kd-not-published).
 QUANTITIES = (("chl", "C"), ("cdom", "a_CDOM"), ("c_443", "c(443)"), ("c_490", "c(490)"),
-              ("c_555", "c(555)"), ("c_670", "c(670)"), ("a_nw_440", "a_nw(440)"),
-              ("kd_490", "K_d(490)"))
-#: The quantities whose coverage the acceptance tests: all but K_d(490), which the renderer
-#: and the model define differently (the renderer's b_b = b_w / 2 + 0.0183 b_p, Petzold's
-#: ratio; the model's b_w / 2 + eq 12, eq 12 taken as the particles' backscattering after
-#: NOMAD: decision 0015-eq12-backscattering), and which a photo on the
-#: paper's path does not see: reported, not tested.
-TESTED = ("chl", "cdom", "c_443", "c_490", "c_555", "c_670", "a_nw_440")
+              ("c_555", "c(555)"), ("c_670", "c(670)"), ("a_nw_440", "a_nw(440)"))
+#: The quantities whose coverage the acceptance tests: every one a user is shown.
+TESTED = tuple(k for k, _ in QUANTITIES)
 #: Groups whose worlds are drawn from the budget's own priors: their coverage is tested on
 #: both sides (too few misses is a failure too: the intervals are wider than the budget
 #: says). Every other world is inside the budget but less perturbed (clean), deliberately at
@@ -415,14 +411,13 @@ def true_quantities(rendered: dict, path: str = "paper") -> dict:
         'chl', 'cdom'; 'c_443' ... 'c_670': the path's attenuation coefficient tau_true /
         (depth + distance) at the band (:func:`experiments.independent_world.path_coefficient`;
         the beam attenuation c on the paper's path), m^-1; 'a_nw_440': a - a_w at 440 nm;
-        'kd_490': the renderer's K_d at 490 nm.
+        (K_d(490) is not published: decision 0067-kd-not-published.)
     """
     t, o = rendered["truth"], rendered["optics"]
     wl = rendered["wavelengths"]
     coef = iw.path_coefficient(o, t["depth"], t["distance"], path)
     out = {"chl": float(t["chl"]), "cdom": float(t["cdom"]),
-           "a_nw_440": float(np.interp(440.0, wl, o["a"] - o["a_w"])),
-           "kd_490": float(np.interp(490.0, wl, o["K_d"]))}
+           "a_nw_440": float(np.interp(440.0, wl, o["a"] - o["a_w"]))}
     for key, _ in QUANTITIES:
         if key.startswith("c_"):
             out[key] = float(np.interp(float(key[2:]), wl, coef))
@@ -1151,8 +1146,8 @@ def _intro(out) -> str:
         f"{PIXELS_PER_PATCH} pixels per patch with photon and read noise. Every reported "
         "quantity is scored against the world's own value: C, a_CDOM(440), the path's "
         "attenuation coefficient c at 443, 490, 555 and 670 nm (tau_true / (depth + distance): "
-        "the beam attenuation on the paper's path), the non-water absorption a_nw(440) and "
-        "K_d(490) (`sca.derived`). Coverage, confident wrong (truth outside the C or the "
+        "the beam attenuation on the paper's path) and the non-water absorption a_nw(440) "
+        "(`sca.derived`). Coverage, confident wrong (truth outside the C or the "
         "a_CDOM interval) and half-widths are among the reliable charts; a half-width is "
         "(hi - lo) / 2 / truth, its median the headline beside the coverage. "
         f"Run time {out['elapsed_s']:.0f} s ({_timing(out['results'])}).")
@@ -1173,10 +1168,8 @@ def _tests_text() -> str:
         "%; the ends of the paper's ranges and the geometry told wrong are deliberately at or "
         "beyond the budget's edges; garbage must not be reliable at all. Both 95 % intervals "
         "of C and a_CDOM together are tested one-sided against 90 % (Bonferroni: their joint "
-        "rate is only bounded). K_d(490) is reported and not tested: the renderer's K_d uses "
-        "Petzold's b_bp / b_p = 0.0183 on eq 12 while the model takes eq 12 as the particles' "
-        "backscattering (decision 0015-eq12-backscattering), and a photo "
-        "on the paper's path does not see K_d. A bold cell is a failed test.")
+        "rate is only bounded). Every quantity a user is shown is tested; K_d(490) is not "
+        "published (decision 0067-kd-not-published). A bold cell is a failed test.")
 
 
 #: An interval from 0 to this many times the truth: its half-width is (this / 2) x the truth.

@@ -4,7 +4,7 @@ and the JSON files.
 
 The quantities: C and a_CDOM(440) (the model's parameters), and what the photos measure best
 (:mod:`sca.derived`): the attenuation coefficient of the light's path at 443, 490, 555 and
-670 nm, the non-water absorption a_nw(440) and K_d(490).
+670 nm and the non-water absorption a_nw(440).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ __all__ = ["HINTS", "LABELS", "consistency_lines", "estimate_values", "one_line"
 #: name -> (label for people, units) of every reported quantity, in the order they are said.
 LABELS = {"chl": ("C", "mg m^-3"), "cdom": ("a_CDOM(440)", "m^-1"),
           **{k: (f"c({v[1]:.0f})" if k.startswith("c_") else
-                 {"a_nw_440": "a_nw(440)", "kd_490": "K_d(490)"}.get(k, k), "m^-1")
+                 {"a_nw_440": "a_nw(440)"}.get(k, k), "m^-1")
              for k, v in QUANTITIES.items()}}
 #: What would narrow C and a_CDOM when the data leave them open: where ('photo', 'chart',
 #: 'dive') -> name -> [(the auxiliary measurement it needs not to have been given, or None;

@@ -170,7 +170,9 @@ def nuisance_pulls(prob, theta) -> dict:
         p = pull[:, cols]
         top = p[np.arange(p.shape[0]), np.argmax(np.abs(p), axis=1)]
         if len(cols) > 1:  # Sidak: P_k = 1 - (1 - P_1)^k, as one column's pull
-            tail = -np.expm1(len(cols) * np.log1p(-special.erfc(np.abs(top) / np.sqrt(2.0))))
+            p1 = np.minimum(special.erfc(np.abs(top) / np.sqrt(2.0)), 1.0)
+            with np.errstate(divide="ignore"):  # P_1 = 1 (a pull of 0): P_k = 1
+                tail = -np.expm1(len(cols) * np.log1p(-p1))
             top = np.sign(top) * np.sqrt(2.0) * special.erfcinv(np.maximum(tail, 1e-300))
         out[name] = top
     return out

@@ -11,9 +11,13 @@ h(theta) of the fitted parameters, computed by the one physics (:mod:`forward.wa
   'absorption' the absorption a, for 'split' the path-weighted mean of K_d (down) and c (along
   the view). It is what the photo measures, whatever the path model: every supported model
   fits the same transmittance;
-* ``a_nw_440``: the absorption by everything but water at 440 nm (a_phi + a_CDOM + a_NAP), m^-1;
-* ``kd_490``: the diffuse attenuation of downwelling light, K_d = (a + b_b) / mu_d, m^-1 (the
-  water's, by the model, whatever the path model).
+* ``a_nw_440``: the absorption by everything but water at 440 nm (a_phi + a_CDOM + a_NAP), m^-1.
+
+K_d(490) is not published (decision 0067-kd-not-published): the model's K_d rests on eq 12 taken
+as the particles' backscattering and on K_d = (a + b_b) / mu_d, it is 1.26x the measured K_d in
+real water (REALWATER.md), and its intervals missed the truth of the independent renderer's
+dives in 22-78 % of them; a photo on the paper's path does not see it. A radiometer's K_d is
+still an input (:mod:`sca.auxiliary`).
 
 Intervals: the delta method on the logarithm (h > 0): sd(ln h) = sqrt(grad h^T Sigma grad h) / h,
 with Sigma the covariance of the fitted parameters (the uncertainty budget's nuisances included)
@@ -34,7 +38,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
-from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, NONWATER_ABSORPTION_TERMS
+from forward.water import COEFFICIENT_PARAMS, NONWATER_ABSORPTION_TERMS
 
 __all__ = ["BANDS_NM", "BOUND_POINT_MAX_ITER", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF",
            "QUANTITIES", "SPECTRUM_BLOCK", "VERDICTS", "bound_points", "delta_interval",
@@ -61,8 +65,6 @@ QUANTITIES = {
                       "m-1", "") for b in BANDS_NM},
     "a_nw_440": (NONWATER_ABSORPTION_TERMS, 440.0,
                  "absorption by everything but water at 440 nm", "m-1", ""),
-    "kd_490": (DIFFUSE_TERMS, 490.0, "diffuse attenuation of downwelling light K_d at 490 nm",
-               "m-1", "volume_attenuation_coefficient_of_downwelling_radiative_flux_in_sea_water"),
 }
 
 

@@ -260,7 +260,7 @@ def test_survey_names_the_coefficient_by_its_path_model():
     cf = sca.derived.PATH_CF["beam"]
     assert beam["attenuation_coefficient"].attrs["standard_name"] == cf
     assert beam["c_490"].attrs["standard_name"] == cf and beam["c_490"].attrs["units"] == "m-1"
-    assert beam["kd_490"].attrs["standard_name"] == sca.derived.QUANTITIES["kd_490"][4]
+    assert "kd_490" not in beam  # not published (decision 0067-kd-not-published)
     assert "standard_name" not in beam["a_nw_440"].attrs
     assert beam["attenuation_coefficient_bounds"].dims == ("photo", "wavelength", "nv")
     assert np.isinf(beam["attenuation_coefficient_bounds"].values[0, 2, 1])
@@ -458,8 +458,7 @@ def test_a_dives_metadata_readings_reach_each_photo_and_the_joint_fit(tmp_path, 
         assert ds["joint_attenuation_coefficient_bounds"].dims == ("wavelength", "nv")
         assert ds["joint_c_490"].attrs["units"] == "m-1"
         assert float(ds["joint_cdom"]) == pytest.approx(joint["cdom"])
-        assert ds["kd_490"].attrs["standard_name"].startswith("volume_attenuation_coefficient_of_"
-                                                              "downwelling")
+        assert "kd_490" not in ds and "joint_kd_490" not in ds  # decision 0067-kd-not-published
         assert ds["transmittance"].attrs["units"] == "1"
         assert str(ds["c_490_verdict"].values[0]) == "measured"
         assert math.isclose(float(ds["c_490_wavelength"]), 490.0)

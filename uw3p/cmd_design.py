@@ -50,7 +50,7 @@ SAY_MAX = 10.0
 #: coefficient; the others in any case; the Python names are accepted too).
 TARGET_NAMES = {"c": "c", "chl": "chl", "a_cdom": "cdom", "cdom": "cdom",
                 "c443": "c_443", "c490": "c_490", "c555": "c_555", "c670": "c_670",
-                "a_nw440": "a_nw_440", "a_nw": "a_nw_440", "kd490": "kd_490", "kd": "kd_490"}
+                "a_nw440": "a_nw_440", "a_nw": "a_nw_440"}
 #: The deepest chart a design considers is where the downwelling daylight at the most
 #: penetrating wavelength falls to this fraction of the surface's (decision 0064-daylight-reach)
 DAYLIGHT_FLOOR = 1e-4
@@ -58,8 +58,7 @@ DAYLIGHT_FLOOR = 1e-4
 PLAN_COLUMNS = ("image", "depth_m", "distance_m")
 #: How each target is named in the output.
 LABELS = {"chl": "C", "cdom": "a_CDOM(440)", "c": "c (443-670 nm)", "c_443": "c(443)",
-          "c_490": "c(490)", "c_555": "c(555)", "c_670": "c(670)", "a_nw_440": "a_nw(440)",
-          "kd_490": "K_d(490)"}
+          "c_490": "c(490)", "c_555": "c(555)", "c_670": "c(670)", "a_nw_440": "a_nw(440)"}
 
 
 def add_parser(sub):
@@ -89,7 +88,7 @@ def add_parser(sub):
     p.add_argument("--target", action="append", default=[], metavar="NAME=PCT",
                    help="a 95 %% half-width to reach, in %% of the value: C, a_CDOM, c (the "
                         "path's attenuation coefficient at 443, 490, 555 and 670 nm), c443, "
-                        "c490, c555, c670, a_nw440, kd490; repeatable (default "
+                        "c490, c555, c670, a_nw440; repeatable (default "
                         f"{DEFAULT_TARGET.replace('%', '%%')})")
     p.add_argument("--max-photos", type=int, default=12, metavar="N",
                    help="most photos of a protocol (default 12)")
@@ -154,7 +153,8 @@ def parse_target(text: str) -> tuple:
     key = {"C": "chl", "c": "c"}.get(key, key.lower())  # C is chlorophyll, c attenuation
     if key not in TARGET_NAMES and key not in LABELS:
         raise InputError("--target", f"unknown name {name.strip()!r}; choose from C, a_CDOM, c, "
-                         "c443, c490, c555, c670, a_nw440, kd490")
+                         "c443, c490, c555, c670, a_nw440 (K_d(490) is not published: "
+                         "decision 0067-kd-not-published)")
     try:
         pct = float(value.strip().rstrip("%").strip())
     except ValueError:

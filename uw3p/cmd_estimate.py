@@ -9,7 +9,7 @@ One chart is fitted by ``sca.estimate`` (``mode='lm'`` unless ``--mode`` says ot
 blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
 :mod:`uw3p.patchfile`. The default output is the result, its uncertainty budget and what the
 chart measures in words (measured, only an upper bound, not constrained: C, a_CDOM(440), the
-attenuation coefficient of the light's path at 443, 490, 555 and 670 nm, a_nw(440), K_d(490));
+attenuation coefficient of the light's path at 443, 490, 555 and 670 nm, a_nw(440));
 the coefficient's spectrum c(lambda) with its 95 % interval and the transmittance k(lambda) are
 in ``--json`` and in the ``--spectrum`` file. Measurements of the water besides the chart
 (``--cdom-sample``, ``--secchi``, ``--kd``) are fused in the fit. Exit status 0 when every
@@ -39,7 +39,7 @@ NAME = "estimate"
 BUFFERED = True
 #: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures, m^-1), as named
 #: in the outputs (plain data: the command's help imports no numpy).
-QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "a_nw_440", "kd_490")
+QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "a_nw_440")
 #: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel; after
 #: the earlier 22: the verdicts of C and a_CDOM and, for every quantity of
 #: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1).

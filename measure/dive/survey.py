@@ -136,7 +136,7 @@ def survey_dataset(rows, records, attrs=None, joint=None):
         interval ends): ``chl`` (mg m-3) and ``cdom`` (m-1 at 440 nm) with CF standard names
         and ``chl_bounds``/``cdom_bounds`` (95 % intervals); what each photo measures
         (:mod:`sca.derived`, m-1, each with ``<name>_bounds`` and ``<name>_verdict``): ``c_443``
-        ... ``c_670``, ``a_nw_440``, ``kd_490``, and the spectrum ``attenuation_coefficient``
+        ... ``c_670``, ``a_nw_440``, and the spectrum ``attenuation_coefficient``
         (photo, wavelength) with ``attenuation_coefficient_bounds`` (photo, wavelength, nv) --
         the CF name of the beam attenuation or the absorption coefficient where every photo's
         path model says which (:func:`path_standard_name`); ``transmittance`` (photo,
