@@ -57,7 +57,7 @@ from .model import (
     u_from_chl,
     upper_cap,
 )
-from .pathmodels import candidates, combine_batch
+from .pathmodels import candidates, combine_batch, supported
 from .projection import grid_best
 from .derived import derived_from_fit, quantity_names, verdicts_of
 from .quadrature import CERTIFY_SIGMA, reduction_error
@@ -382,14 +382,34 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
         out = _estimate_batch(rgb_stack, water=water, **kw)
         out.consistency, table = finalize_batch([out], np.zeros(len(out), int))
     else:
-        results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
-                                      **kw) for m in models}
-        out = combine_batch(results)
+        out, results = _over_path_models(rgb_stack, water, models, kw)
         best = np.array([models.index(m) for m in out.path_model], int)
         out.consistency, table = finalize_batch(list(results.values()), best)
     out.flags, out.reliable = _with_flags(out.flags, out.reliable, table)
     out.elapsed_s = time.perf_counter() - t0
     return out
+
+
+def _over_path_models(rgb_stack, water, models, kw):
+    """The candidates' estimates combined (:func:`sca.pathmodels.combine_batch`) in two passes:
+    every chart fitted under every model; then each model's intervals, derived quantities and
+    tests only on the charts where it is supported, its known gain's test only where it is the
+    chosen one (an unsupported model's are never read: the same result, less work)."""
+    waters = {m: dataclasses.replace(water, path_model=m) for m in models}
+    first = {m: _estimate_batch(rgb_stack, water=waters[m], plan=_Plan(fit_only=True), **kw)
+             for m in models}
+    objective = np.column_stack([first[m]["objective"] for m in models])
+    best, ok = supported(objective)
+    results = {}
+    for j, m in enumerate(models):
+        rows = np.flatnonzero(ok[:, j])
+        plan = _Plan(False, *(first[m][k][rows] for k in ("theta",)), best[rows] == j,
+                     *(first[m][k][rows] for k in ("it", "code", "full", "quadrature")))
+        est = _estimate_batch(rgb_stack, water=waters[m], subset=rows, plan=plan, **kw)
+        est.objective = first[m]["objective"]  # the support decided on the first pass's
+        est.consistency["alone"] = first[m]["alone"]
+        results[m] = est
+    return combine_batch(results), results
 
 
 def _with_flags(flags, reliable, table):
@@ -405,8 +425,11 @@ def _with_flags(flags, reliable, table):
 
 def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, illuminant,
                     reflectances, wavelengths, basis, water, fix, free, intervals, max_iter, tol,
-                    setup, engine, gain, uncertain, quadrature, auxiliary) -> BatchEstimate:
-    """:func:`estimate_batch` under one path model (``water``'s)."""
+                    setup, engine, gain, uncertain, quadrature, auxiliary, subset=None,
+                    plan=None):
+    """:func:`estimate_batch` under one path model (``water``'s); ``subset`` (index array):
+    only those charts, the others filled in (:func:`_scatter`); ``plan``: :class:`_Plan` of
+    those charts (the first pass returns {'objective', 'theta', 'alone'} only)."""
     t0 = time.perf_counter()
     setup = resolve_setup(setup, camera, illuminant, reflectances, wavelengths)
     validate.real("rgb_stack", rgb_stack)
@@ -457,13 +480,24 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
     obs = [o.rows(np.arange(N)) for o in auxiliary_observations(auxiliary, spec.water)]
     for o in obs:
         o.value, o.sd = np.broadcast_to(o.value, (N,)), np.broadcast_to(o.sd, (N,))
+    n_all = N
+    if subset is not None:  # the second pass: the charts this path model is supported on
+        subset = np.asarray(subset, np.int64)
+        M, scale, N = M[subset], scale[subset], subset.size
+        sig, sat = (None if a is None else a[subset] for a in (sig, sat))
+        geometry = {k: v[subset] for k, v in geometry.items()}
+        budget = None if budget is None else budget.rows(subset)
+        obs = [o.rows(subset) for o in obs]
     parts = [_solve_certified(mdl, spec, M[i:i + CHUNK], rows(sig, i),
                               {k: v[i:i + CHUNK] for k, v in geometry.items()},
                               scale[i:i + CHUNK], int(max_iter), tol, bool(intervals),
                               None if budget is None else budget.rows(slice(i, i + CHUNK)),
                               quadrature == "reduced",
-                              [o.rows(slice(i, i + CHUNK)) for o in obs])
+                              [o.rows(slice(i, i + CHUNK)) for o in obs],
+                              None if plan is None else plan.rows(slice(i, i + CHUNK)))
              for i in range(0, N, CHUNK)] or [_empty(mdl, spec)]
+    if plan is not None and plan.fit_only:
+        return _first_pass(parts, 1.0 if sig is not None else scale ** 2)
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]
            if key not in ("values", "intervals", "budget")}
     values = {k: np.concatenate([p["values"][k] for p in parts]) for k in parts[0]["values"]}
@@ -492,7 +526,7 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         ints["gain"] = out["gain_ci"]
     quantities = {k[2:]: out[k] for k in out if k.startswith("q:")}
     quantity_intervals = {k[4:]: out[k] for k in out if k.startswith("qci:")}
-    return BatchEstimate(
+    out = BatchEstimate(
         chl=chl, cdom=cdom, chl_ci=chl_ci, cdom_ci=cdom_ci, reliable=reliable,
         flags=flags, fit_rms=out["fit_rms"], chi2_dof=out["chi2_dof"], chi2_p=out["chi2_p"],
         dof=out["dof"], noise_known=noise_known, w=w,
@@ -510,7 +544,68 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         consistency={kind: {k.split(":", 1)[1]: out[k] for k in out if k.startswith(f"{key}:")}
                      for kind, key in (("alone", "alone"), ("pulls", "pull"))},
     )
+    return out if subset is None else _scatter(out, subset, n_all)
 
+
+@dataclass
+class _Plan:
+    """What one path model's pass does with a chunk of charts (:func:`estimate_batch`): the
+    first pass fits every chart (``fit_only``); the second starts at the first's optimum
+    (``start``, LM coordinates) on the charts the model is supported on, and runs the known
+    gain's test where it is the chart's chosen model (``chosen``)."""
+
+    fit_only: bool = False
+    start: np.ndarray | None = None  # (N, p) the first pass's optimum, LM coordinates
+    chosen: np.ndarray | None = None  # (N,) bool
+    it: np.ndarray | None = None  # (N,) the first pass's iterations
+    code: np.ndarray | None = None  # (N,) and status codes
+    full: np.ndarray | None = None  # (N,) bool: the first pass fitted on the full grid
+    quadrature: np.ndarray | None = None  # (N,) its largest reduction error
+
+    def rows(self, idx) -> "_Plan":
+        return _Plan(self.fit_only, *(None if a is None else a[idx] for a in (
+            self.start, self.chosen, self.it, self.code, self.full, self.quadrature)))
+
+
+def _first_pass(parts, unit) -> dict:
+    """The first pass's result: 'objective' (N,) in data units (``unit``: 1 where the noise is
+    known, else scale^2), 'theta' (N, p), 'alone' {reading: (N,)} (:mod:`sca.consistency`)."""
+    out = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]
+           if k in ("f", "theta", "it", "code", "full", "quadrature") or k.startswith("alone:")}
+    first = {k: out[k] for k in ("theta", "it", "code", "full", "quadrature")}
+    first["objective"] = out["f"] * unit
+    first["alone"] = {k.split(":", 1)[1]: v for k, v in out.items() if k.startswith("alone:")}
+    return first
+
+
+def _filled(a, rows, n):
+    """``a`` (k, ...) placed at ``rows`` of an (n, ...) array, the rest NaN (False, 0, '')."""
+    a = np.asarray(a)
+    fill = {"f": np.nan, "b": False, "i": 0, "u": 0}.get(a.dtype.kind, "")
+    out = np.full((n,) + a.shape[1:], fill, dtype=a.dtype if a.dtype.kind != "f" else float)
+    out[rows] = a
+    return out
+
+
+def _scatter(est: "BatchEstimate", rows, n) -> "BatchEstimate":
+    """``est`` of charts ``rows`` as an estimate of all n charts (the others NaN: never read,
+    :func:`sca.pathmodels.combine_batch` takes a model only where it is supported)."""
+    k = len(est)
+
+    def place(v):
+        if isinstance(v, dict):
+            return {key: place(x) for key, x in v.items()}
+        if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == k:
+            return _filled(v, rows, n)
+        if isinstance(v, list) and len(v) == k:
+            out = [()] * n
+            for i, r in enumerate(rows):
+                out[r] = v[i]
+            return out
+        return v
+    fields = {f.name: getattr(est, f.name) for f in dataclasses.fields(est)}
+    return BatchEstimate(**{name: (v if name == "wavelengths" else place(v))
+                            for name, v in fields.items()})
 
 def _concatenate_budgets(parts):
     """One budget dict from the chunks' (:func:`sca.budget.variance_shares` layout)."""
@@ -637,7 +732,7 @@ def start_grid(prob: ChartProblem, geometry):
 
 
 def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
-                     reduce: bool, observations=()):
+                     reduce: bool, observations=(), plan=None):
     """:func:`_solve_chunk` on the model's certified quadrature (``reduce``, where its grid is
     reduced), each optimum checked against the full grid (:func:`sca.quadrature.reduction_error`
     in units of the sensor's noise) and the charts where they differ by more than
@@ -646,10 +741,24 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
     optimum (0 where the full grid was used)."""
     small = mdl.reduced() if reduce else mdl
     res = _solve_chunk(small, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
-                       observations)
+                       observations, plan)
     N = M.shape[0]
     params = _solution_params(res, geometry, spec, scale)
     res["quadrature"] = np.zeros(N)
+    res["full"] = np.zeros(N, bool)
+    if plan is not None and plan.full is not None:  # the second pass: the first's grids
+        res["quadrature"] = plan.quadrature.copy()
+        bad = np.flatnonzero(plan.full)
+        if bad.size:
+            redo = _solve_chunk(mdl, spec, M[bad], None if sig is None else sig[bad],
+                                {k: v[bad] for k, v in geometry.items()}, scale[bad], max_iter,
+                                tol, intervals, None if budget is None else budget.rows(bad),
+                                [o.rows(bad) for o in observations], plan.rows(bad))
+            _replace_rows(res, redo, bad)
+            params = _solution_params(res, geometry, spec, scale)
+        res["full"] = plan.full.copy()
+        res["k"] = mdl.predict(params, jacobian=False).attenuation
+        return res
     if small is not mdl:
         # the sensor's noise, or the noise the residual shows where that is smaller (a fit far
         # better than its noise, or an exact one, is held to its own residual: the full grid)
@@ -662,11 +771,14 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
             redo = _solve_chunk(mdl, spec, M[bad], None if sig is None else sig[bad],
                                 {k: v[bad] for k, v in geometry.items()}, scale[bad], max_iter,
                                 tol, intervals, None if budget is None else budget.rows(bad),
-                                [o.rows(bad) for o in observations])
+                                [o.rows(bad) for o in observations],
+                                None if plan is None else plan.rows(bad))
             _replace_rows(res, redo, bad)
             res["quadrature"][bad] = 0.0
+            res["full"][bad] = True
             params = _solution_params(res, geometry, spec, scale)
-        res["k"] = mdl.predict(params, jacobian=False).attenuation
+        if plan is None or not plan.fit_only:
+            res["k"] = mdl.predict(params, jacobian=False).attenuation
     return res
 
 
@@ -699,16 +811,21 @@ def _replace_rows(res, redo, rows) -> None:
 
 
 def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget=None,
-                 observations=()):
+                 observations=(), plan=None):
     """Levenberg-Marquardt (and the intervals) on one chunk of charts: a dict of results, s
-    and f in the chunk's scaled units."""
+    and f in the chunk's scaled units (``plan``: :class:`_Plan`, the path models' two
+    passes)."""
     N = M.shape[0]
     sig_photon = sig
     if budget is not None:
         sig = budget.noise_sd(M, sig)
     prob = make_problem(mdl, spec, M, sig, geometry, scale, budget, observations)
-    theta0 = start_values(prob, geometry)
     f_exact = EXACT_FIT * np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M)
+    if plan is not None and plan.start is not None:  # the first pass's optimum, as it was
+        f = evaluate(prob, np.arange(N), plan.start, False).f
+        return _assess_chunk(prob, spec, mdl, geometry, plan.start, f, plan.it, plan.code,
+                             intervals, sig, sig_photon, budget, plan)
+    theta0 = start_values(prob, geometry)
     if prob.prior_mean is not None:
         # first the paper's model (nuisances held at their priors' centres), as the loop does,
         # then every nuisance released: started at the grid point, the joint fit can settle in
@@ -721,6 +838,27 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
                                              f_exact=f_exact)
     if prob.prior_mean is not None:
         it = it + it0
+    if plan is not None and plan.fit_only:
+        ev = evaluate(prob, np.arange(N), theta, False)
+        res = {"f": ev.f, "theta": theta, "code": code, "it": it, "gain": ev.extras["gain"],
+               "s": ev.extras["s"], "ssr": ev.extras["ssr"],
+               "values": {n: np.asarray(v, float) for n, v in
+                          prob.params(np.arange(N), theta).items() if n in prob.free}}
+        if prob.observations:  # what each reading adds, under every model (sca.consistency)
+            alone = objectives_alone(prob, theta, (start_values(prob, geometry),))
+            res.update({f"alone:{k}": v for k, v in alone.items()})
+        return res
+    return _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
+                         sig_photon, budget, plan)
+
+
+def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig, sig_photon,
+                  budget, plan):
+    """Everything after the fit of one chunk: goodness, the known gain's test, the budget's
+    shares, the intervals, the derived quantities and the consistency of the readings; with a
+    ``plan`` of the second pass, the known gain's test and the budget's shares only where this
+    path model is the chosen one."""
+    N = prob.size
     idx = np.arange(N)
     ev = evaluate(prob, idx, theta, True)
     f, H = ev.f, ev.H
@@ -735,8 +873,11 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
     res["gain_ci"] = np.column_stack([gain, gain])
     # the known gain's test (values in the units the fit was told?)
     res["scale_p"] = np.full(N, np.nan)
-    if not spec.free_gain and sig is not None and N:
-        res["scale_p"], _ = scale_test(prob, theta, f, geometry)
+    chosen = np.flatnonzero(np.ones(N, bool) if plan is None else plan.chosen)
+    if not spec.free_gain and sig is not None and chosen.size:
+        sub = prob.subset(chosen)
+        res["scale_p"][chosen], _ = scale_test(sub, theta[chosen], f[chosen],
+                                               {k: v[chosen] for k, v in geometry.items()})
     res["budget"] = {} if budget is None else _budget_shares(
         prob, theta, gain, s, spec.free_s, sig, sig_photon)
     if spec.free_gain:
@@ -746,7 +887,7 @@ def _solve_chunk(mdl, spec, M, sig, geometry, scale, max_iter, tol, intervals, b
                            res["budget"]["gain"]["sd"] ** 2, np.inf)
         res["gain_ci"] = gain_wald(gain, var, f, dof, noise_known)
     values = prob.params(idx, theta)
-    if prob.observations:  # what each reading adds to the fit (sca.consistency)
+    if prob.observations and plan is None:  # what each reading adds (sca.consistency)
         alone = objectives_alone(prob, theta, (start_values(prob, geometry),))
         res.update({f"alone:{k}": v for k, v in alone.items()})
     res.update({f"pull:{k}": v for k, v in nuisance_pulls(prob, theta).items()})
