@@ -19,10 +19,16 @@ The rule is **certified twice**: on independent validation snapshots when it is 
 prediction with the full grid's and refit on the full grid where they differ by more than
 :data:`CERTIFY_SIGMA` of a patch's standard deviation (decision 0003-spectral-quadrature).
 
-A rule depends only on the setup's numbers (P, i, R, grid), the paper's water and this module's
-settings: it is cached by their content (never by object identity), in-process and on disk
-(:func:`cache_dir`; the install step builds the default camera's), so it cannot outlive the
-numbers it was built from. Building one takes about half a second.
+A rule depends only on the setup's numbers (P, i, the shape of R, grid, the daylight reference),
+the paper's water and this module's settings: it is cached by their content (never by object
+identity), in-process and on disk (:func:`cache_dir`; the install step builds the default
+camera's), so it cannot outlive the numbers it was built from. Building one takes about half a
+second. It is built on the chart's shape -- each patch's reflectance divided by its largest
+value (:func:`_chart_shape`) -- and applied to the chart with each patch's rows times that value:
+the weights are linear in each patch's reflectance, so a per-patch factor changes no relative
+error. A light field over the chart (:mod:`measure.lightfield`: a factor per patch, another at
+every fit step and photo) therefore uses the camera's and chart's one rule: a rule per camera,
+chart and light, never per depth, distance or photo (decision 0065-quadrature-per-chart-shape).
 
 References
 ----------
