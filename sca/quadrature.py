@@ -19,10 +19,16 @@ The rule is **certified twice**: on independent validation snapshots when it is 
 prediction with the full grid's and refit on the full grid where they differ by more than
 :data:`CERTIFY_SIGMA` of a patch's standard deviation (decision 0003-spectral-quadrature).
 
-A rule depends only on the setup's numbers (P, i, R, grid), the paper's water and this module's
-settings: it is cached by their content (never by object identity), in-process and on disk
-(:func:`cache_dir`; the install step builds the default camera's), so it cannot outlive the
-numbers it was built from. Building one takes about half a second.
+A rule depends only on the setup's numbers (P, i, the shape of R, grid, the daylight reference),
+the paper's water and this module's settings: it is cached by their content (never by object
+identity), in-process and on disk (:func:`cache_dir`; the install step builds the default
+camera's), so it cannot outlive the numbers it was built from. Building one takes about half a
+second. It is built on the chart's shape -- each patch's reflectance divided by its largest
+value (:func:`_chart_shape`) -- and applied to the chart with each patch's rows times that value:
+the weights are linear in each patch's reflectance, so a per-patch factor changes no relative
+error. A light field over the chart (:mod:`measure.lightfield`: a factor per patch, another at
+every fit step and photo) therefore uses the camera's and chart's one rule: a rule per camera,
+chart and light, never per depth, distance or photo (decision 0068-quadrature-per-chart-shape).
 
 References
 ----------
@@ -33,6 +39,7 @@ class of integrands).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import os
@@ -178,12 +185,23 @@ def _fit(K, Y, YD, index):
     return [(c / s) @ Vt for c in coef]
 
 
+def _chart_shape(setup):
+    """The setup with each patch's reflectance divided by its largest value (rounded to float32:
+    the same shape whatever the patch's scale) and those values (1 for a black patch): the
+    chart a rule is built on and the per-patch factors it is applied with."""
+    R = np.asarray(setup.reflectances, float)
+    peak = np.abs(R).max(axis=0)
+    peak = np.where(peak > 0, peak, 1.0)
+    shape = (R / peak).astype(np.float32).astype(float)
+    return dataclasses.replace(setup, reflectances=shape), peak
+
+
 def _fingerprint(setup) -> str:
-    """The setup's numbers (grid, P, i, R, the daylight reference) as one hash: the rule's
-    cache key."""
+    """The setup's numbers (grid, P, i, the shape of R, the daylight reference) as one hash: the
+    rule's cache key (a per-patch factor of R is not in it, :func:`_chart_shape`)."""
     h = hashlib.sha256(_settings_key().encode())
-    for a in (setup.wavelengths, setup.sensitivities, setup.illuminant, setup.reflectances,
-              setup.daylight_cct):
+    for a in (setup.wavelengths, setup.sensitivities, setup.illuminant,
+              _chart_shape(setup)[0].reflectances, setup.daylight_cct):
         h.update(np.ascontiguousarray(a, float).tobytes())
         h.update(str(np.shape(a)).encode())
     return h.hexdigest()
@@ -317,7 +335,19 @@ def quadrature_rule(model) -> QuadratureRule | None:
     """
     if quadrature_nodes(model.wavelengths) is None:
         return None
-    return _rule(_fingerprint(model.setup), _Ref((model.setup, type(model))))
+    chart, scale = _chart_shape(model.setup)
+    return _scaled(_rule(_fingerprint(chart), _Ref((chart, type(model)))), tuple(scale))
+
+
+@functools.lru_cache(maxsize=64)
+def _scaled(rule, scale) -> QuadratureRule:
+    """The rule of a chart's shape applied to the chart: patch j's rows (signals and shift)
+    times its factor ``scale[j]`` (the weights are linear in each patch's reflectance)."""
+    rows = np.tile(np.asarray(scale, float), rule.B.shape[0] // len(scale))[:, None]
+    B, D = rule.B * rows, rule.D * rows
+    for a in (B, D):
+        a.setflags(write=False)
+    return QuadratureRule(rule.index, B, D, rule.white, rule.error)
 
 
 def reduction_error(full, reduced, params, sigma) -> np.ndarray:

@@ -201,6 +201,39 @@ def test_even_light_gets_no_light_field(files, corners, profile):
     assert m.light_field["model"] == "none" and m.light_field["tests"]["plane"]["p_value"] > 0.01
 
 
+def test_photos_at_other_depths_and_distances_build_no_quadrature_rule(tmp_path, monkeypatch,
+                                                                     files, corners, profile,
+                                                                     true_setup):
+    """Issue 46 item 5: with one profile, a photo at another depth and distance (its light
+    field another gradient) builds no spectral quadrature rule; its estimates are those of a
+    first measurement with an empty cache."""
+    from sca import quadrature as Q
+
+    deeper = _dng(tmp_path, "deeper.dng", Scene(chl=2.0, cdom=0.1, depth=9.0, distance=2.5,
+                                                gain=30000, width=W, height=H, seed=7,
+                                                gradient=0.1), corners, true_setup)
+    photos = [(files[1]["uw"], UW["depth"], UW["distance"]), (deeper, 9.0, 2.5)]
+    builds = []
+    real = Q._build
+    monkeypatch.setattr(Q, "_build", lambda *a: builds.append(a) or real(*a))
+
+    def measured(path, depth, distance, cache):
+        monkeypatch.setenv(Q.CACHE_ENV, str(tmp_path / cache))
+        return measure.measure(path, corners=corners, depth=depth, distance=distance,
+                               profile=profile).estimate
+
+    Q._rule.cache_clear()
+    Q._scaled.cache_clear()
+    reused = [measured(*p, "dive") for p in photos]
+    assert len(builds) == 1
+    Q._rule.cache_clear()
+    Q._scaled.cache_clear()
+    fresh = measured(*photos[1], "fresh")
+    assert len(builds) == 2
+    for name in ("chl", "cdom", "chl_ci", "cdom_ci", "gain"):
+        np.testing.assert_allclose(getattr(reused[1], name), getattr(fresh, name), rtol=1e-9)
+
+
 def test_linear_tiff_input(tmp_path, files, corners, profile):
     import tifffile
 

@@ -164,3 +164,37 @@ def test_the_disk_cache_holds_the_same_rule_and_is_rebuilt_when_unreadable(tmp_p
     again = Q.quadrature_rule(ChartModel(setup))
     np.testing.assert_array_equal(again.B, built.B)
     Q._rule.cache_clear()
+
+
+def test_a_chart_scaled_patch_by_patch_reuses_its_shapes_rule_and_stays_certified(tmp_path,
+                                                                                monkeypatch):
+    """Issue 46 item 5: a light field (a factor per patch, measure.lightfield) builds no rule of
+    its own -- the chart's shape's rule, each patch's rows times its factor -- and the reduced
+    model of the lit chart is still within a twentieth of the sensor's noise of its full grid."""
+    import dataclasses
+
+    monkeypatch.setenv(Q.CACHE_ENV, str(tmp_path))
+    builds = []
+    real = Q._build
+    monkeypatch.setattr(Q, "_build", lambda *a: builds.append(a) or real(*a))
+    Q._rule.cache_clear()
+    Q._scaled.cache_clear()
+    setup = forward.chart_setup(channel_gains=(0.55, 1.0, 0.7))
+    base = Q.quadrature_rule(ChartModel(setup))
+    rng = np.random.default_rng(46)
+    for spread in (1e-3, 0.3):  # a fit step's trial field, and a strong gradient
+        field = 1.0 + rng.uniform(-spread, spread, 24)
+        lit = dataclasses.replace(setup, reflectances=setup.reflectances * field)
+        full = ChartModel(lit)
+        rule = full.reduced().rule
+        np.testing.assert_allclose(rule.B, base.B * np.tile(field, 3)[:, None], rtol=1e-12)
+        np.testing.assert_allclose(rule.D, base.D * np.tile(field, 3)[:, None], rtol=1e-12)
+        params = _conditions(1000, rng)
+        M0 = full.predict(params, jacobian=False).values.reshape(-1, 3, 24)
+        sigma = noise_model(M0, lit, forward.SensorSettings())[0].reshape(len(M0), -1)
+        err = Q.reduction_error(full, full.reduced(), params, sigma)
+        assert np.max(err[M0.max(axis=(1, 2)) >= Q.DARKEST]) <= Q.CERTIFY_SIGMA
+    assert len(builds) == 1
+    assert len(list((tmp_path / "quadrature").glob("*.npz"))) == 1
+    Q._rule.cache_clear()
+    Q._scaled.cache_clear()
