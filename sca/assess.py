@@ -189,8 +189,8 @@ def input_flag_table(M, sigma=None, saturation=None) -> dict:
     """
     M = np.asarray(M, float)
     N = M.shape[0]
-    flat = M.reshape(N, -1)
-    top = flat.max(axis=1)
+    flat = M.reshape(N, int(np.prod(M.shape[1:])))  # N = 0 too
+    top = flat.max(axis=1, initial=-np.inf)
     if saturation is not None:
         saturated = np.any(flat >= (np.asarray(saturation, float) * (1 - 1e-9))[:, None], axis=1)
     else:  # clipping leaves values tied at the chart's maximum (the brightest channel clips

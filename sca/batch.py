@@ -401,14 +401,19 @@ def _over_path_models(rgb_stack, water, models, kw):
     objective = np.column_stack([first[m]["objective"] for m in models])
     best, ok = supported(objective)
     results = {}
-    for j, m in enumerate(models):
-        rows = np.flatnonzero(ok[:, j])
-        plan = _Plan(False, *(first[m][k][rows] for k in ("theta",)), best[rows] == j,
-                     *(first[m][k][rows] for k in ("it", "code", "full", "quadrature")))
-        est = _estimate_batch(rgb_stack, water=waters[m], subset=rows, plan=plan, **kw)
+    for j in np.argsort(-ok.sum(axis=0), kind="stable"):  # a supported model first
+        m, rows = models[j], np.flatnonzero(ok[:, j])
+        if rows.size:
+            plan = _Plan(False, first[m]["theta"][rows], best[rows] == j,
+                         *(first[m][k][rows] for k in ("it", "code", "full", "quadrature")))
+            est = _estimate_batch(rgb_stack, water=waters[m], subset=rows, plan=plan, **kw)
+        else:  # supported nowhere: a blank of the layout (never read)
+            est = _scatter(next(iter(results.values())), (), ok.shape[0])
+            est.path_model = np.full(ok.shape[0], m)
         est.objective = first[m]["objective"]  # the support decided on the first pass's
         est.consistency["alone"] = first[m]["alone"]
         results[m] = est
+    results = {m: results[m] for m in models}  # the water's own model first, as given
     return combine_batch(results), results
 
 
@@ -589,14 +594,16 @@ def _filled(a, rows, n):
 
 def _scatter(est: "BatchEstimate", rows, n) -> "BatchEstimate":
     """``est`` of charts ``rows`` as an estimate of all n charts (the others NaN: never read,
-    :func:`sca.pathmodels.combine_batch` takes a model only where it is supported)."""
+    :func:`sca.pathmodels.combine_batch` takes a model only where it is supported); with
+    ``rows`` empty, ``est`` (of any charts) gives the layout of a blank estimate."""
     k = len(est)
+    rows = np.asarray(rows, np.int64)
 
     def place(v):
         if isinstance(v, dict):
             return {key: place(x) for key, x in v.items()}
         if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == k:
-            return _filled(v, rows, n)
+            return _filled(v[:rows.size], rows, n)
         if isinstance(v, list) and len(v) == k:
             out = [()] * n
             for i, r in enumerate(rows):

@@ -107,6 +107,7 @@ class DiveProblem(Problem):
             self.layout[name] = np.array(self.columns(name), int)
         # each photo's columns of its own chart: (name of its model function, theta column)
         self._photo_cols = [self._photo_columns(i) for i in range(N)]
+        self._photo_block = [np.ix_(cols, cols) for _, cols in self._photo_cols]
 
     # ------------------------------------------------------------------ the layout's choices
     def lower_bound(self, name: str) -> float:
@@ -137,10 +138,12 @@ class DiveProblem(Problem):
                 cols.append(self.layout[name][i])
         return tuple(free), np.array(cols + list(self.layout[PATCH]), int)
 
-    def photo_params(self, theta_row, i) -> dict:
+    def photo_params(self, theta_row, i, params=None) -> dict:
         """Photo i's parameters of the model function at ``theta_row`` (p,): C (mg m^-3),
-        a_CDOM, the shared nuisances and its geometry."""
-        params = self.params(np.zeros(1, np.int64), theta_row[None])
+        a_CDOM, the shared nuisances and its geometry (``params``: :meth:`params` of the row,
+        when the caller has them)."""
+        if params is None:
+            params = self.params(np.zeros(1, np.int64), theta_row[None])
         g = self.groups[i]
         out = {"chl": np.atleast_1d(params["chl"])[..., g].reshape(1),
                "cdom": np.atleast_1d(params["cdom"])[..., g].reshape(1)}
@@ -165,10 +168,11 @@ class DiveProblem(Problem):
         n_e = self.layout[PATCH].size
         for r in range(k):
             e = theta[r, self.layout[PATCH]] if n_e else 0.0
+            row_params = self.params(np.zeros(1, np.int64), theta[r][None])
             for i in range(N):
                 free, cols = self._photo_cols[i]
                 mdl = self.models[i]
-                pi = self.photo_params(theta[r], i)
+                pi = self.photo_params(theta[r], i, row_params)
                 pred = mdl.predict(pi, free if grad else (), chl_floor=TINY, jacobian=grad)
                 inv = 1.0 / self.scale[i]
                 Mi = self.M[i] * (1.0 - e)  # the data less the chart's shared error e M
@@ -186,7 +190,7 @@ class DiveProblem(Problem):
                                                  grad, cs, additive)
                 f[r] += fi[0]
                 gains[r, i], backs[r, i] = gain[0], s[0]
-                if grad:
-                    np.add.at(g[r], cols, gi[0])
-                    np.add.at(H[r], (cols[:, None], cols[None, :]), Hi[0])
+                if grad:  # a photo's columns are distinct: plain indexed sums
+                    g[r, cols] += gi[0]
+                    H[r][self._photo_block[i]] += Hi[0]
         return Evaluation(f, g, H, {"gain": gains, "s": backs})

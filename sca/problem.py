@@ -254,7 +254,13 @@ class Problem:
 
     def columns(self, name: str) -> list:
         """The columns of theta that hold ``name`` (in order)."""
-        return [j for j, n in enumerate(self.names) if n == name]
+        cache = self.__dict__.get("_columns")
+        if cache is None or cache[0] is not self.names:  # built once per tuple of names
+            cache = (self.names, {})
+            for j, n in enumerate(self.names):
+                cache[1].setdefault(n, []).append(j)
+            self._columns = cache
+        return list(cache[1].get(name, ()))
 
     def chain(self, params) -> np.ndarray:
         """(k, p) factors d x / d theta of every column: 1, or dx/du for a power coordinate."""
