@@ -17,10 +17,11 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded);
+# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded;
+# --dist loadgroup keeps a module marked xdist_group on one worker, its costly fixture made once);
 # not the tests marked release (make test-release) or adversarial (make test-adversarial)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadgroup -m "not release and not adversarial"
 
 # the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
 # (its kernels compiled afresh: a minute)

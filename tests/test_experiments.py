@@ -13,8 +13,10 @@ import pytest
 from experiments import estimation, grids, sweep
 from experiments.__main__ import main as run_all
 
-#: the whole module is in the slow tier (make test-fast skips it)
-pytestmark = pytest.mark.slow
+#: the whole module is in the slow tier (make test-fast skips it), and on one xdist worker
+#: (``make test`` runs ``--dist loadgroup``): the reduced figure run below, the module's cost,
+#: is made once, not once on each worker
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("test_experiments")]
 
 ROOT = Path(__file__).resolve().parents[1]
 ESTIMATION_FIGURES = ["fig09_attenuation", "fig10_rrmse", "fig11_colour_correction",
