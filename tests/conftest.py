@@ -19,12 +19,6 @@ settings.load_profile(os.environ.get("UW3P_HYPOTHESIS", "uw3p"))
 os.environ.setdefault("UW3P_CACHE_DIR", tempfile.mkdtemp(prefix="uw3p-test-cache-"))
 
 
-#: Session fixtures whose tests all run on one xdist worker (``make test`` runs ``--dist
-#: loadgroup``; each test that asks for one gets its ``xdist_group`` mark), so that each is made
-#: once in the run, not once on each worker
-ONE_WORKER_FIXTURES = ("uw_measured",)
-
-
 @pytest.fixture(scope="session")
 def chart_photos(tmp_path_factory):
     """The chart photographed by a camera whose channel balance (0.55, 1, 0.7) differs from its
@@ -58,26 +52,22 @@ def uw_measured(chart_photos):
 
 
 #: Run first, longest first (their node ids, or a module's path for all of its tests): on two
-#: workers (``make test``, ``--dist loadgroup``) the modules held on one worker (their
-#: ``xdist_group`` marks: the reduced figure run of tests/test_experiments.py, the shared dive of
-#: tests/test_adversarial_dive.py) and the kernels' cold compile start at once, while the other
-#: worker works through the rest, instead of one of them running alone at the end.
+#: workers (``make test``, ``--dist loadfile``: each module on one worker, its module fixtures
+#: made once) the longest modules (the reduced figure run of tests/test_experiments.py, the
+#: shared dive of tests/test_adversarial_dive.py) and the kernels' cold compile start at once,
+#: while the other worker works through the rest, instead of one of them running alone at the
+#: end.
 LONGEST_FIRST = ("tests/test_experiments.py",
                  "tests/test_adversarial_dive.py",
                  "tests/test_structure.py::test_results_do_not_depend_on_whether_numbas_cache_was_warm")
 
 
 def _rank(item) -> int:
-    """The place of ``item`` in :data:`LONGEST_FIRST` (len for the rest); loadgroup's
-    ``@group`` suffix ignored."""
-    nodeid = item.nodeid.split("@")[0]
+    """The place of ``item`` in :data:`LONGEST_FIRST` (len for the rest)."""
+    nodeid = item.nodeid
     return next((i for i, key in enumerate(LONGEST_FIRST)
                  if nodeid == key or nodeid.startswith(key + "::")), len(LONGEST_FIRST))
 
 
-@pytest.hookimpl(tryfirst=True)  # before xdist reads the xdist_group marks
 def pytest_collection_modifyitems(config, items):
-    for item in items:
-        for name in set(ONE_WORKER_FIXTURES) & set(getattr(item, "fixturenames", ())):
-            item.add_marker(pytest.mark.xdist_group(name))
     items.sort(key=_rank)  # stable: the rest in order

@@ -46,9 +46,6 @@ FAST = ["--exact", "--tiff", "none", "--scheduler", "synchronous"]
 #: The shared dive's defaults: b.dng's depth and distance (a.dng's come from its metadata row)
 SHARED = ["--depth", 6, "--distance", 1.5]
 adversarial = pytest.mark.adversarial
-#: one xdist worker for the module (``make test`` runs ``--dist loadgroup``): :func:`src` renders
-#: and calibrates once, not once on each worker
-pytestmark = pytest.mark.xdist_group("test_adversarial_dive")
 
 
 # --------------------------------------------------------------------------- photos

@@ -14,10 +14,6 @@ from sca.joint import estimate_joint
 from sca.protocols import AUXILIARY_OPTIONS, Protocol, ladder
 from uw3p.cli import main
 
-#: one xdist worker for the module (``make test`` runs ``--dist loadgroup``): :func:`designs`,
-#: most of the module's cost, is designed once, not once on each worker
-pytestmark = pytest.mark.xdist_group("test_design")
-
 SETUP = resolve_setup(None, forward.DEFAULT_CAMERA, None, None, None)
 #: The coastal water of INSTRUMENT.md and the dive a diver can make there.
 COASTAL = dict(chl=1.0, cdom=0.1, depth=(2.0, 15.0), distance=(1.0, 3.0))

@@ -13,10 +13,9 @@ import pytest
 from experiments import estimation, grids, sweep
 from experiments.__main__ import main as run_all
 
-#: the whole module is in the slow tier (make test-fast skips it), and on one xdist worker
-#: (``make test`` runs ``--dist loadgroup``): the reduced figure run below, the module's cost,
-#: is made once, not once on each worker
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("test_experiments")]
+#: the whole module is in the slow tier (make test-fast skips it); ``make test`` runs it on one
+#: xdist worker (``--dist loadfile``), so the reduced figure run below is made once
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]
 ESTIMATION_FIGURES = ["fig09_attenuation", "fig10_rrmse", "fig11_colour_correction",
