@@ -17,19 +17,23 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded);
+# the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded;
+# --dist loadfile keeps each module on one worker, its module fixtures made once; loadgroup's
+# xdist_group marks are ignored under pytest 9.2, pytest-xdist issue 1386);
 # not the tests marked release (make test-release) or adversarial (make test-adversarial)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 -m "not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile -m "not release and not adversarial"
 
 # the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
 # (its kernels compiled afresh: a minute)
 test-release: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m release
 
-# the edit loop: everything but the tests marked slow (at most a minute on 2 cores)
+# the edit loop: everything but the tests marked slow (at most a minute on 2 cores); one BLAS
+# thread, as in make test (BLAS threads spinning after numpy's small calls made the light-field
+# searches of tests/test_wait.py take 30-40 s instead of 4)
 test-fast: $(STAMP)
-	$(PY) -m pytest -q -m "not slow and not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m "not slow and not release and not adversarial"
 
 # the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
 # runs interrupted and killed, clusters started; about 10 min on 2 cores)

@@ -2,6 +2,7 @@ import os
 import tempfile
 
 import matplotlib
+import pytest
 from hypothesis import settings
 
 matplotlib.use("Agg")
@@ -18,11 +19,55 @@ settings.load_profile(os.environ.get("UW3P_HYPOTHESIS", "uw3p"))
 os.environ.setdefault("UW3P_CACHE_DIR", tempfile.mkdtemp(prefix="uw3p-test-cache-"))
 
 
-#: Tests that take about a minute alone (a compile of the kernels in a private cache): run
-#: first, so that on two workers (``make test``) the other worker works through the rest
-#: meanwhile, instead of one of these running alone at the end.
-LONGEST_FIRST = ("tests/test_structure.py::test_results_do_not_depend_on_whether_numbas_cache_was_warm",)
+@pytest.fixture(scope="session")
+def chart_photos(tmp_path_factory):
+    """The chart photographed by a camera whose channel balance (0.55, 1, 0.7) differs from its
+    published curves (360 x 240 px DNGs): in air (``air``) and at 5 m depth, 1.5 m away, in water
+    of C = 2 mg m^-3 and CDOM 0.1 m^-1 (``uw``); the profile calibrated from the air photo."""
+    import measure
+    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    from forward import chart_setup
+
+    tmp = tmp_path_factory.mktemp("chart_photos")
+    setup, corners = chart_setup(channel_gains=(0.55, 1.0, 0.7)), default_corners(360, 240)
+    shots = {name: write_dng(render_mosaic(Scene(width=360, height=240, **scene), corners,
+                                           setup=setup), tmp / f"{name}.dng")
+             for name, scene in (("air", dict(chl=0, cdom=0, depth=0, distance=0, gain=9000,
+                                                  seed=1)),
+                                 ("uw", dict(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,
+                                             gain=30000, seed=2)))}
+    air = measure.read_image(shots["air"])
+    profile = measure.calibrate(measure.sample_patches(air, corners), image=air.path)
+    return {"dir": tmp, "setup": setup, "corners": corners, "profile": profile, **shots}
+
+
+@pytest.fixture(scope="session")
+def uw_measured(chart_photos):
+    """:func:`chart_photos`' underwater photo measured with its profile and the default budget,
+    once for the tests that only read the measurement (about 3.5 s each time)."""
+    import measure
+
+    return measure.measure(chart_photos["uw"], corners=chart_photos["corners"], depth=5.0,
+                           distance=1.5, profile=chart_photos["profile"])
+
+
+#: Run first, longest first (their node ids, or a module's path for all of its tests): on two
+#: workers (``make test``, ``--dist loadfile``: each module on one worker, its module fixtures
+#: made once) the longest modules (the reduced figure run of tests/test_experiments.py, the
+#: shared dive of tests/test_adversarial_dive.py) and the kernels' cold compile start at once,
+#: while the other worker works through the rest, instead of one of them running alone at the
+#: end.
+LONGEST_FIRST = ("tests/test_experiments.py",
+                 "tests/test_adversarial_dive.py",
+                 "tests/test_structure.py::test_results_do_not_depend_on_whether_numbas_cache_was_warm")
+
+
+def _rank(item) -> int:
+    """The place of ``item`` in :data:`LONGEST_FIRST` (len for the rest)."""
+    nodeid = item.nodeid
+    return next((i for i, key in enumerate(LONGEST_FIRST)
+                 if nodeid == key or nodeid.startswith(key + "::")), len(LONGEST_FIRST))
 
 
 def pytest_collection_modifyitems(config, items):
-    items.sort(key=lambda item: item.nodeid not in LONGEST_FIRST)  # stable: the rest in order
+    items.sort(key=_rank)  # stable: the rest in order

@@ -13,7 +13,8 @@ import pytest
 from experiments import estimation, grids, sweep
 from experiments.__main__ import main as run_all
 
-#: the whole module is in the slow tier (make test-fast skips it)
+#: the whole module is in the slow tier (make test-fast skips it); ``make test`` runs it on one
+#: xdist worker (``--dist loadfile``), so the reduced figure run below is made once
 pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -529,25 +529,20 @@ def test_a_patch_clipped_in_its_body_is_still_clipped():
 
 
 @pytest.mark.slow
-def test_a_photo_with_glints_is_measured_like_the_clean_one(tmp_path):
-    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+def test_a_photo_with_glints_is_measured_like_the_clean_one(tmp_path, chart_photos, uw_measured):
+    """Glints (0.5 % of the pixels saturated) on tests/conftest.py's underwater photo: measured
+    like the clean photo (``uw_measured``, measured once for the run, not here again)."""
+    import rawpy
 
-    W, H = 360, 240
-    corners = default_corners(W, H)
-    setup = forward.chart_setup(channel_gains=(0.55, 1.0, 0.7))
-    air = write_dng(render_mosaic(Scene(chl=0, cdom=0, depth=0, distance=0, gain=9000, width=W,
-                                        height=H, seed=1), corners, setup=setup),
-                    tmp_path / "air.dng")
-    profile = measure.calibrate(measure.sample_patches(measure.read_image(air), corners))
-    mosaic = render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
-                                 width=W, height=H, seed=2), corners, setup=setup)
-    glint = mosaic.copy()
+    from experiments.synthetic_photo import write_dng
+
+    with rawpy.imread(str(chart_photos["uw"])) as raw:
+        glint = raw.raw_image_visible.copy()  # the clean photo's mosaic
     glint[np.random.default_rng(3).random(glint.shape) < 0.005] = 2 ** 14 - 1
-    out = {}
-    for name, mos in (("clean", mosaic), ("glint", glint)):
-        m = measure.measure(write_dng(mos, tmp_path / f"{name}.dng"), corners=corners, depth=5.0,
-                            distance=1.5, profile=profile)
-        out[name] = m
+    out = {"clean": uw_measured,
+           "glint": measure.measure(write_dng(glint, tmp_path / "glint.dng"),
+                                    corners=chart_photos["corners"], depth=5.0, distance=1.5,
+                                    profile=chart_photos["profile"])}
     g, c = out["glint"], out["clean"]
     info = {"path-model-span"}  # information: the intervals span two path models
     assert set(g.flags) <= info and set(c.flags) <= info and g.reliable and g.estimate.converged

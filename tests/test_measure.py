@@ -11,7 +11,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from experiments.synthetic_photo import Scene, render_mosaic, write_dng
 from forward.spectra import WHITE_PATCH
 from uw3p.cli import main
 
@@ -24,14 +24,16 @@ W, H = 360, 240
 UW = dict(chl=2.0, cdom=0.1, depth=5.0, distance=1.5)
 
 
+#: The photos and the profile are tests/conftest.py's :func:`chart_photos` (shared with other
+#: modules), under this module's names.
 @pytest.fixture(scope="module")
-def true_setup():
-    return forward.chart_setup(channel_gains=TRUE_BALANCE)
+def true_setup(chart_photos):
+    return chart_photos["setup"]
 
 
 @pytest.fixture(scope="module")
-def corners():
-    return default_corners(W, H)
+def corners(chart_photos):
+    return chart_photos["corners"]
 
 
 def _corner_text(c):
@@ -44,19 +46,13 @@ def _dng(tmp, name, scene, corners, setup):
 
 
 @pytest.fixture(scope="module")
-def files(tmp_path_factory, true_setup, corners):
-    tmp = tmp_path_factory.mktemp("photos")
-    out = {"air": _dng(tmp, "air.dng", Scene(chl=0, cdom=0, depth=0, distance=0, gain=9000,
-                                             width=W, height=H, seed=1), corners, true_setup),
-           "uw": _dng(tmp, "uw.dng", Scene(**UW, gain=30000, width=W, height=H, seed=2), corners,
-                      true_setup)}
-    return tmp, out
+def files(chart_photos):
+    return chart_photos["dir"], chart_photos
 
 
 @pytest.fixture(scope="module")
-def profile(files, corners):
-    photo = measure.read_image(files[1]["air"])
-    return measure.calibrate(measure.sample_patches(photo, corners), image=photo.path)
+def profile(chart_photos):
+    return chart_photos["profile"]
 
 
 def _inside(ci, v):
@@ -106,9 +102,8 @@ def test_calibration_round_trip(profile):
     assert np.all(np.abs(g - np.array(TRUE_BALANCE)) <= 4 * np.array(profile.gains_se) + 1e-12)
 
 
-def test_underwater_round_trip_is_right_within_its_intervals(files, corners, profile):
-    m = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
-                        distance=UW["distance"], profile=profile)
+def test_underwater_round_trip_is_right_within_its_intervals(uw_measured):
+    m = uw_measured
     e = m.estimate
     # 'path-model-span' is information: the intervals span the path models the data allow
     assert m.reliable and set(m.flags) <= {"path-model-span"} and m.orientation == "as given"
@@ -120,9 +115,8 @@ def test_underwater_round_trip_is_right_within_its_intervals(files, corners, pro
     assert np.all(m.attenuation_band[0] <= k * (1 + 1e-9)) and np.all(k <= m.attenuation_band[1] * (1 + 1e-9))
 
 
-def test_correction_makes_the_white_patch_the_white_of_air(files, corners, profile, true_setup):
-    m = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
-                        distance=UW["distance"], profile=profile)
+def test_correction_makes_the_white_patch_the_white_of_air(uw_measured, true_setup):
+    m = uw_measured
     white = m.gains * (m.sample.rgb[:, WHITE_PATCH] - m.offset)
     air = true_setup.sensitivities.T @ (true_setup.illuminant * true_setup.reflectances[:, WHITE_PATCH])
     assert white / white[1] == pytest.approx(air / air[1], rel=0.02)
@@ -130,18 +124,12 @@ def test_correction_makes_the_white_patch_the_white_of_air(files, corners, profi
     assert img.dtype == np.uint16 and img.shape == (H, W, 3)
 
 
-def test_without_a_profile_the_camera_is_flagged(files, corners):
-    m = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
-                        distance=UW["distance"])
-    assert "uncalibrated-camera" in m.flags and not m.reliable
-
-
 @pytest.mark.parametrize("order,name", [((2, 3, 0, 1), "rotated 180°"),
                                         ((1, 0, 3, 2), "mirrored left-right"),
                                         ((3, 2, 1, 0), "mirrored top-bottom")])
-def test_wrong_corner_order_is_found_and_corrected(files, corners, profile, order, name):
-    ref = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
-                          distance=UW["distance"], profile=profile)
+def test_wrong_corner_order_is_found_and_corrected(files, corners, profile, uw_measured, order,
+                                                   name):
+    ref = uw_measured
     m = measure.measure(files[1]["uw"], corners=corners[list(order)], depth=UW["depth"],
                         distance=UW["distance"], profile=profile)
     assert m.orientation == name and "orientation-corrected" in m.flags
@@ -195,9 +183,8 @@ def test_uneven_light_is_measured_right_or_flagged(tmp_path, corners, true_setup
         assert m.reliable
 
 
-def test_even_light_gets_no_light_field(files, corners, profile):
-    m = measure.measure(files[1]["uw"], corners=corners, depth=UW["depth"],
-                        distance=UW["distance"], profile=profile)
+def test_even_light_gets_no_light_field(uw_measured):
+    m = uw_measured
     assert m.light_field["model"] == "none" and m.light_field["tests"]["plane"]["p_value"] > 0.01
 
 
@@ -292,9 +279,12 @@ def test_cli_calibrate_then_measure(files, corners, tmp_path):
     assert {"path", "size", "exposure"} <= set(data["image"]) and data["version"]
     for name in ("corrected.tiff", "corrected.png", "report.png"):
         assert (out / name).stat().st_size > 0
-    # without the profile: measured, not reliable (exit 1); a non-image: exit 2
+    # without the profile: measured, the camera flagged, not reliable (exit 1; here, not in a
+    # test of its own, which measured the same photo the same way again); a non-image: exit 2
     assert main(["measure", f["uw"], "--corners", ct, "--depth", "5", "--distance", "1.5",
                  "--out", str(tmp_path / "n")]) == 1
+    flagged = json.loads((tmp_path / "n" / "measurement.json").read_text())["estimate"]
+    assert "uncalibrated-camera" in flagged["flags"] and not flagged["reliable"]
     junk = tmp_path / "x.dng"
     junk.write_text("no")
     assert main(["measure", str(junk), "--corners", ct, "--depth", "5", "--distance", "1.5",
