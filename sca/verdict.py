@@ -7,6 +7,11 @@ Intervals: profile likelihood through :mod:`sca.intervals` (the batch's own rout
 same reduced problem: w on eq 17, gain and s profiled out), so every estimator's intervals
 agree; for z > 1 basis functions Wald intervals from :func:`sca.model.profiled_covariance`
 (flag ``interval-approximate``).
+
+In two steps (issue 46): :func:`settle` fixes the objective (the budget's refinement, the
+quadrature's certificate, the readings' objectives alone), which decides the path models'
+support; :func:`finish` computes the rest, only for the supported path models
+(:func:`sca.loop.over_path_models`). :func:`assess` is both.
 """
 
 from __future__ import annotations
