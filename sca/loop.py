@@ -48,7 +48,7 @@ from .assess import is_reliable
 from .auxiliary import auxiliary_observations
 from .budget import resolve_budget
 from .consistency import add_flags, finalize_single
-from .pathmodels import candidates, combine_single
+from .pathmodels import candidates, combine_single, supported
 from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
 from .model import CHL_DERIVATIVE_FLOOR, ChartModel, linear_part, lower_bound
@@ -60,7 +60,7 @@ from .trust_region import (
     TR_SHRINK,
     update_radius,
 )
-from .verdict import assess, fit_lm
+from .verdict import Settled, finish, fit_lm, settle
 from forward.errors import InputError
 
 __all__ = ["MODES", "GAINS", "Estimator", "estimate", "over_path_models", "CLARABEL_SETTINGS", "CLARABEL_FALLBACKS",
@@ -393,9 +393,9 @@ class Estimator:
     def fit(self, rgb, *, sigma=None, saturation=None, mode: str = "safeguarded",
             max_iter: int = 100, tol: float = 1e-10, x0=None, trace: dict | None = None) -> Estimate:
         """Run the sequential convex loop on measured patch values ``rgb`` (m, n), then assess
-        the fit (:mod:`sca.verdict`); see :func:`sca.estimate`. ``trace``: a dict that receives
-        the loop's timing (solve_time_s, clarabel_time_s, n_solves, polish_rescues), for
-        benchmarks.
+        the fit (:mod:`sca.verdict`: :meth:`settle`, then :func:`sca.verdict.finish`); see
+        :func:`sca.estimate`. ``trace``: a dict that receives the loop's timing
+        (solve_time_s, clarabel_time_s, n_solves, polish_rescues), for benchmarks.
 
         Parameters
         ----------
@@ -410,6 +410,15 @@ class Estimator:
         -------
         Estimate
         """
+        return finish(self.settle(rgb, sigma=sigma, saturation=saturation, mode=mode,
+                                  max_iter=max_iter, tol=tol, x0=x0, trace=trace))
+
+    def settle(self, rgb, *, sigma=None, saturation=None, mode: str = "safeguarded",
+               max_iter: int = 100, tol: float = 1e-10, x0=None,
+               trace: dict | None = None) -> Settled:
+        """:meth:`fit` up to the fixed objective (:func:`sca.verdict.settle`): what decides the
+        path models' support; :func:`sca.verdict.finish` makes it an :class:`Estimate`.
+        Arguments as :meth:`fit`."""
         if mode not in MODES:
             raise InputError("mode", f"must be one of {MODES}, got {mode!r}")
         if int(max_iter) != max_iter or max_iter < 1:
@@ -425,7 +434,7 @@ class Estimator:
         if trace is not None:
             trace.update(solve_time_s=st.t_solve, clarabel_time_s=st.t_clarabel,
                          n_solves=st.n_solves, polish_rescues=st.rescues)
-        return assess(self, st, mode, it, saturation)
+        return settle(self, st, mode, it, saturation)
 
     def _loop(self, st, mode, max_iter, tol, x0):
         """Linearise, solve the QP, judge the step with the true objective, repeat."""
@@ -859,23 +868,30 @@ def estimate(rgb, *, depth, distance, sigma=None, saturation=None, camera=DEFAUL
         raise InputError("auxiliary", "needs the photo's noise (sigma) to weigh against")
     est = Estimator(water=water, path_model=path_model, cdom_slope=cdom_slope, **kw)
     fit = dict(sigma=sigma, saturation=saturation, mode=mode, max_iter=max_iter, tol=tol, x0=x0)
-    return over_path_models(est, path_models, sigma, lambda e: e.fit(rgb, **fit), kw)
+    return over_path_models(est, path_models, sigma, lambda e: e.settle(rgb, **fit), kw)
 
 
 def over_path_models(est: "Estimator", path_models, sigma, run, kw) -> Estimate:
-    """``run(estimator)`` under every candidate path model (:func:`sca.pathmodels.candidates`)
-    and the results combined (:func:`sca.pathmodels.combine_single`); ``kw``: the other
-    arguments of :class:`Estimator`."""
+    """``run(estimator)`` (a :class:`sca.verdict.Settled` fit) under every candidate path model
+    (:func:`sca.pathmodels.candidates`), then each candidate finished
+    (:func:`sca.verdict.finish`) only where the data support it
+    (:func:`sca.pathmodels.supported`), the known gain's test only under the chosen one, and
+    the results combined (:func:`sca.pathmodels.combine_single`: an unsupported candidate's
+    intervals and tests are never read, so the result is that of finishing every candidate);
+    ``kw``: the other arguments of :class:`Estimator`."""
     models = candidates(path_models, est.water, sigma is not None and not est.budget.exact)
     first = run(est)
     if len(models) == 1:
+        first = finish(first)
         consistency, table = finalize_single([first], 0)
         flags = add_flags(first.flags, table)
         return dataclasses.replace(first, path_models=(est.water.path_model,),
                                    path_objective={est.water.path_model: first.objective},
                                    consistency=consistency, flags=flags,
                                    reliable=is_reliable(flags))
-    results = {models[0]: first}
+    settled = {models[0]: first}
     for m in models[1:]:
-        results[m] = run(Estimator(water=dataclasses.replace(est.water, path_model=m), **kw))
-    return combine_single(results)
+        settled[m] = run(Estimator(water=dataclasses.replace(est.water, path_model=m), **kw))
+    best, ok = supported(np.array([[s.objective for s in settled.values()]]))
+    return combine_single({m: finish(s, scale_test=bool(j == best[0])) if ok[0, j] else s
+                           for j, (m, s) in enumerate(settled.items())})

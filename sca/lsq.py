@@ -15,7 +15,7 @@ from scipy.optimize import least_squares
 from .loop import MODES, Estimator, over_path_models
 from .model import CHL_DERIVATIVE_FLOOR, lower_bound
 from .results import Estimate
-from .verdict import assess
+from .verdict import Settled, settle
 from forward.errors import InputError
 
 __all__ = ["estimate_least_squares", "residual_functions"]
@@ -134,8 +134,9 @@ def estimate_least_squares(rgb, *, depth, distance, sigma=None, saturation=None,
                             lambda e: _fit(e, rgb, sigma, saturation, x0, max_iter, tol), kw)
 
 
-def _fit(est, rgb, sigma, saturation, x0, max_iter, tol) -> Estimate:
-    """The scipy fit of one estimator (one path model)."""
+def _fit(est, rgb, sigma, saturation, x0, max_iter, tol) -> Settled:
+    """The scipy fit of one estimator (one path model), settled (:func:`sca.verdict.settle`;
+    w on eq 17 by construction: ``eq17_residual`` 0)."""
     st = est.prepare(rgb, sigma)
     fun, jac, unpack, lower = residual_functions(est, st)
     x = est.initial_point(st, x0)
@@ -153,6 +154,6 @@ def _fit(est, rgb, sigma, saturation, x0, max_iter, tol) -> Estimate:
     if saturation is not None:
         from forward import validate
         saturation = validate.scalar("saturation", saturation, positive=True)
-    out = assess(est, st, "scipy_least_squares", int(res.nfev), saturation)
-    out.eq17_residual = 0.0
+    out = settle(est, st, "scipy_least_squares", int(res.nfev), saturation)
+    out.fields["eq17_residual"] = 0.0
     return out

@@ -159,7 +159,9 @@ def combine_batch(results: dict):
 
 def combine_single(results: dict):
     """One :class:`sca.Estimate` from the candidates' (name -> Estimate, the water's own model
-    first); see :func:`combine_batch`."""
+    first); see :func:`combine_batch`. Of a candidate the data do not support only the
+    ``objective`` and the ``consistency`` are read (a :class:`sca.verdict.Settled` fit will
+    do); of a supported one but the best only the intervals and their flags."""
     names = list(results)
     ests = [results[n] for n in names]
     obj = np.array([[e.objective for e in ests]])

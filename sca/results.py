@@ -18,7 +18,7 @@ class Estimate:
     the units of the measurements. ``values`` and ``intervals`` are dicts keyed by the name of
     every free parameter (C and a_CDOM included, and any name of ``free=``): the estimate and
     its 95 % interval (profile likelihood; Wald for the gain and for z > 1 basis functions).
-    Built by :func:`sca.verdict.assess`.
+    Built by :func:`sca.verdict.finish` (:func:`sca.verdict.assess`).
 
     Attributes
     ----------

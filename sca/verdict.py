@@ -7,9 +7,17 @@ Intervals: profile likelihood through :mod:`sca.intervals` (the batch's own rout
 same reduced problem: w on eq 17, gain and s profiled out), so every estimator's intervals
 agree; for z > 1 basis functions Wald intervals from :func:`sca.model.profiled_covariance`
 (flag ``interval-approximate``).
+
+In two steps (issue 46): :func:`settle` fixes the objective (the budget's refinement, the
+quadrature's certificate, the readings' objectives alone), which decides the path models'
+support; :func:`finish` computes the rest, only for the supported path models
+(:func:`sca.loop.over_path_models`). :func:`assess` is both.
 """
 
 from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field as dataclass_field
 
 import numpy as np
 from scipy import special
@@ -28,7 +36,7 @@ from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
 from forward.errors import InputError
 
-__all__ = ["assess", "REFINE_MAX_ITER", "REFINE_TOL"]
+__all__ = ["assess", "settle", "finish", "Settled", "REFINE_MAX_ITER", "REFINE_TOL"]
 
 #: Levenberg-Marquardt iterations and relative tolerance of the budget's refinement (the
 #: nuisances moved within their priors from the loop's point).
@@ -325,7 +333,8 @@ def _profile(est, st, dof):
 
 
 def assess(est, st, mode, it, saturation=None) -> Estimate:
-    """The :class:`sca.Estimate` of a finished fit ``st`` of estimator ``est``.
+    """The :class:`sca.Estimate` of a finished fit ``st`` of estimator ``est``: :func:`settle`
+    then :func:`finish` (the known gain's test included).
 
     Goodness of fit (:func:`sca.assess.goodness`), standard errors from the profiled
     Gauss-Newton covariance, 95 % intervals of every free parameter (profile likelihood for
@@ -355,10 +364,56 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
+    return finish(settle(est, st, mode, it, saturation))
+
+
+@dataclass
+class Settled:
+    """A fit whose objective is fixed (:func:`settle`): what decides the path models' support
+    (:func:`sca.pathmodels.supported`) and their consistency, before the intervals.
+
+    Attributes
+    ----------
+    est, st, mode, it, saturation :
+        As :func:`assess`.
+    consistency : dict
+        The 'alone' objectives and 'pulls' (:func:`_consistency`).
+    fields : dict
+        :class:`sca.Estimate` fields the engine sets itself (:func:`finish` writes them).
+    """
+
+    est: object
+    st: object
+    mode: str
+    it: int
+    saturation: float | None
+    consistency: dict
+    fields: dict = dataclass_field(default_factory=dict)
+
+    @property
+    def objective(self) -> float:
+        """The objective in :attr:`sca.Estimate.objective`'s units (chi^2, or data units)."""
+        return self.st.f * (1.0 if self.st.noise_known else self.st.scale ** 2)
+
+
+def settle(est, st, mode, it, saturation=None) -> Settled:
+    """The part of :func:`assess` that fixes the objective: the budget's refinement
+    (:func:`_refine`), the quadrature's certificate (:func:`_certify`) and the objectives
+    without each auxiliary reading (:func:`_consistency`, needed of every path model)."""
     start = _theta(est, st, _problem(est, st)) if est.observations else None
     _refine(est, st)
     _certify(est, st)
-    consistency = _consistency(est, st, start)
+    return Settled(est, st, mode, it, saturation, _consistency(est, st, start))
+
+
+def finish(settled: Settled, scale_test: bool = True) -> Estimate:
+    """The rest of :func:`assess` on a :func:`settle`'d fit (``st`` is only read): the
+    covariance, intervals, budget shares, derived quantities, flags and verdicts;
+    ``scale_test`` False: without the known gain's test (a path model that is not the chosen
+    one: its flag is never read, :func:`sca.pathmodels.combine_single`)."""
+    est, st, mode, it, saturation = (settled.est, settled.st, settled.mode, settled.it,
+                                     settled.saturation)
+    consistency = settled.consistency
     mdl, x = st.mdl, st.x
     names = est.spec.names
     n_s = 0 if not est.free_s else int(np.sum(np.asarray(x["s"]) > 0))
@@ -393,7 +448,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
                            p_value=float(chi2_p), chl=x["chl"], cdom=x["cdom"],
                            chl_ci=intervals["chl"], cdom_ci=intervals["cdom"], ci_codes=codes,
                            free_chl=est.free_chl, free_cdom=est.free_cdom,
-                           scale_p=_scale_p(est, st))
+                           scale_p=_scale_p(est, st) if scale_test else None)
     if codes is None and "no-interval" in flags:  # Wald intervals (z > 1)
         flags[flags.index("no-interval")] = "interval-approximate"
     sigma = (st.scale / st.wt).reshape(mdl.m, mdl.n) if st.noise_known else None
@@ -406,7 +461,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     ints = {n: intervals[n] for n in names}
     if est.free_gain:
         values["gain"], ints["gain"] = float(x["gain"]), gain_ci
-    return Estimate(
+    out = Estimate(
         chl=float(x["chl"]), cdom=float(x["cdom"]),
         chl_se=se_of.get("chl", 0.0), cdom_se=se_of.get("cdom", 0.0),
         chl_ci=tuple(intervals["chl"]), cdom_ci=tuple(intervals["cdom"]),
@@ -426,3 +481,4 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
         budget=shares, nuisance=dict(st.nuisance), consistency=consistency,
         **_derived(est, st, dof, intervals),
     )
+    return dataclasses.replace(out, **settled.fields) if settled.fields else out

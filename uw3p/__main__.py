@@ -3,7 +3,8 @@
 import sys
 
 from .cli import main
+from .console import ending
 
 __all__: list[str] = []
 
-sys.exit(main())
+sys.exit(ending(main()))
