@@ -1,7 +1,6 @@
 """The ``uw3p`` command: simulate, estimate (single and batch), robustness, exit codes."""
 
 import csv
-import gc
 import io
 import json
 import signal
@@ -39,34 +38,6 @@ def write_chart(path, rgb, order=("red", "green", "blue"), sigma=None):
 def test_version():
     proc = subprocess.run(UW3P + ["--version"], capture_output=True, text=True)
     assert proc.returncode == 0 and proc.stdout.strip().startswith("uw3p 0.")
-
-
-#: Run in a fresh interpreter: the command through ``python -m uw3p`` or the console script, an
-#: exit handler reporting how many objects the garbage collector was told to leave alone.
-_ENDING = """
-import atexit, gc, runpy, sys
-atexit.register(lambda: sys.stderr.write(f"frozen {gc.get_freeze_count()}"))
-sys.argv = ["uw3p", "simulate", "--chl", "1", "--cdom", "0.1", "--depth", "5", "--distance",
-            "1.5", "--no-noise"]
-if CONSOLE:
-    from uw3p.console import main
-    sys.exit(main())
-runpy.run_module("uw3p", run_name="__main__")
-"""
-
-
-@pytest.mark.parametrize("console", [False, True], ids=["python -m uw3p", "console script"])
-def test_the_process_ends_without_the_collector_traversing_its_objects(console):
-    """The command's objects are frozen for the garbage collector as the process ends (its exit
-    no longer traverses them: ~0.15 s of every command after a fit); the exit handlers still
-    run and the output is whole."""
-    proc = subprocess.run([sys.executable, "-c", _ENDING.replace("CONSOLE", str(console))],
-                          capture_output=True, text=True, cwd=ROOT)
-    assert proc.returncode == 0, proc.stderr
-    assert int(proc.stderr.split("frozen ")[-1]) > 0
-    assert proc.stdout == run(["simulate", "--chl", "1", "--cdom", "0.1", "--depth", "5",
-                               "--distance", "1.5", "--no-noise"])[1]
-    assert gc.get_freeze_count() == 0  # and never in the calling process (uw3p.cli.main)
 
 
 def test_simulate_csv_and_json(tmp_path):

@@ -3,8 +3,7 @@
 import sys
 
 from .cli import main
-from .console import ending
 
 __all__: list[str] = []
 
-sys.exit(ending(main()))
+sys.exit(main())
