@@ -58,6 +58,9 @@ def test_a_right_reading_agrees_and_still_narrows(chart):
     assert good.consistency["readings"]["cdom"]["p"] > 0.05
     assert good.cdom_ci[1] - good.cdom_ci[0] < 0.6 * (bare.cdom_ci[1] - bare.cdom_ci[0])
     assert good.cdom_ci[0] <= CDOM <= good.cdom_ci[1]
+    # and C, which a sample of a_CDOM separates from it (issue 45: "still narrows C")
+    assert good.chl_ci[1] - good.chl_ci[0] < bare.chl_ci[1] - bare.chl_ci[0]
+    assert good.chl_ci[0] <= CHL <= good.chl_ci[1]
 
 
 def test_the_batch_tests_each_charts_own_reading(chart):
