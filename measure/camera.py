@@ -18,6 +18,7 @@ lambda), before use.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -260,7 +261,18 @@ def camera_record(camera, *, quantal: bool = False, illuminant=None, profile=Non
     return {"name": camera if isinstance(camera, str) else "custom", "quantal": bool(quantal),
             "curves_sha256": curves_digest(camera), "make": exif.get("make"),
             "model": exif.get("model"), "profile": prof,
-            "illuminant": illuminant if isinstance(illuminant, str) else "D65"}
+            "illuminant": _illuminant_record(illuminant)}
+
+
+def _illuminant_record(illuminant):
+    """How measurement.json names the light a camera set-up was built with: its name (None:
+    D65), a file's path as given, or 'custom' for spectra given in memory (a later correction
+    then needs them again: :func:`measure.correctcamera.correction_setup`)."""
+    if illuminant is None:
+        return "D65"
+    if isinstance(illuminant, (str, os.PathLike)):
+        return os.fspath(illuminant)
+    return "custom"
 
 
 def load_profile(path) -> Profile:

@@ -124,6 +124,10 @@ def correction_setup(recorded: dict, *, camera=None, quantal=None, illuminant=No
         if profile is not None and rec_sha and use.profile["sha256"] != rec_sha:
             use.notes.append("the calibration given is not the one the water was measured with")
     ill = illuminant if illuminant is not None else recorded.get("illuminant")
+    if isinstance(ill, str) and ill == "custom":
+        raise InputError("illuminant", "the water was measured under an illuminant given as "
+                         "spectra, which its record does not hold: give it again "
+                         "(--illuminant)")
     q = bool(recorded.get("quantal", False)) if quantal is None else bool(quantal)
     setup = camera_setup(camera or name, quantal=q, gains=gains,
                          illuminant=None if ill in (None, "D65") else ill)

@@ -202,8 +202,8 @@ class BatchEstimate:
     #: path model -> (N,) objective of each chart under it
     path_objective: dict = field(default_factory=dict)
     #: what the photos measure (:mod:`sca.derived`): name -> (N,) value of every derived
-    #: quantity (the path's attenuation coefficient c at 443, 490, 555, 670 nm, a_nw(440),
-    #: K_d(490); m^-1)
+    #: quantity (the path's attenuation coefficient c at 443, 490, 555, 670 nm and a_nw(440);
+    #: m^-1)
     quantities: dict = field(default_factory=dict)
     #: name -> (N, 2) their 95 % intervals (spanning the supported path models)
     quantity_intervals: dict = field(default_factory=dict)
@@ -381,6 +381,11 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     if len(models) == 1:
         out = _estimate_batch(rgb_stack, water=water, **kw)
         out.consistency, table = finalize_batch([out], np.zeros(len(out), int))
+    elif _no_chart(rgb_stack):  # nothing to pass twice
+        results = {m: _estimate_batch(rgb_stack, water=dataclasses.replace(water, path_model=m),
+                                      **kw) for m in models}
+        out = combine_batch(results)
+        out.consistency, table = finalize_batch(list(results.values()), np.zeros(0, int))
     else:
         out, results = _over_path_models(rgb_stack, water, models, kw)
         best = np.array([models.index(m) for m in out.path_model], int)
@@ -388,6 +393,15 @@ def estimate_batch(rgb_stack, *, depth, distance, sigma=None, saturation=None,
     out.flags, out.reliable = _with_flags(out.flags, out.reliable, table)
     out.elapsed_s = time.perf_counter() - t0
     return out
+
+
+def _no_chart(rgb_stack) -> bool:
+    """An empty stack of charts (a malformed one is left to :func:`_estimate_batch`'s
+    refusal)."""
+    try:
+        return len(rgb_stack) == 0
+    except TypeError:
+        return False
 
 
 def _over_path_models(rgb_stack, water, models, kw):
@@ -446,7 +460,7 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
     if M.ndim != 3 or M.shape[1:] != (m_, n_):
         raise InputError("rgb_stack", f"expected shape (N, {m_}, {n_}), got {M.shape}")
     N = M.shape[0]
-    flat = M.reshape(N, -1)
+    flat = M.reshape(N, m_ * n_)  # N = 0 too
     for bad, what in ((~np.all(np.isfinite(flat), axis=1), "NaN or infinite values"),
                       (np.any(flat < 0, axis=1), "negative values")):
         if bad.any():
@@ -863,8 +877,8 @@ def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
                   budget, plan):
     """Everything after the fit of one chunk: goodness, the known gain's test, the budget's
     shares, the intervals, the derived quantities and the consistency of the readings; with a
-    ``plan`` of the second pass, the known gain's test and the budget's shares only where this
-    path model is the chosen one."""
+    ``plan`` of the second pass, the known gain's test only where this path model is the
+    chosen one."""
     N = prob.size
     idx = np.arange(N)
     ev = evaluate(prob, idx, theta, True)

@@ -10,8 +10,8 @@ out (:func:`sca.model.profiled_covariance`, the estimators' own covariance). The
 bound is its inverse: the standard deviation of every free parameter (``sd``), the correlation
 of C and a_CDOM, (delta method) the expected RRMSE of the attenuation k (eq 19 on the paper's
 31 bands of 10 nm) and the standard deviation of every quantity the estimators derive
-(:mod:`sca.derived`: the path's attenuation coefficient at 443, 490, 555 and 670 nm, a_nw(440),
-K_d(490); ``quantity_sd``), sqrt(grad h^T Sigma grad h) with the bound's covariance Sigma in
+(:mod:`sca.derived`: the path's attenuation coefficient at 443, 490, 555 and 670 nm and
+a_nw(440); ``quantity_sd``), sqrt(grad h^T Sigma grad h) with the bound's covariance Sigma in
 the parameters' own units (C in mg m^-3), as the estimators' intervals use theirs.
 
 The bound does not include the estimators' span over the path models the data cannot tell

@@ -37,7 +37,7 @@ from .lm import LM_TOL, levenberg_marquardt
 
 __all__ = ["CONFLICT_P", "PULL_MAX", "CONSISTENCY_MAX_ITER", "consistency_flag_table",
            "add_flags", "combined", "consistency_records", "finalize_batch", "finalize_single", "nuisance_pulls", "objectives_alone",
-           "reading_tests", "without_observation"]
+           "reading_tests", "tested", "without_observation"]
 
 #: A reading whose likelihood-ratio test against the photos has a p-value below this is a
 #: ``reading-conflict`` (one in a thousand false alarms per reading, as ``misfit``).
@@ -300,3 +300,28 @@ def finalize_batch(ests, best):
                 for k, (s, p) in tests.items()}
     return {"readings": readings, "pulls": pulls, "pull_max": PULL_MAX,
             "conflict_p": CONFLICT_P}, table
+
+
+def tested(e):
+    """``e`` (a :class:`sca.Estimate` of one path model, its ``consistency`` holding 'alone'
+    and 'pulls') with its readings and priors tested against the photos
+    (:func:`finalize_single`): ``consistency`` as documented, the flags ``reading-conflict`` /
+    ``nuisance-pulled`` where raised, ``reliable`` accordingly. Several path models are tested
+    together by :func:`sca.pathmodels.combine_single` instead.
+
+    Parameters
+    ----------
+    e : sca.Estimate
+
+    Returns
+    -------
+    sca.Estimate
+    """
+    import dataclasses
+
+    from .assess import is_reliable
+
+    consistency, table = finalize_single([e], 0)
+    flags = add_flags(e.flags, table)
+    return dataclasses.replace(e, consistency=consistency, flags=flags,
+                               reliable=is_reliable(flags))

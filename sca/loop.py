@@ -44,10 +44,9 @@ from forward.imaging import ChartSetup, resolve_setup
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from .assess import is_reliable
 from .auxiliary import auxiliary_observations
 from .budget import resolve_budget
-from .consistency import add_flags, finalize_single
+from .consistency import tested
 from .pathmodels import candidates, combine_single, supported
 from .fitspec import GAINS, fit_spec
 from .limits import EXACT_FIT, MAX_RGB
@@ -410,8 +409,8 @@ class Estimator:
         -------
         Estimate
         """
-        return finish(self.settle(rgb, sigma=sigma, saturation=saturation, mode=mode,
-                                  max_iter=max_iter, tol=tol, x0=x0, trace=trace))
+        return tested(finish(self.settle(rgb, sigma=sigma, saturation=saturation, mode=mode,
+                                         max_iter=max_iter, tol=tol, x0=x0, trace=trace)))
 
     def settle(self, rgb, *, sigma=None, saturation=None, mode: str = "safeguarded",
                max_iter: int = 100, tol: float = 1e-10, x0=None,
@@ -882,13 +881,9 @@ def over_path_models(est: "Estimator", path_models, sigma, run, kw) -> Estimate:
     models = candidates(path_models, est.water, sigma is not None and not est.budget.exact)
     first = run(est)
     if len(models) == 1:
-        first = finish(first)
-        consistency, table = finalize_single([first], 0)
-        flags = add_flags(first.flags, table)
+        first = tested(finish(first))
         return dataclasses.replace(first, path_models=(est.water.path_model,),
-                                   path_objective={est.water.path_model: first.objective},
-                                   consistency=consistency, flags=flags,
-                                   reliable=is_reliable(flags))
+                                   path_objective={est.water.path_model: first.objective})
     settled = {models[0]: first}
     for m in models[1:]:
         settled[m] = run(Estimator(water=dataclasses.replace(est.water, path_model=m), **kw))

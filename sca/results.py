@@ -173,8 +173,7 @@ class Estimate:
     #: path model -> the objective of the fit under it
     path_objective: dict = field(default_factory=dict)
     #: what the photo measures (:mod:`sca.derived`): name -> value of every derived quantity
-    #: (the path's attenuation coefficient c at 443, 490, 555, 670 nm, a_nw(440), K_d(490);
-    #: m^-1)
+    #: (the path's attenuation coefficient c at 443, 490, 555, 670 nm and a_nw(440); m^-1)
     quantities: dict = field(default_factory=dict)
     #: name -> (lo, hi) their 95 % intervals (spanning the supported path models)
     quantity_intervals: dict = field(default_factory=dict)

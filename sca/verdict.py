@@ -28,7 +28,7 @@ from .budget import variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
-from .consistency import nuisance_pulls, objectives_alone
+from .consistency import nuisance_pulls, objectives_alone, tested
 from .derived import derived_from_fit, verdict
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
 from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
@@ -334,7 +334,8 @@ def _profile(est, st, dof):
 
 def assess(est, st, mode, it, saturation=None) -> Estimate:
     """The :class:`sca.Estimate` of a finished fit ``st`` of estimator ``est``: :func:`settle`
-    then :func:`finish` (the known gain's test included).
+    then :func:`finish` (the known gain's test included), its readings and priors tested
+    (:func:`sca.consistency.tested`).
 
     Goodness of fit (:func:`sca.assess.goodness`), standard errors from the profiled
     Gauss-Newton covariance, 95 % intervals of every free parameter (profile likelihood for
@@ -364,7 +365,7 @@ def assess(est, st, mode, it, saturation=None) -> Estimate:
     D. J. Venzon & S. H. Moolgavkar, "A method for computing profile-likelihood-based
     confidence intervals", Applied Statistics 37 (1988) 87-94.
     """
-    return finish(settle(est, st, mode, it, saturation))
+    return tested(finish(settle(est, st, mode, it, saturation)))
 
 
 @dataclass

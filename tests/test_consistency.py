@@ -151,3 +151,12 @@ def test_nuisance_pulls_and_the_likelihood_ratio_statistic():
     np.testing.assert_allclose(tests["a"][0], [(0 - 3.0) ** 2 / 1.5], rtol=1e-6)
     np.testing.assert_allclose(nuisance_pulls(prob, np.array([[x_hat]]))["x"], [2.0])
     assert PULL_MAX > 2.0
+
+
+def test_the_estimators_own_fit_tests_its_readings_too(chart):
+    """sca.Estimator(...).fit, one path model, runs the same test as sca.estimate."""
+    aux = {"cdom": (0.45, 0.02)}
+    e = sca.Estimator(depth=DEPTH, distance=DIST, gain="free", auxiliary=aux).fit(
+        chart.rgb, sigma=chart.rgb_sigma)
+    assert not e.reliable and "reading-conflict" in e.flags
+    assert set(e.consistency) == {"readings", "pulls", "pull_max", "conflict_p"}

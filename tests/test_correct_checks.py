@@ -221,3 +221,22 @@ def test_a_dives_joint_json_records_the_camera_that_correct_applies(shot, tmp_pa
     assert cam["profile"]["sha256"] == profile_digest(load_profile(shot["profile"]))
     w = correction_water(str(res.joint))
     assert w.camera.profile["sha256"] == cam["profile"]["sha256"]
+
+
+def test_a_light_given_as_spectra_is_recorded_so_and_asked_for_again():
+    """measurement.json's camera record names the light a set-up was built with: a file's path
+    as given, 'custom' for spectra in memory (it was 'D65'), and a correction refuses to guess
+    'custom' (naming --illuminant)."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from forward.spectra import DEFAULT_CAMERA
+    from measure.camera import camera_record
+    from measure.correctcamera import correction_setup
+
+    assert camera_record(DEFAULT_CAMERA, illuminant=Path("sky.csv"))["illuminant"] == "sky.csv"
+    rec = camera_record(DEFAULT_CAMERA, illuminant=np.ones(301))
+    assert rec["illuminant"] == "custom"
+    with pytest.raises(ValueError, match="^illuminant: .*--illuminant"):
+        correction_setup(rec)

@@ -80,8 +80,8 @@ def test_estimate_gives_what_finishing_every_path_model_gives(chart, setting):
     rgb, sigma, geometry, cdom = _chart(chart)
     opt = _options(setting, cdom)
     new = sca.estimate(rgb, sigma=sigma, mode="lm", **geometry, **opt)
-    old = _every_candidate_finished(dict(geometry, **opt),
-                                    lambda e: e.fit(rgb, sigma=sigma, mode="lm"))
+    old = _every_candidate_finished(dict(geometry, **opt), lambda e: sca.verdict.finish(
+        e.settle(rgb, sigma=sigma, mode="lm")))
     assert len(new.path_objective) == 3
     _assert_same(new, old)
 
@@ -91,8 +91,8 @@ def test_the_convex_loops_too(mode):
     rgb, sigma, geometry, cdom = _chart("noisy")
     opt = _options("gain free, reading", cdom)
     new = sca.estimate(rgb, sigma=sigma, mode=mode, **geometry, **opt)
-    old = _every_candidate_finished(dict(geometry, **opt),
-                                    lambda e: e.fit(rgb, sigma=sigma, mode=mode))
+    old = _every_candidate_finished(dict(geometry, **opt), lambda e: sca.verdict.finish(
+        e.settle(rgb, sigma=sigma, mode=mode)))
     _assert_same(new, old)
 
 
