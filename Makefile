@@ -29,11 +29,11 @@ test: $(STAMP)
 test-release: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m release
 
-# the edit loop: everything but the tests marked slow (at most a minute on 2 cores); one BLAS
-# thread, as in make test (BLAS threads spinning after numpy's small calls made the light-field
-# searches of tests/test_wait.py take 30-40 s instead of 4)
+# the edit loop: everything but the tests marked slow, on both cores as make test (about a
+# minute); one BLAS thread, as in make test (BLAS threads spinning after numpy's small calls
+# made the light-field searches of tests/test_wait.py take 30-40 s instead of 4)
 test-fast: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m "not slow and not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not release and not adversarial"
 
 # the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
 # runs interrupted and killed, clusters started; about 10 min on 2 cores)
