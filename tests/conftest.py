@@ -51,6 +51,23 @@ def uw_measured(chart_photos):
                            distance=1.5, profile=chart_photos["profile"])
 
 
+@pytest.fixture(scope="session")
+def fast_shot(tmp_path_factory):
+    """The underwater chart (360 x 240 px DNG, C = 2 mg m^-3, CDOM 0.1 m^-1, 5 m deep, 1.5 m away,
+    the published curves) measured once with the exact model and no light field (fast), for
+    the correction's tests that write their own outputs from it: 'dng', 'meas', 'corners'."""
+    import measure
+    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+
+    tmp = tmp_path_factory.mktemp("fast_shot")
+    corners = default_corners(360, 240)
+    path = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
+                                         width=360, height=240, seed=2), corners), tmp / "A.dng")
+    meas = measure.measure(path, corners=corners, depth=5.0, distance=1.5, uncertain={},
+                           light_field="none")
+    return {"dng": path, "meas": meas, "corners": corners}
+
+
 #: Run first, longest first (their node ids, or a module's path for all of its tests): on two
 #: workers (``make test``, ``--dist loadfile``: each module on one worker, its module fixtures
 #: made once) the longest modules (the reduced figure run of tests/test_experiments.py, the

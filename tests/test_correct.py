@@ -17,20 +17,16 @@ from measure.rangemap import read_range
 from uw3p.cli import main
 
 W, H = 360, 240
-FAST = {"uncertain": {}, "light_field": "none"}
 
 
 @pytest.fixture(scope="module")
-def shot(tmp_path_factory):
+def shot(tmp_path_factory, fast_shot):
+    """The measured photo (tests/conftest.py's fast_shot) and its measurement.json."""
     tmp = tmp_path_factory.mktemp("correct")
-    corners = default_corners(W, H)
-    path = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
-                                         width=W, height=H, seed=2), corners), tmp / "uw.dng")
-    meas = measure.measure(path, corners=corners, depth=5.0, distance=1.5, **FAST)
     out = tmp / "m"
-    measure.write_outputs(meas, out, report=False)
-    return {"dng": path, "meas": meas, "json": out / "measurement.json", "tmp": tmp,
-            "corners": corners}
+    measure.write_outputs(fast_shot["meas"], out, report=False)
+    return {"dng": fast_shot["dng"], "meas": fast_shot["meas"], "json": out / "measurement.json",
+            "tmp": tmp, "corners": fast_shot["corners"]}
 
 
 def test_at_the_chart_distance_it_is_the_von_kries_correction(shot):

@@ -11,23 +11,16 @@ from pathlib import Path
 import pytest
 
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 from uw3p.cli import main
-
-W, H = 360, 240
-FAST = {"uncertain": {}, "light_field": "none"}
 
 
 @pytest.fixture(scope="module")
-def shot(tmp_path_factory):
-    """One chart photo measured, its results in tmp/R (measurement.json, report.png, ...)."""
+def shot(tmp_path_factory, fast_shot):
+    """One chart photo measured (tests/conftest.py's fast_shot), its results in tmp/R
+    (measurement.json, ...)."""
     tmp = tmp_path_factory.mktemp("nothing_lost")
-    corners = default_corners(W, H)
-    path = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
-                                         width=W, height=H, seed=2), corners), tmp / "A.dng")
-    meas = measure.measure(path, corners=corners, depth=5.0, distance=1.5, **FAST)
-    measure.write_outputs(meas, tmp / "R", report=False)
-    return {"dng": path, "meas": meas, "R": tmp / "R", "tmp": tmp}
+    measure.write_outputs(fast_shot["meas"], tmp / "R", report=False)
+    return {"dng": fast_shot["dng"], "meas": fast_shot["meas"], "R": tmp / "R", "tmp": tmp}
 
 
 def _run(argv):

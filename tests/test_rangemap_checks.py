@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 from forward.errors import InputError
 from measure.correct import correct_image
 from measure.rangemap import (ASPECT_TOLERANCE, FLOAT_MM_MEDIAN_M, PNG_METRES_BELOW_MM,
@@ -18,19 +17,15 @@ from uw3p.cli import main
 
 W, H = 360, 240
 SIZE = (40, 30)  # a small photo's (width, height) for the reader's own checks
-FAST = {"uncertain": {}, "light_field": "none"}
 
 
 @pytest.fixture(scope="module")
-def shot(tmp_path_factory):
-    """A measured photo and its measurement.json (as tests/test_correct.py makes them)."""
+def shot(tmp_path_factory, fast_shot):
+    """The measured photo (tests/conftest.py's fast_shot) and its measurement.json."""
     tmp = tmp_path_factory.mktemp("rangemap")
-    corners = default_corners(W, H)
-    path = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5, gain=30000,
-                                         width=W, height=H, seed=2), corners), tmp / "uw.dng")
-    meas = measure.measure(path, corners=corners, depth=5.0, distance=1.5, **FAST)
-    measure.write_outputs(meas, tmp / "m", report=False)
-    return {"dng": path, "meas": meas, "json": tmp / "m" / "measurement.json"}
+    measure.write_outputs(fast_shot["meas"], tmp / "m", report=False)
+    return {"dng": fast_shot["dng"], "meas": fast_shot["meas"],
+            "json": tmp / "m" / "measurement.json"}
 
 
 def refusal(value, size=SIZE) -> InputError:
