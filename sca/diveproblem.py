@@ -105,9 +105,9 @@ class DiveProblem(Problem):
                        PATCH: np.array(self.columns(PATCH), int)}
         for name in shared:
             self.layout[name] = np.array(self.columns(name), int)
-        # each photo's columns of its own chart: (name of its model function, theta column)
-        self._photo_cols = [self._photo_columns(i) for i in range(N)]
-        self._photo_block = [np.ix_(cols, cols) for _, cols in self._photo_cols]
+        # the photos evaluated together: one call of the model function per chart model
+        key = np.array([id(mdl) for mdl in self.models])
+        self._batches = [self._batch(np.flatnonzero(key == k)) for k in np.unique(key)]
 
     # ------------------------------------------------------------------ the layout's choices
     def lower_bound(self, name: str) -> float:
@@ -124,19 +124,21 @@ class DiveProblem(Problem):
         return {}
 
     # ------------------------------------------------------------------ the photos
-    def _photo_columns(self, i):
-        """Photo i's free names of the model function and their theta columns."""
-        g = self.groups[i]
-        free = ["chl", "cdom"]
-        cols = [self.layout["chl"][g], self.layout["cdom"][g]]
-        for name in self.shared:
-            free.append(name)
-            cols += list(self.layout[name])
-        for name in ("depth", "distance"):
-            if self.layout[name][i] >= 0:
-                free.append(name)
-                cols.append(self.layout[name][i])
-        return tuple(free), np.array(cols + list(self.layout[PATCH]), int)
+    def _batch(self, photos):
+        """Photos ``photos`` of one chart model: (photos, the model function's free names,
+        (K, P) theta columns of each photo's P derivative rows, -1 where a photo's depth or
+        distance is held: its row is computed and dropped)."""
+        free = ["chl", "cdom", *self.shared]
+        geo = [g for g in ("depth", "distance") if np.any(self.layout[g][photos] >= 0)]
+        cols = []
+        for i in photos:
+            g = self.groups[i]
+            c = [self.layout["chl"][g], self.layout["cdom"][g]]
+            for name in self.shared:
+                c += list(self.layout[name])
+            c += [self.layout[name][i] for name in geo]
+            cols.append(c + list(self.layout[PATCH]))
+        return photos, tuple(free + geo), np.array(cols, int).reshape(len(photos), -1)
 
     def photo_params(self, theta_row, i, params=None) -> dict:
         """Photo i's parameters of the model function at ``theta_row`` (p,): C (mg m^-3),
@@ -144,53 +146,69 @@ class DiveProblem(Problem):
         when the caller has them)."""
         if params is None:
             params = self.params(np.zeros(1, np.int64), theta_row[None])
-        g = self.groups[i]
-        out = {"chl": np.atleast_1d(params["chl"])[..., g].reshape(1),
-               "cdom": np.atleast_1d(params["cdom"])[..., g].reshape(1)}
+        return self._batch_params(np.asarray(theta_row, float)[None], params, np.array([i]))
+
+    def _batch_params(self, theta, params, photos) -> dict:
+        """The model function's parameters of ``photos`` at every row of ``theta`` (k, p):
+        leading axis k K, row by row."""
+        k, K = theta.shape[0], len(photos)
+        g = self.groups[photos]
+        out = {name: np.asarray(params[name], float).reshape(k, -1)[:, g].reshape(-1)
+               for name in ("chl", "cdom")}
         for name in self.shared:
             v = np.asarray(params[name], float)
-            out[name] = v.reshape(1, -1) if name in CAMERA else v.reshape(1)
+            out[name] = np.repeat(v.reshape(k, -1) if name in CAMERA else v.reshape(k), K,
+                                  axis=0)
         for name in ("depth", "distance"):
-            j = self.layout[name][i]
-            out[name] = np.array([theta_row[j] if j >= 0 else getattr(self, name)[i]])
+            j = self.layout[name][photos]
+            held = np.broadcast_to(getattr(self, name)[photos], (k, K))
+            out[name] = np.where(j >= 0, theta[:, np.maximum(j, 0)], held).reshape(-1)
         return out
 
     def data_terms(self, idx, theta, params, chain, grad: bool) -> Evaluation:
         """The sum of the photos' chart objectives (each photo's signal times 1 + e), with the
         sum of their gradients and Gauss-Newton matrices in theta's columns; ``extras``:
-        'gain' (k, N), 's' (k, N, m; each photo's scaled units)."""
+        'gain' (k, N), 's' (k, N, m; each photo's scaled units). The photos of one chart
+        model, at every row of ``theta``, are one call of the model function and one
+        projection."""
         k, p = theta.shape
         N, mn = self.M.shape
         f = np.zeros(k)
-        g = np.zeros((k, p)) if grad else None
-        H = np.zeros((k, p, p)) if grad else None
+        g = np.zeros((k, p + 1)) if grad else None  # column p: the held rows, dropped
+        H = np.zeros((k, p + 1, p + 1)) if grad else None
         gains, backs = np.zeros((k, N)), np.zeros((k, N, self.m))
         n_e = self.layout[PATCH].size
-        for r in range(k):
-            e = theta[r, self.layout[PATCH]] if n_e else 0.0
-            row_params = self.params(np.zeros(1, np.int64), theta[r][None])
-            for i in range(N):
-                free, cols = self._photo_cols[i]
-                mdl = self.models[i]
-                pi = self.photo_params(theta[r], i, row_params)
-                pred = mdl.predict(pi, free if grad else (), chl_floor=TINY, jacobian=grad)
-                inv = 1.0 / self.scale[i]
-                Mi = self.M[i] * (1.0 - e)  # the data less the chart's shared error e M
-                if grad:
-                    rows = pred.jacobian_rows[0]
-                    if n_e:
-                        rows = np.concatenate([rows, np.diag(self.M[i])])
-                    cs = chain[r, cols][None] * np.where(np.arange(cols.size) < cols.size - n_e,
-                                                         inv, 1.0)
-                    additive = np.arange(cols.size) >= cols.size - n_e
-                else:
-                    rows, cs, additive = np.zeros((0, mn)), np.zeros((1, 0)), None
-                fi, gi, Hi, gain, s, _ = project(pred.signal * inv, rows[None], Mi[None],
-                                                 self.W2[i:i + 1], None, True, self.m, self.n,
-                                                 grad, cs, additive)
-                f[r] += fi[0]
-                gains[r, i], backs[r, i] = gain[0], s[0]
-                if grad:  # a photo's columns are distinct: plain indexed sums
-                    g[r, cols] += gi[0]
-                    H[r][self._photo_block[i]] += Hi[0]
+        e = theta[:, self.layout[PATCH]] if n_e else np.zeros((k, 1))
+        for photos, free, cols in self._batches:
+            K, P = cols.shape
+            pred = self.models[photos[0]].predict(
+                self._batch_params(theta, params, photos), free if grad else (),
+                chl_floor=TINY, jacobian=grad)
+            inv = 1.0 / self.scale[photos]
+            Mi = (self.M[photos][None] * (1.0 - e[:, None, :])).reshape(k * K, mn)
+            W2 = np.broadcast_to(self.W2[photos], (k, K, mn)).reshape(k * K, mn)
+            if grad:
+                rows = pred.jacobian_rows
+                if n_e:  # the chart's shared error: d (M (1 - e)) / d e, an additive row
+                    diag = self.M[photos][:, :, None] * np.eye(mn)
+                    rows = np.concatenate([rows, np.broadcast_to(
+                        diag, (k, K, mn, mn)).reshape(k * K, mn, mn)], axis=1)
+                additive = np.arange(P) >= P - n_e
+                ext = np.concatenate([chain, np.zeros((k, 1))], axis=1)  # held: factor 0
+                at = np.where(cols >= 0, cols, p)
+                cs = ext[:, at] * np.where(additive, 1.0, inv[:, None])[None]
+                cs = cs.reshape(k * K, P)
+            else:
+                rows, cs, additive = np.zeros((k * K, 0, mn)), np.zeros((k * K, 0)), None
+            fi, gi, Hi, gain, s, _ = project(pred.signal * np.tile(inv, k)[:, None], rows, Mi,
+                                             W2, None, True, self.m, self.n, grad, cs, additive)
+            f += fi.reshape(k, K).sum(axis=1)
+            gains[:, photos], backs[:, photos] = gain.reshape(k, K), s.reshape(k, K, self.m)
+            if grad:  # a photo's columns are distinct (but for the dropped ones)
+                gi, Hi = gi.reshape(k, K, P), Hi.reshape(k, K, P, P)
+                for j in range(K):
+                    g[:, at[j]] += gi[:, j]
+                    H[:, at[j][:, None], at[j][None, :]] += Hi[:, j]
+        if grad:
+            g, H = g[:, :p], H[:, :p, :p]
         return Evaluation(f, g, H, {"gain": gains, "s": backs})
