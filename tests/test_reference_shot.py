@@ -95,3 +95,31 @@ def test_the_measured_prior_is_the_budgets_daylight_prior():
     with pytest.raises(InputError, match="daylight"):
         resolve_budget({"daylight": {"sd": 3.0}}, depth=5.0, distance=1.0,
                        water=forward.Water())
+
+
+def test_measure_takes_a_reference_shot_and_says_which_daylight_it_used(chart_photos, tmp_path):
+    import io
+    import json
+
+    from uw3p.cli import main
+
+    ph = chart_photos
+    prof = tmp_path / "profile.json"
+    prof.write_text(ph["profile"].to_json())
+    corners = " ".join(f"{x},{y}" for x, y in ph["corners"])
+    base = ["measure", str(ph["uw"]), "--profile", str(prof), "--depth", "5", "--distance",
+            "1.5", "--corners", corners, "--tiff", "none"]
+
+    def run(extra, out_dir):
+        out, err = io.StringIO(), io.StringIO()
+        code = main(base + ["--out", str(out_dir)] + extra, out, err)
+        return code, out.getvalue(), err.getvalue()
+    code, text, _ = run(["--reference", f"{ph['air']}:20"], tmp_path / "ref")
+    assert code in (0, 1) and "daylight: measured at the site" in text
+    day = json.loads((tmp_path / "ref" / "measurement.json").read_text())["inputs"][
+        "uncertain"]["daylight"]
+    assert day["minutes"] == 20 and day["sd"] < DEFAULT_UNCERTAIN["daylight"]
+    code, text, _ = run([], tmp_path / "default")
+    assert "daylight: prior 30 mired" in text
+    code, _, err = run(["--reference", f"{ph['air']}:-5"], tmp_path / "bad")
+    assert code == 2 and "--reference" in err
