@@ -32,7 +32,6 @@ __all__ = [
     "CHART_PATCHES",
     "HASH_CHUNK_BYTES",
     "MIN_CALIBRATION_PATCHES",
-    "reference_light",
     "PATCH_SD_MAX",
     "Profile",
     "calibrate",
@@ -514,43 +513,3 @@ def _version() -> str:
     except Exception:
         return ""
 
-
-def reference_light(photo, setup, layout="patches"):
-    """The surface light measured from a photo of the chart in air at the site (a reference
-    shot, :func:`sca.reference.measure_light`; decision 0069-reference-shot): the chart found
-    (:func:`measure.find_chart`), its patches sampled (clipped values left out) and the
-    daylight's colour fitted against ``setup`` (the camera as the photos underwater are fitted).
-
-    Parameters
-    ----------
-    photo : measure.image.Photo
-        The reference shot.
-    setup : forward.ChartSetup
-        Camera, illuminant and chart (:func:`camera_setup`).
-    layout : str, optional
-        The chart's layout (:data:`measure.LAYOUTS`).
-
-    Returns
-    -------
-    sca.reference.Light
-
-    Raises
-    ------
-    forward.errors.InputError
-        Naming '--reference' when the chart's grey row does not fall from white to black.
-    """
-    from sca.reference import measure_light
-
-    from .chart import LAYOUTS, orientations, sample_patches
-    from .detect import find_chart
-
-    lay = LAYOUTS[layout]
-    found = find_chart(photo, lay)
-    found.check_in_frame(photo.size)
-    corners, _, ok = orientations(photo, found.corners, lay)["as given"]
-    if not ok:
-        raise InputError("--reference", "the chart found in the reference shot does not run "
-                         "from white to black along its grey row")
-    s = sample_patches(photo, corners, lay)
-    sigma = np.where(np.asarray(s.clipped) > 0, np.nan, np.asarray(s.sigma, float))
-    return measure_light(s.rgb, sigma, setup)

@@ -133,6 +133,7 @@ def _with_reference(args, uncertain):
     if getattr(args, "reference", None) is None or uncertain == {}:
         return uncertain
     import measure
+    from measure.camera import read_chart_reflectance
     from sca.reference import with_reference
 
     photo, minutes = _reference_arg(args.reference)
@@ -140,7 +141,7 @@ def _with_reference(args, uncertain):
     setup = measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
                                  gains=None if profile is None else profile.gains,
                                  reflectances=None if args.chart_reflectance is None else
-                                 measure.read_chart_reflectance(args.chart_reflectance))
+                                 read_chart_reflectance(args.chart_reflectance))
     light = measure.reference_light(read_photo(args, photo), setup, args.layout)
     base = uncertain if uncertain is not None else measure.budget_for(
         None, profile, measured_chart=args.chart_reflectance is not None)
