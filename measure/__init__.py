@@ -16,6 +16,7 @@ from forward.lazy import lazy_exports
 #: Where each public name lives (submodule of ``measure``).
 _HOME = {
     "Profile": "camera", "calibrate": "camera", "camera_setup": "camera",
+    "reference_light": "reference",
     "load_profile": "camera",
     "LAYOUTS": "chart", "ChartLayout": "chart", "PatchSample": "chart",
     "orientations": "chart", "parse_corners": "chart", "sample_patches": "chart",

@@ -512,3 +512,4 @@ def _version() -> str:
         return version("uw3p")
     except Exception:
         return ""
+

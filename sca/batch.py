@@ -699,6 +699,8 @@ def start_values(prob: ChartProblem, geometry) -> np.ndarray:
             theta[:, j] = A0
         elif name in geometry:
             theta[:, j] = geometry[name]
+        elif prob.prior_mean is not None and np.any(prob.prior_weight[:, j] > 0):
+            theta[:, j] = prob.prior_mean[:, j]  # a nuisance at its prior's centre
         elif name in CAMERA:
             theta[:, j] = 0.0
         else:

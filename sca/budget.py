@@ -11,7 +11,11 @@ estimator, :func:`sca.precision` and ``measure``) is a dict name -> standard dev
   wavelength shift of each channel's measured curve, nm; the same sd for every channel) and
   ``daylight`` (the surface light's colour temperature's change from the illuminant given,
   mired: :class:`forward.daylight.DaylightTilt`). They enter the one model function as parameters; the fit adds
-  sum ((theta - mu) / sd)^2 to chi^2, and the profile-likelihood intervals profile them;
+  sum ((theta - mu) / sd)^2 to chi^2, and the profile-likelihood intervals profile them. A
+  nuisance other than a length may instead be given as a *measured* prior, a dict
+  ``{"centre": mu, "sd": sd, ...}`` (its own units; further keys, e.g. ``source``, are kept
+  in the record): the daylight measured at the site by a reference shot
+  (:func:`sca.reference.reference_prior`) enters every estimator this way (:func:`prior_of`);
 * **per-patch systematic terms** (``patch``, relative): chart reflectance tolerance and
   ageing, camera-curve error and the illuminant, independent from patch to patch. They enter the
   noise: sigma_total^2 = sigma^2 + (patch x M)^2.
@@ -40,7 +44,7 @@ from .model import covariance
 from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
-           "SYSTEMATIC", "Budget", "prior_centre", "resolve_budget", "parse_sd",
+           "SYSTEMATIC", "Budget", "prior_centre", "prior_of", "resolve_budget", "parse_sd",
            "variance_shares", "limiting_source"]
 
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
@@ -87,9 +91,10 @@ class Budget:
                       self.patch)
 
     def to_dict(self) -> dict:
-        """The budget as plain numbers: the sd given for every name and its source."""
-        return {k: {"sd": v, "source": BUDGET_SOURCES.get(k, "given")} for k, v in
-                self.sd.items()}
+        """The budget as plain numbers: the sd given for every name and its source (a measured
+        prior's own record: its centre, sd and source)."""
+        return {k: dict(v) if isinstance(v, dict) else
+                {"sd": v, "source": BUDGET_SOURCES.get(k, "given")} for k, v in self.sd.items()}
 
 
 def parse_sd(name: str, value, reference=None):
@@ -162,14 +167,54 @@ def prior_centre(name: str, water: Water) -> float:
     return 0.0 if name in CENTRED else float(getattr(water, name))
 
 
+def prior_of(name: str, value, water: Water):
+    """(centre, sd) of the prior of nuisance ``name`` (not a length) from ``uncertain[name]``:
+    an sd (about :func:`prior_centre`) or a measured prior ``{"centre": mu, "sd": sd, ...}``.
+    The one place a prior's centre is read (every estimator through :func:`resolve_budget`,
+    the joint fit through :func:`sca.joint` 's budget).
+
+    Parameters
+    ----------
+    name : str
+        A :data:`NUISANCE` name other than 'depth' and 'distance'.
+    value : float or dict
+        The sd in the parameter's units, or a dict with 'centre' and 'sd' (own units).
+    water : forward.Water
+        The water model (the default centre of its constants).
+
+    Returns
+    -------
+    (float, float)
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming ``uncertain['name']``: a dict without a finite 'centre' or a valid 'sd'.
+    """
+    if not isinstance(value, dict):
+        return prior_centre(name, water), float(parse_sd(name, value))
+    label = f"uncertain[{name!r}]"
+    if "centre" not in value or "sd" not in value:
+        raise InputError(label, "a measured prior needs 'centre' and 'sd', got keys "
+                         f"{sorted(value)}")
+    try:
+        centre = float(value["centre"])
+    except (TypeError, ValueError):
+        centre = float("nan")
+    if isinstance(value["centre"], bool) or not np.isfinite(centre):
+        raise InputError(label, f"'centre' must be a finite number, got {value['centre']!r}")
+    return centre, float(parse_sd(name, value["sd"]))
+
+
 def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:
     """The :class:`Budget` of ``uncertain`` for charts at ``depth`` and ``distance``.
 
     Parameters
     ----------
     uncertain : dict or None
-        name -> sd (:data:`NUISANCE` and :data:`SYSTEMATIC` names); None: the default budget
-        (:data:`DEFAULT_UNCERTAIN`); ``{}``: the paper's exact model.
+        name -> sd (:data:`NUISANCE` and :data:`SYSTEMATIC` names; a nuisance other than a
+        length may be a measured prior ``{"centre": mu, "sd": sd}``, :func:`prior_of`); None:
+        the default budget (:data:`DEFAULT_UNCERTAIN`); ``{}``: the paper's exact model.
     depth, distance : float or (N,) array
         The given lengths, m (the priors' centres).
     water : forward.Water
@@ -209,8 +254,8 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
             mean = np.broadcast_to(lengths[name], (N,)).astype(float)
             sd = np.broadcast_to(parse_sd(name, value, mean), (N,)).astype(float)
         else:
-            mean = np.full(N, prior_centre(name, water))
-            sd = np.full(N, float(parse_sd(name, value)))
+            centre, spread = prior_of(name, value, water)
+            mean, sd = np.full(N, centre), np.full(N, spread)
         if name in free or name in fixed or not np.any(sd > 0):
             continue
         priors[name] = (mean, sd)

@@ -38,7 +38,7 @@ from forward.imaging import ChartSetup
 from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
-from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
+from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_of
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
@@ -312,9 +312,9 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     for name, value in uncertain.items():
         if name in ("depth", "distance", "patch"):
             continue
-        sd = float(parse_sd(name, value))
+        centre, sd = prior_of(name, value, water)
         if sd > 0:
-            priors[name] = (prior_centre(name, water), sd)
+            priors[name] = (centre, sd)
     geo = {}
     for name, given, ref in (("depth", depth_sd, depth), ("distance", distance_sd, distance)):
         if given is not None:

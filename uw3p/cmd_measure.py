@@ -69,6 +69,11 @@ def add_parser(sub):
                         "cdom_sample,cdom_sample_sd (m^-1), secchi_m,secchi_sd_m (m), "
                         "kd_<nm>,kd_<nm>_sd (m^-1) (image names relative to the folder, range "
                         "maps to the CSV's; a photo without a row is not measured)")
+    p.add_argument("--reference", default=None, metavar="PHOTO[:MINUTES]",
+                   help="a photo of the chart in air at the site under the same sky (a reference "
+                        "shot), MINUTES (default 10) before or after the dive: the daylight's "
+                        "colour it measures replaces the budget's 30-mired prior (decision "
+                        "0069-reference-shot)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
@@ -98,7 +103,62 @@ def _options(args) -> dict:
     return {"camera": args.camera, "quantal": args.quantal, "profile": args.profile,
             "illuminant": args.illuminant, "layout": args.layout, "water": water_from_args(args),
             "black_level": args.black_level, "white_level": args.white_level,
-            "uncertain": _budget(args)} | {k: v for k, v in extra.items() if v}
+            "uncertain": _with_reference(args, _budget(args))} | {
+                k: v for k, v in extra.items() if v}
+
+
+def _reference_arg(text):
+    """(photo, minutes) of ``--reference PHOTO[:MINUTES]``."""
+    from sca.reference import REFERENCE_MINUTES, sky_sd
+
+    photo, minutes = text, REFERENCE_MINUTES
+    head, sep, tail = text.rpartition(":")
+    if sep and head and not Path(text).exists():
+        try:
+            minutes = float(tail)
+        except ValueError:
+            raise InputError("--reference", f"expected PHOTO[:MINUTES], got {text!r}") from None
+        photo = head
+    try:
+        sky_sd(minutes)
+    except InputError as exc:
+        raise InputError("--reference", exc.reason) from None
+    if not Path(photo).is_file():
+        raise InputError("--reference", f"file not found: {photo}")
+    return photo, minutes
+
+
+def _with_reference(args, uncertain):
+    """``uncertain`` with the daylight measured by ``--reference`` (as given without it)."""
+    if getattr(args, "reference", None) is None or uncertain == {}:
+        return uncertain
+    import measure
+    from measure.camera import read_chart_reflectance
+    from sca.reference import with_reference
+
+    photo, minutes = _reference_arg(args.reference)
+    profile = measure.load_profile(args.profile) if args.profile else None
+    setup = measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
+                                 gains=None if profile is None else profile.gains,
+                                 reflectances=None if args.chart_reflectance is None else
+                                 read_chart_reflectance(args.chart_reflectance))
+    light = measure.reference_light(read_photo(args, photo), setup, args.layout)
+    base = uncertain if uncertain is not None else measure.budget_for(
+        None, profile, measured_chart=args.chart_reflectance is not None)
+    return with_reference(base, light, minutes, f"measured at the site by {photo}")
+
+
+def daylight_line(uncertain) -> str:
+    """What the fit took of the daylight's colour, in words."""
+    from sca.budget import DEFAULT_UNCERTAIN
+
+    day = (DEFAULT_UNCERTAIN if uncertain is None else uncertain).get("daylight", 0.0)
+    if isinstance(day, dict):
+        return (f"daylight: measured at the site, {day['centre']:+.1f} +- {day['sd']:.1f} mired "
+                f"(fit {day.get('sd_fit', float('nan')):.1f}, sky's change "
+                f"{day.get('sd_sky', float('nan')):.1f} over {day.get('minutes', float('nan')):g}"
+                " min)")
+    return f"daylight: prior {float(day):g} mired" if float(day) > 0 else "daylight: as given"
 
 
 def _measure_one(args, image, outdir):
@@ -123,7 +183,8 @@ def _measure_one(args, image, outdir):
            "cdom_lo": e.cdom_ci[0], "cdom_hi": e.cdom_ci[1], "gain": e.gain,
            "fit_rms": e.fit_rms, "chi2_dof": e.chi2_dof, "orientation": meas.orientation,
            "reliable": meas.reliable, "flags": " ".join(meas.flags), "written": written,
-           "statements": statements(e, "photo", meas.auxiliary_kinds)}
+           "statements": statements(e, "photo", meas.auxiliary_kinds),
+           "daylight": daylight_line(e.uncertain or {})}
     return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
 
 
@@ -201,6 +262,7 @@ def run(args, out, err) -> int:
               f"gain             {e['gain']:.6g} raw units per model unit\n"
               f"fit              fit_rms {e['fit_rms']:.3g}, chi2/dof {e['chi2_dof']:.3g}\n"
               f"orientation      {e['orientation']}\n"
+              f"light            {e['daylight']}\n"
               f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
               + "\nwhat this photo measures (95 % intervals):\n"
               + "".join(f"  {x}\n" for x in e["statements"])

@@ -1,0 +1,209 @@
+"""The surface reference shot: the light at the site measured from a chart photographed in air.
+
+A photo underwater measures the path's optical depth; at 443 and 490 nm what limits it is the
+colour of the surface daylight, which the default budget carries as a prior of 30 mired about
+the illuminant given (:data:`sca.budget_defaults.DEFAULT_UNCERTAIN` 'daylight'). A chart
+photographed in air at the site, under the same sky shortly before or after the dive, sees that
+light unfiltered. :func:`measure_light` fits its colour with the one model function
+(:meth:`sca.ChartModel.predict` at depth = distance = 0: no water): the daylight's shift
+(mired, relative to the setup's ``daylight_cct``) free, the exposure gain free, and the
+camera's channel balance and curves under their own priors (a profile of another day: 1 %,
+1 nm), the per-patch term in the noise, so that the fit does not mistake the balance for the
+light. The sky changes between the shot and the dive: :func:`sky_sd` adds an sd per the time
+between them. :meth:`Light.prior` is the budget's measured prior ``{"centre", "sd", ...}``
+(:func:`sca.budget.prior_of`) which every estimator reads through ``uncertain=``:
+:func:`with_reference` is the one place a reference replaces the default's daylight prior.
+
+References
+----------
+J. Hernández-Andrés, J. Romero, J. L. Nieves and R. L. Lee, "Color and spectral analysis of
+daylight in southern Europe", J. Opt. Soc. Am. A 18 (2001) 1325-1335 (the spread of daylight's
+CCT: the default prior). Decision 0069-reference-shot (the sky's change, its numbers).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from forward.errors import InputError
+from forward.imaging import ChartSetup
+
+from .budget_defaults import DEFAULT_UNCERTAIN
+
+__all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "Light", "measure_light", "sky_sd",
+           "with_reference"]
+
+#: The sky's change reaches the default prior's spread (mired) ...
+SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
+#: ... after this many minutes between the reference shot and the dive, growing as a random
+#: walk before (sd = SKY_SD sqrt(minutes / SKY_MINUTES)): 10 min 8.7 mired, 30 min 15 mired
+#: (decision 0069-reference-shot).
+SKY_MINUTES = 120.0
+#: The time between the reference shot and the dive where none is given, minutes.
+REFERENCE_MINUTES = 10.0
+#: The nuisances of the camera held to their priors in the fit in air.
+CAMERA_PRIORS = ("balance", "camera_shift")
+
+
+def sky_sd(minutes) -> float:
+    """The sd (mired) of the daylight's change over ``minutes`` between the reference shot and
+    the dive: :data:`SKY_SD` sqrt(minutes / :data:`SKY_MINUTES`), at most :data:`SKY_SD`.
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming 'minutes' for a negative or non-finite value.
+    """
+    try:
+        t = float(minutes)
+    except (TypeError, ValueError):
+        t = float("nan")
+    if isinstance(minutes, bool) or not np.isfinite(t) or t < 0:
+        raise InputError("minutes", f"the time between the reference shot and the dive must be "
+                         f"a number of minutes >= 0, got {minutes!r}")
+    return float(min(SKY_SD, SKY_SD * np.sqrt(t / SKY_MINUTES)))
+
+
+@dataclass(frozen=True)
+class Light:
+    """The surface light measured by a reference shot.
+
+    Attributes
+    ----------
+    centre : float
+        The daylight's colour shift from the set-up's illuminant, mired (the model's
+        'daylight' parameter).
+    sd : float
+        Its standard deviation, mired (the fit's: photon noise, per-patch term, the camera's
+        priors).
+    reference_cct : float
+        The illuminant's temperature the shift refers to, K.
+    chi2_dof : float
+        Reduced chi^2 of the fit (with the per-patch term in the noise).
+    """
+
+    centre: float
+    sd: float
+    reference_cct: float
+    chi2_dof: float
+
+    @property
+    def cct(self) -> float:
+        """The measured light's correlated colour temperature, K."""
+        return 1e6 / (1e6 / self.reference_cct + self.centre)
+
+    def to_dict(self) -> dict:
+        """Plain numbers (what a profile records)."""
+        return {"centre_mired": self.centre, "sd_mired": self.sd, "cct_K": self.cct,
+                "reference_cct_K": self.reference_cct, "chi2_dof": self.chi2_dof}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Light":
+        """The inverse of :meth:`to_dict`."""
+        return cls(float(d["centre_mired"]), float(d["sd_mired"]), float(d["reference_cct_K"]),
+                   float(d.get("chi2_dof", float("nan"))))
+
+    def prior(self, minutes=REFERENCE_MINUTES, source: str = "") -> dict:
+        """The budget's measured 'daylight' prior: centre, sd = sqrt(sd_fit^2 + sky_sd^2)
+        (:func:`sky_sd` of ``minutes``) and the record of where it comes from."""
+        sky = sky_sd(minutes)
+        return {"centre": self.centre, "sd": float(np.hypot(self.sd, sky)), "sd_fit": self.sd,
+                "sd_sky": sky, "minutes": float(minutes),
+                "source": source or "measured at the site by a reference shot"}
+
+
+def with_reference(uncertain, light: Light | None, minutes=REFERENCE_MINUTES,
+                   source: str = "") -> dict | None:
+    """``uncertain`` (None: the default budget) with its 'daylight' prior replaced by the
+    reference's (:meth:`Light.prior`); ``uncertain`` as given without a reference or for the
+    paper's exact model ``{}``."""
+    if light is None or uncertain == {}:
+        return uncertain
+    base = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
+    return base | {"daylight": light.prior(minutes, source)}
+
+
+def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None) -> Light:
+    """The daylight's colour from a chart photographed in air (a reference shot).
+
+    Weighted least squares (:func:`scipy.optimize.least_squares`) of the chart model at
+    depth = distance = 0 (:meth:`sca.ChartModel.predict`): 'daylight' and the gain free, the
+    camera's 'balance' and 'camera_shift' under their priors and the per-patch term 'patch' in
+    the noise, from ``uncertain`` (default :data:`sca.budget.DEFAULT_UNCERTAIN`). Its sd is the
+    package's covariance (:func:`sca.model.covariance`) at the optimum.
+
+    Parameters
+    ----------
+    rgb, sigma : array_like, (3, 24)
+        Patch values and their standard errors, any units (raw DN); a value with a non-finite
+        or non-positive sigma (clipped, not sampled) is left out.
+    setup : forward.ChartSetup, optional
+        Camera, illuminant and chart as the underwater photos are fitted with (default
+        :func:`forward.chart_setup`'s); the shift refers to its ``daylight_cct``.
+    uncertain : dict, optional
+        The camera's priors and per-patch term (the default budget's by default).
+
+    Returns
+    -------
+    Light
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming 'rgb' or 'sigma' for values of the wrong shape or too few usable patches.
+    """
+    from scipy.optimize import least_squares
+
+    from forward.imaging import chart_setup
+
+    from .budget import parse_sd
+    from .model import ChartModel, covariance
+
+    setup = chart_setup() if setup is None else setup
+    mdl = ChartModel(setup)
+    M = np.asarray(rgb, float)
+    sig = np.asarray(sigma, float)
+    if M.shape != (mdl.m, mdl.n) or sig.shape != M.shape:
+        raise InputError("rgb", f"expected patch values and sigma of shape {(mdl.m, mdl.n)}, "
+                         f"got {M.shape} and {sig.shape}")
+    use = (np.isfinite(M) & np.isfinite(sig) & (sig > 0)).reshape(-1)
+    if use.sum() < 2 * (2 + mdl.m):
+        raise InputError("sigma", f"only {int(use.sum())} usable patch values in the reference "
+                         "shot")
+    budget = DEFAULT_UNCERTAIN if uncertain is None else uncertain
+    sd = {k: float(parse_sd(k, budget.get(k, 0.0))) for k in CAMERA_PRIORS + ("patch",)}
+    Mv = M.reshape(-1)[use]
+    scale = float(np.max(Mv))
+    Mv = Mv / scale
+    w = 1.0 / np.sqrt((sig.reshape(-1)[use] / scale) ** 2 + (sd["patch"] * Mv) ** 2)
+    cams = [k for k in CAMERA_PRIORS if sd[k] > 0]
+    names = ("daylight", "gain") + tuple(cams)
+    m = mdl.m
+    pw = np.concatenate([[0.0, 0.0]] + [np.full(m, 1.0 / sd[k] ** 2) for k in cams])
+
+    def params(x):
+        p = {"chl": 0.0, "depth": 0.0, "distance": 0.0, "daylight": x[0], "gain": x[1]}
+        p.update({k: x[2 + i * m:2 + (i + 1) * m] for i, k in enumerate(cams)})
+        return p
+
+    def resid(x):
+        pred = mdl.predict(params(x), jacobian=False).values[use]
+        return np.concatenate([w * (Mv - pred), np.sqrt(pw[2:]) * x[2:]])
+
+    def jac(x):
+        J = mdl.predict(params(x), names).jacobian[use]
+        return np.vstack([-w[:, None] * J, np.diag(np.sqrt(pw))[2:]])
+
+    x0 = np.zeros(2 + m * len(cams))
+    x0[1] = 1.0
+    G1 = mdl.predict(params(x0), jacobian=False).values[use]
+    x0[1] = float(np.sum(w ** 2 * Mv * G1) / np.sum(w ** 2 * G1 ** 2))  # the gain at no shift
+    fit = least_squares(resid, x0, jac=jac, method="lm", x_scale="jac")
+    J = mdl.predict(params(fit.x), names).jacobian[use] * w[:, None]
+    cov = covariance(J, prior_weight=pw)
+    dof = max(1, int(use.sum()) - 2)
+    chi2 = float(np.sum((w * (Mv - mdl.predict(params(fit.x), jacobian=False).values[use])) ** 2))
+    return Light(float(fit.x[0]), float(np.sqrt(cov[0, 0])), float(setup.daylight_cct),
+                 chi2 / dof)
