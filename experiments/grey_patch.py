@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import os
 import sys
 import time
@@ -63,10 +62,9 @@ from scipy.optimize import least_squares
 import forward
 from sca.model import ChartModel, upper_cap
 
-from uw3p.common import write_atomic
-
 from .common import save_figure, style, write_csv
 from .realwater.nomad_data import realdata_dir
+from .realwater.report import write_report
 
 __all__ = ["BIN_M", "CAMERAS_DIR", "DATA_FILE", "DISTANCE_M", "DISTANCES_M", "GREY_PATCH", "N_BOOT",
            "N_BOOT_FIT", "PAPER_WATERS", "PLAUSIBLE_CDOM", "PLAUSIBLE_CHL", "SEED", "bootstrap_slopes",
@@ -169,27 +167,26 @@ def bootstrap_slopes(depth, y, n_boot: int = N_BOOT, seed: int = SEED) -> np.nda
 
 
 def fit_water(depth, y, model: ChartModel, distance: float = DISTANCE_M) -> dict:
-    """C, a_CDOM(440) and a constant per ratio fitted to the ratios (n, 2): least squares.
+    """C, a_CDOM(440) and a constant per ratio fitted to the ratios (n, 2): least squares
+    (the constants, linear, profiled out: the mean of the data minus the model).
 
     Returns
     -------
     dict
         'chl' (mg m^-3), 'cdom' (m^-1), 'offsets' (2,), 'fitted' (n, 2) and 'rms' (2,).
     """
-    water = model.water
+    def misfit(theta):
+        r = y - model_log_ratios(model, theta[0], theta[1], depth, distance)
+        return r - r.mean(axis=0)
 
-    def predicted(theta):
-        return model_log_ratios(model, theta[0], theta[1], depth, distance) + theta[2:]
-
-    start = np.array([1.0, 0.1, 0.0, 0.0])
-    start[2:] = np.mean(y - predicted(start), axis=0)
-    res = least_squares(lambda t: (predicted(t) - y).ravel(), start,
-                        bounds=([0.0, 0.0, -np.inf, -np.inf],
-                                [upper_cap("chl", water), upper_cap("cdom", water), np.inf,
-                                 np.inf]), x_scale=[1.0, 0.1, 0.1, 0.1])
-    fitted = predicted(res.x)
-    return {"chl": float(res.x[0]), "cdom": float(res.x[1]), "offsets": res.x[2:].tolist(),
-            "fitted": fitted, "rms": np.sqrt(np.mean((y - fitted) ** 2, axis=0)).tolist()}
+    caps = [upper_cap("chl", model.water), upper_cap("cdom", model.water)]
+    res = least_squares(lambda t: misfit(t).ravel(), [1.0, 0.1], bounds=([0.0, 0.0], caps),
+                        x_scale=[1.0, 0.1])
+    gap = y - model_log_ratios(model, res.x[0], res.x[1], depth, distance)
+    r = gap - gap.mean(axis=0)
+    return {"chl": float(res.x[0]), "cdom": float(res.x[1]),
+            "offsets": gap.mean(axis=0).tolist(), "fitted": y - r,
+            "rms": np.sqrt(np.mean(r ** 2, axis=0)).tolist()}
 
 
 def _fit_interval(depth, y, model, n_boot: int, seed: int) -> dict:
@@ -519,9 +516,7 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     numbers = run(out)
     text = report(numbers, time.perf_counter() - t0)
-    write_atomic(out / "grey_patch.json",
-                 lambda fh: fh.write(json.dumps(numbers, indent=1, default=float)), "--out")
-    write_atomic(args.report, lambda fh: fh.write(text), "--report")
+    write_report(Path(args.report), [text], numbers, out / "grey_patch.json", header="")
     print(f"wrote {args.report}", file=sys.stderr)
     return 0
 
