@@ -454,8 +454,9 @@ def report(n: dict, seconds: float) -> str:
         "What it cannot show: the camera's curves, the distance and the exposure are unknown, "
         "and so is the cruise's water (no chlorophyll or CDOM was measured), so the retrieved "
         "water is what the model needs, not a measurement; the reference shot's own water and "
-        "light hide in the constants; backscatter is left out. A camera whose slopes agree does "
-        "not make it the cruise's camera.",
+        "light hide in the constants; backscatter is left out. Images taken at one depth are "
+        "resampled as independent, so the intervals may be too narrow. A camera whose slopes "
+        "agree does not make it the cruise's camera.",
         "",
         "![the grey patch against depth](figures/grey_patch/grey_patch.png)",
         ""]

@@ -1,7 +1,8 @@
 """A real camera's grey patch against depth (experiments/grey_patch.py, GREYPATCH.md).
 
-Every test needs ``../shared/realdata/grey_patch_vs_depth`` and skips without it: the observed
-slopes, the retrieval, the camera check and the report's verdicts computed from the data.
+The tests on the data need ``../shared/realdata/grey_patch_vs_depth`` and skip without it: the
+observed slopes, the retrieval, the camera check and the report's verdicts computed from the
+data. Without the data the command exits 2 and writes nothing.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import pytest
 from experiments import grey_patch as gp
 
 REALDATA = Path(__file__).resolve().parents[1].parent / "shared" / "realdata"
-pytestmark = pytest.mark.skipif(
+needs_data = pytest.mark.skipif(
     not (REALDATA / gp.DATA_FILE).is_file() or not (REALDATA / gp.CAMERAS_DIR).is_dir(),
     reason="../shared/realdata/grey_patch_vs_depth (a real camera's grey patch against depth) "
            "or its camera curves are absent")
@@ -34,6 +35,7 @@ def numbers(tmp_path_factory):
     return out, gp.run(out, n_boot=300, n_boot_fit=3)
 
 
+@needs_data
 def test_observed_slopes_are_the_least_squares_slopes_and_exclude_zero(data):
     depth, y = data
     s = gp.slope(depth, y)
@@ -44,6 +46,7 @@ def test_observed_slopes_are_the_least_squares_slopes_and_exclude_zero(data):
     assert hi[0] < 0.0 < lo[1]  # red falls and blue rises against green with depth
 
 
+@needs_data
 def test_the_retrieved_water_fits_better_than_every_plausible_water(data):
     """The least squares reached its optimum: no plausible water, each with its own best
     constants, leaves smaller residuals."""
@@ -57,6 +60,7 @@ def test_the_retrieved_water_fits_better_than_every_plausible_water(data):
             assert cost <= np.sum((y - pred - np.mean(y - pred, axis=0)) ** 2), (chl, cdom)
 
 
+@needs_data
 def test_a_measured_camera_reproduces_both_observed_slopes(numbers):
     """The model with the water retrieved for some real camera reproduces the observed slopes
     within their intervals, and the cameras' slopes bracket the observed ones."""
@@ -72,6 +76,7 @@ def test_a_measured_camera_reproduces_both_observed_slopes(numbers):
     assert np.all((smin < n["observed"]["slope"]) & (n["observed"]["slope"] < smax))
 
 
+@needs_data
 def test_the_report_states_what_the_numbers_say(numbers):
     out, n = numbers
     text = gp.report(n, 1.0)
@@ -86,3 +91,10 @@ def test_the_report_states_what_the_numbers_say(numbers):
     for name in ("grey_patch.png", "grey_patch.pdf", "grey_patch_residuals.csv"):
         assert (out / name).stat().st_size > 100
     json.dumps(n, default=float)  # JSON-ready
+
+
+def test_command_exits_2_without_data_and_writes_nothing(monkeypatch, tmp_path):
+    monkeypatch.setattr(gp, "realdata_dir", lambda: tmp_path / "absent")
+    report = tmp_path / "GREYPATCH.md"
+    assert gp.main(["--out", str(tmp_path / "out"), "--report", str(report)]) == 2
+    assert not report.exists() and not (tmp_path / "out").exists()
