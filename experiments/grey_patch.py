@@ -437,7 +437,7 @@ def report(n: dict, seconds: float) -> str:
         "",
         "## The retrieved water",
         "",
-        (f"C = {_chl(r['chl'])} mg m⁻³ in every bootstrap refit"
+        (f"C = 0 mg m⁻³ (its lower bound) in every bootstrap refit"
          if ri["chl"][1] <= CHL_AT_BOUND else
          f"C = {_chl(r['chl'])} mg m⁻³ [{_chl(ri['chl'][0])}, {_chl(ri['chl'][1])}]") + f", a_CDOM(440) = {r['cdom']:.3g} "
         f"m⁻¹ {_iv(ri['cdom'], '{:.3g}')} (95 % bootstrap over images) with the default camera "
@@ -497,7 +497,7 @@ def _shows(n: dict) -> str:
 
 
 def _chl(value: float) -> str:
-    return "0 (its lower bound)" if value <= CHL_AT_BOUND else f"{value:.3g}"
+    return "0 (bound)" if value <= CHL_AT_BOUND else f"{value:.3g}"
 
 
 def main(argv=None) -> int:
