@@ -437,7 +437,7 @@ def report(n: dict, seconds: float) -> str:
         "",
         "## The retrieved water",
         "",
-        (f"C = 0 mg m⁻³ (its lower bound) in every bootstrap refit"
+        ("C = 0 mg m⁻³ (its lower bound) in every bootstrap refit"
          if ri["chl"][1] <= CHL_AT_BOUND else
          f"C = {_chl(r['chl'])} mg m⁻³ [{_chl(ri['chl'][0])}, {_chl(ri['chl'][1])}]") + f", a_CDOM(440) = {r['cdom']:.3g} "
         f"m⁻¹ {_iv(ri['cdom'], '{:.3g}')} (95 % bootstrap over images) with the default camera "
