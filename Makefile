@@ -48,6 +48,8 @@ reproduce-figures: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: correct_range" -- $(PY) -m experiments.correct_range
 	@if [ -d ../shared/realdata ]; then $(STOPWATCH) "reproduce-figures: real-data" -- $(MAKE) real-data; \
 	else echo "../shared/realdata absent: REALWATER.md not regenerated"; fi
+	@if [ -d ../shared/realdata ]; then OPENBLAS_NUM_THREADS=1 $(STOPWATCH) "reproduce-figures: grey_patch" -- $(PY) -m experiments.grey_patch; \
+	else echo "../shared/realdata absent: GREYPATCH.md not regenerated"; fi
 
 # REALWATER.md: the physics against real water (NOMAD, COPS casts, G7X photos); needs
 # ../shared/realdata beside the repository (exit 2 without it)

@@ -1,8 +1,8 @@
 """The generated reports and the decision records as pages of the site.
 
 ``reports/``: each report at the repository's root (REPRODUCTION, BENCHMARKS, INSTRUMENT,
-HONESTY, DIVE, REALWATER, CORRECTION, DESIGN; those present) included whole, under the command
-that generates it. ``decisions/``: the records of ``docs/decisions/`` are pages already; nothing
+HONESTY, DIVE, REALWATER, GREYPATCH, CORRECTION, DESIGN; those present) included whole, under
+the command that generates it. ``decisions/``: the records of ``docs/decisions/`` are pages already; nothing
 is generated for them.
 """
 
@@ -21,6 +21,7 @@ REPORTS = {
     "HONESTY.md": "make honesty",
     "DIVE.md": "make dive",
     "REALWATER.md": "make real-data",
+    "GREYPATCH.md": "python -m experiments.grey_patch",
     "CORRECTION.md": "python -m experiments.correct_range",
     "DESIGN.md": "python -m experiments.design_check",
     "BENCHMARKS.md": "make bench",

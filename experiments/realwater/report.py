@@ -26,7 +26,8 @@ was produced by that command; figures and CSVs are in `figures/realwater/`, the 
 """
 
 
-def write_report(path: Path, sections: list, numbers: dict, json_path: Path) -> Path:
+def write_report(path: Path, sections: list, numbers: dict, json_path: Path,
+                 header: str = HEADER) -> Path:
     """Write REALWATER.md (and the numbers as JSON) atomically.
 
     Parameters
@@ -39,13 +40,16 @@ def write_report(path: Path, sections: list, numbers: dict, json_path: Path) -> 
         Section name -> its numbers (JSON-serialisable).
     json_path : pathlib.Path
         Where the numbers go.
+    header : str, optional
+        The opening paragraph (default :data:`HEADER`; '' for a report whose first section
+        carries its own, as GREYPATCH.md).
 
     Returns
     -------
     pathlib.Path
         ``path``.
     """
-    text = HEADER + "\n" + "\n\n".join(s.rstrip() + "\n" for s in sections)
+    text = (header + "\n" if header else "") + "\n\n".join(s.rstrip() + "\n" for s in sections)
     for target, body in ((Path(json_path), json.dumps(numbers, indent=1, default=float)),
                          (Path(path), text)):
         tmp = target.with_name(target.name + ".tmp")
