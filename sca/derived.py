@@ -301,7 +301,7 @@ def describe(label: str, value, lo, hi, units: str, *, where: str = "these data"
         return f"{label}: measured, {value:.3g}{u} (95 %: {lo:.3g}-{hi:.3g})"
     if v == "loosely measured":
         return (f"{label}: loosely measured by {where}, {value:.3g}{u} (95 %: {lo:.3g}-"
-                f"{hi:.3g}, above 0){tail}")
+                f"{hi:.3g}){tail}")
     if v == "upper bound":
         return (f"{label}: only an upper bound from {where}: at most {hi:.3g}{u} "
                 f"(95 %: {lo:.3g}-{hi:.3g}){tail}")

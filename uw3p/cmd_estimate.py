@@ -37,12 +37,14 @@ __all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
 NAME = "estimate"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures, m^-1), as named
-#: in the outputs (plain data: the command's help imports no numpy).
-QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "a_nw_440")
+#: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures: c and a_nw in
+#: m^-1, the optical depth tau dimensionless), as named in the outputs (plain data: the
+#: command's help imports no numpy).
+QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "tau_443", "tau_490", "tau_555",
+                  "tau_670", "a_nw_440")
 #: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel; after
 #: the earlier 22: the verdicts of C and a_CDOM and, for every quantity of
-#: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1).
+#: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1; tau dimensionless).
 BATCH_COLUMNS = ("chart", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "reliable",
                  "flags", "fit_rms", "chi2_dof", "backscatter_*", "gain", "gain_lo", "gain_hi",
                  "objective", "converged", "iterations", "status", "depth_m", "distance_m",
