@@ -35,7 +35,7 @@ likelihood's interval to second order; its coverage is tested on worlds the esti
 make (HONESTY.md). Where several path models are supported the intervals span them, as C's.
 
 Verdicts (:func:`verdict`, decision 0069-verdicts-loosely-measured): *measured* (a closed
-interval with hi / lo <= :data:`MEASURED_RATIO`; for tau a half-width at most
+interval with hi / lo <= :data:`MEASURED_RATIO`; for tau also one of half-width at most
 :data:`TAU_MEASURED_HALF_WIDTH`), *loosely measured* (a closed interval with a lower end clearly
 above 0, but wider), *an upper bound only* (finite upper end, the lower end 0: below
 :data:`ZERO_FRACTION` of the upper end) or *not constrained* (an open interval).
@@ -64,8 +64,8 @@ CONFIDENCE = 0.95
 #: loosely measured, one reaching 0 an upper bound (decision 0069-verdicts-loosely-measured).
 MEASURED_RATIO = 3.0
 #: The optical depth tau is measured when its 95 % interval's half-width is at most this
-#: (absolute: the photo measures tau to a roughly fixed precision whatever the water; decision
-#: 0069-verdicts-loosely-measured).
+#: (absolute: the photo measures tau to a roughly fixed precision whatever the water), or by
+#: :data:`MEASURED_RATIO` as any quantity (decision 0069-verdicts-loosely-measured).
 TAU_MEASURED_HALF_WIDTH = 0.1
 #: A lower end below this fraction of the upper end is 0 for the verdicts (the interval spans
 #: more than a factor 100: the delta method on the logarithm never reaches 0 exactly).
@@ -247,9 +247,10 @@ def verdict(lo, hi, name=None) -> np.ndarray:
     lo, hi : float or array_like
         The interval's ends (``inf``: open).
     name : str, optional
-        The quantity's name: an optical depth (:func:`is_optical_depth`) is measured when the
-        interval's half-width is at most :data:`TAU_MEASURED_HALF_WIDTH`, anything else when
-        hi / lo <= :data:`MEASURED_RATIO`.
+        The quantity's name: any quantity is measured when hi / lo <= :data:`MEASURED_RATIO`
+        (the lower end above 0), an optical depth (:func:`is_optical_depth`) also when the
+        interval's half-width is at most :data:`TAU_MEASURED_HALF_WIDTH` (tau near 0 is then
+        measured to that absolute precision).
 
     Returns
     -------
@@ -262,10 +263,9 @@ def verdict(lo, hi, name=None) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         closed = np.isfinite(hi)
         above_zero = closed & (lo > 0) & (lo >= ZERO_FRACTION * hi)
+        measured = above_zero & (hi <= MEASURED_RATIO * lo)
         if is_optical_depth(name):
-            measured = closed & (hi - lo <= 2 * TAU_MEASURED_HALF_WIDTH)
-        else:
-            measured = above_zero & (hi <= MEASURED_RATIO * lo)
+            measured |= closed & (hi - lo <= 2 * TAU_MEASURED_HALF_WIDTH)
     out = np.select([~closed, measured, above_zero], [VERDICTS[3], VERDICTS[0], VERDICTS[1]],
                     VERDICTS[2])
     return str(out) if out.ndim == 0 else out
