@@ -43,7 +43,7 @@ from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
 from .assess import flag_tuples, input_flag_table
-from .derived import is_optical_depth, quantity_sd
+from .derived import quantity_sd
 from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
@@ -102,9 +102,9 @@ class Precision:
         The source with the largest share of C's variance per condition ('noise' without a
         budget).
     quantities : dict
-        name -> value of every derived quantity of :data:`sca.derived.QUANTITIES` but the
-        optical depths (a photo's, not a design target) at the condition (m^-1; a dive's at its photos' median depth and distance, as the joint
-        estimate reports them).
+        name -> value of every derived quantity of :data:`sca.derived.QUANTITIES` at the
+        condition (m^-1, the optical depths dimensionless; a dive's at its photos' median
+        depth and distance, as the joint estimate reports them: without the optical depths).
     quantity_sd : dict
         name -> its Cramér-Rao standard deviation (m^-1; delta method with the bound's
         covariance; ``inf`` where the covariance is).
@@ -321,7 +321,6 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     cov = covariance_from_information(F)
     qv, qsd = quantity_sd(spec.water, {**params, "chl": np.maximum(chl, CHL_DERIVATIVE_FLOOR)},
                           cov, list(columns) + [None] * (cov.shape[-1] - len(columns)))
-    qv, qsd = ({k: v for k, v in d.items() if not is_optical_depth(k)} for d in (qv, qsd))
     sd_all = np.sqrt(np.maximum(np.diagonal(cov, axis1=1, axis2=2), 0.0))
     sd = {nm: sd_all[:, j] for j, nm in enumerate(names)}
     if gain == "free":
