@@ -8,8 +8,9 @@
 One chart is fitted by ``sca.estimate`` (``mode='lm'`` unless ``--mode`` says otherwise), a batch (``--batch``) by ``sca.estimate_batch`` (in
 blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
 :mod:`uw3p.patchfile`. The default output is the result, its uncertainty budget and what the
-chart measures in words (measured, only an upper bound, not constrained: C, a_CDOM(440), the
-attenuation coefficient of the light's path at 443, 490, 555 and 670 nm, a_nw(440));
+chart measures in words (measured, loosely measured, only an upper bound, not constrained:
+C, a_CDOM(440), the attenuation coefficient of the light's path at 443, 490, 555 and 670 nm,
+the path's optical depth tau there (dimensionless), a_nw(440));
 the coefficient's spectrum c(lambda) with its 95 % interval and the transmittance k(lambda) are
 in ``--json`` and in the ``--spectrum`` file. Measurements of the water besides the chart
 (``--cdom-sample``, ``--secchi``, ``--kd``) are fused in the fit. Exit status 0 when every
