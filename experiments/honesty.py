@@ -1235,8 +1235,8 @@ def _width_text(results) -> str:
         f"±{100 * NOTHING_FACTOR / 2:.0f} %) is honest and says nothing: it holds the truth and "
         "does not measure the quantity. " + ("; ".join(parts) + ". " if parts else "") +
         "Where a median half-width is ±100 % or more, the typical interval reaches 0 or "
-        "twice the truth: an upper bound, not a measurement (`sca.derived.verdict`: 'upper "
-        "bound' or 'not constrained'). The c(lambda) section below tests the path's "
+        "twice the truth: an upper bound, not a measurement (`sca.derived.verdict`: 'loosely "
+        "measured', 'upper bound' or 'not constrained'). The c(lambda) section below tests the path's "
         "attenuation coefficient for width as well as coverage.")
 
 

@@ -185,7 +185,8 @@ class Measurement:
                 "nuisance": {k: np.asarray(v, float).tolist() for k, v in e.nuisance.items()},
                 "units": {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "gain": "raw units per "
                           "model unit", "backscatter": "raw units", "wavelengths": "nm",
-                          "quantities": "m^-1 (sca.derived.QUANTITIES)",
+                          "quantities": "m^-1 (sca.derived.QUANTITIES); tau_*: dimensionless "
+                          "optical depth of the light's path, c (depth + distance)",
                           "beam_attenuation": "m^-1: the attenuation coefficient of the light's "
                           "path, tau / (depth + distance) (path model 'beam': the beam "
                           "attenuation c = a + b; 'absorption': a; 'split': the path-weighted "

@@ -26,7 +26,7 @@ from .image import demosaic
 from .imagefiles import TIFF_COMPRESSION
 from forward.errors import InputError
 
-__all__ = ["MARKER", "PREVIEW_PIXELS", "TEMP_PREFIX", "TIFF_MODES",
+__all__ = ["MARKER", "PREVIEW_PIXELS", "REPORT_TEXT_ROWS", "TEMP_PREFIX", "TIFF_MODES",
            "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",
            "result_owner", "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
@@ -279,6 +279,7 @@ def report_figure(meas, raw_preview):
     span = ("; intervals span " + ", ".join(e.path_models)) if len(e.path_models) > 1 else ""
     a.set_title(f"attenuation coefficient of the light's path, m⁻¹\n(path model "
                 f"{e.path_model}: {kind}{span})", fontsize=9)
+    _tau_axis(a, e)
     a = ax[1, 1]
     a.axis("off")
     hi = lambda v: "inf" if not np.isfinite(v) else f"{v:.4g}"  # noqa: E731
@@ -308,10 +309,27 @@ def report_figure(meas, raw_preview):
         lines.append("budget: none (the paper's exact model)")
     lines += [f"note: {n}" for n in meas.notes]
     text = "\n".join(textwrap.fill(x, 66, subsequent_indent="  ") for x in lines)
-    a.text(0, 1, text, va="top", fontsize=7.5, family="monospace")
+    rows = text.count("\n") + 1
+    a.text(0, 1, text, va="top", fontsize=7.5 * min(1.0, REPORT_TEXT_ROWS / rows),
+           family="monospace")
     a.set_title("what this photo measures (95 % intervals)", fontsize=9)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.07, top=0.93, wspace=0.25, hspace=0.35)
     return fig
+
+
+#: report.png's words panel holds this many lines at its 7.5 pt; more are set smaller to fit.
+REPORT_TEXT_ROWS = 30
+
+
+def _tau_axis(a, e):
+    """The coefficient panel's right axis: the optical depth of the path tau = c (depth +
+    distance) (:mod:`sca.derived`'s ``tau_<band>`` over ``c_<band>``: the fitted path)."""
+    c, tau = e.quantities.get("c_490"), e.quantities.get("tau_490")
+    if not (c and tau and np.isfinite(tau / c)):
+        return
+    length = tau / c
+    ax = a.secondary_yaxis("right", functions=(lambda x: x * length, lambda t: t / length))
+    ax.set_ylabel(f"optical depth τ = c × {length:.3g} m")
 
 
 def _report(meas, path, raw_preview):

@@ -4,23 +4,29 @@ and the JSON files.
 
 The quantities: C and a_CDOM(440) (the model's parameters), and what the photos measure best
 (:mod:`sca.derived`): the attenuation coefficient of the light's path at 443, 490, 555 and
-670 nm and the non-water absorption a_nw(440).
+670 nm, the optical depth of the path tau = c (depth + distance) at the same bands
+(dimensionless; a single photo's: a dive's joint estimate does not report it) and the non-water
+absorption a_nw(440).
 """
 
 from __future__ import annotations
 
 import math
 
-from sca.derived import QUANTITIES, describe, verdict
+from sca.derived import OPTICAL_DEPTH, QUANTITIES, VERDICTS, describe, verdict
 from forward.errors import InputError
 
-__all__ = ["HINTS", "LABELS", "consistency_lines", "estimate_values", "one_line", "statements"]
+__all__ = ["GROUPS", "HINTS", "LABELS", "consistency_lines", "estimate_values", "one_line", "statements"]
 
 #: name -> (label for people, units) of every reported quantity, in the order they are said.
 LABELS = {"chl": ("C", "mg m^-3"), "cdom": ("a_CDOM(440)", "m^-1"),
-          **{k: (f"c({v[1]:.0f})" if k.startswith("c_") else
-                 {"a_nw_440": "a_nw(440)"}.get(k, k), "m^-1")
+          **{k: ((f"tau({v[1]:.0f})", "") if v[0] == OPTICAL_DEPTH else
+                 (f"c({v[1]:.0f})" if k.startswith("c_") else
+                  {"a_nw_440": "a_nw(440)"}.get(k, k), "m^-1"))
              for k, v in QUANTITIES.items()}}
+#: How :func:`one_line` names each verdict's group (:data:`sca.derived.VERDICTS`).
+GROUPS = {"measured": "measured", "loosely measured": "loosely measured",
+          "upper bound": "only an upper bound", "not constrained": "not constrained"}
 #: What would narrow C and a_CDOM when the data leave them open: where ('photo', 'chart',
 #: 'dive') -> name -> [(the auxiliary measurement it needs not to have been given, or None;
 #: the advice)], joined with 'or'.
@@ -79,8 +85,8 @@ def estimate_values(result) -> tuple:
 
 
 def statements(result, where: str = "photo", given=()) -> list:
-    """One plain sentence per reported quantity: measured, only an upper bound, or not
-    constrained (:func:`sca.derived.describe`), with what would narrow C and a_CDOM; then
+    """One plain sentence per reported quantity: measured, loosely measured, only an upper
+    bound, or not constrained (:func:`sca.derived.describe`), with what would narrow C and a_CDOM; then
     a sentence per reading or prior that contradicts the photos (:func:`consistency_lines`).
 
     Parameters
@@ -111,14 +117,14 @@ def statements(result, where: str = "photo", given=()) -> list:
         label, units = LABELS[k]
         lo, hi = intervals[k]
         out.append(describe(label, v, lo, hi, units, where=f"this {where}",
-                            narrow=_hint(where, k, given)))
+                            narrow=_hint(where, k, given), name=k))
     return out + consistency_lines(result)
 
 
 def one_line(result, names=None) -> str:
-    """Reported quantities on one line, grouped by verdict: 'measured: C 1.2 [0.7, 2.1]
-    mg m^-3, c(490) 0.21 [0.2, 0.22] m^-1, ...; only an upper bound: a_CDOM(440) <= 0.3 m^-1;
-    not constrained: -'.
+    """Reported quantities on one line, grouped by verdict (:data:`GROUPS`): 'measured: C 1.2
+    [0.7, 2.1] mg m^-3, c(490) 0.21 [0.2, 0.22] m^-1, ...; loosely measured: -; only an upper
+    bound: a_CDOM(440) <= 0.3 m^-1; not constrained: -'.
 
     Parameters
     ----------
@@ -134,21 +140,20 @@ def one_line(result, names=None) -> str:
     values, intervals = estimate_values(result)
     if names is not None:
         values = {k: v for k, v in values.items() if k in set(names)}
-    groups = {"measured": [], "upper bound": [], "not constrained": []}
+    groups = {kind: [] for kind in VERDICTS}
     for k, v in values.items():
         label, units = LABELS[k]
+        u = f" {units}" if units else ""
         lo, hi = intervals[k]
-        kind = verdict(lo, hi)
-        if kind == "measured":
-            groups[kind].append(f"{label} {v:.3g} [{lo:.3g}, {hi:.3g}] {units}")
+        kind = verdict(lo, hi, k)
+        if kind in ("measured", "loosely measured"):
+            groups[kind].append(f"{label} {v:.3g} [{lo:.3g}, {hi:.3g}]{u}")
         elif kind == "upper bound":
-            groups[kind].append(f"{label} <= {hi:.3g} {units}")
+            groups[kind].append(f"{label} <= {hi:.3g}{u}")
         else:
-            groups[kind].append(f"{label} >= {lo:.3g} {units}")
-    return "; ".join(f"{name}: {', '.join(items) or '-'}" for name, items in
-                     (("measured", groups["measured"]),
-                      ("only an upper bound", groups["upper bound"]),
-                      ("not constrained", groups["not constrained"])))
+            groups[kind].append(f"{label} >= {lo:.3g}{u}")
+    return "; ".join(f"{GROUPS[kind]}: {', '.join(items) or '-'}"
+                     for kind, items in groups.items())
 
 
 def consistency_lines(result) -> list:

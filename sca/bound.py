@@ -103,8 +103,8 @@ class Precision:
         budget).
     quantities : dict
         name -> value of every derived quantity of :data:`sca.derived.QUANTITIES` at the
-        condition (m^-1; a dive's at its photos' median depth and distance, as the joint
-        estimate reports them).
+        condition (m^-1, the optical depths dimensionless; a dive's at its photos' median
+        depth and distance, as the joint estimate reports them: without the optical depths).
     quantity_sd : dict
         name -> its Cramér-Rao standard deviation (m^-1; delta method with the bound's
         covariance; ``inf`` where the covariance is).

@@ -11,6 +11,12 @@ h(theta) of the fitted parameters, computed by the one physics (:mod:`forward.wa
   'absorption' the absorption a, for 'split' the path-weighted mean of K_d (down) and c (along
   the view). It is what the photo measures, whatever the path model: every supported model
   fits the same transmittance;
+* ``tau_443``, ``tau_490``, ``tau_555``, ``tau_670``: the optical depth of the light's path
+  tau = c (depth + distance) (k = exp(-tau), eq 14), dimensionless, at the fitted water and the
+  fitted (or known) depth and distance: what the photo measures directly, to a roughly fixed
+  absolute precision whatever the water (c's relative error is large on a short path in clear
+  water where tau is small and well measured). Its interval holds the depth's and the distance's
+  uncertainty where the budget frees them;
 * ``a_nw_440``: the absorption by everything but water at 440 nm (a_phi + a_CDOM + a_NAP), m^-1.
 
 K_d(490) is not published (decision 0067-kd-not-published): the model's K_d rests on eq 12 taken
@@ -28,9 +34,11 @@ profile points of their upper ends (:func:`bound_points`, decision
 likelihood's interval to second order; its coverage is tested on worlds the estimator did not
 make (HONESTY.md). Where several path models are supported the intervals span them, as C's.
 
-Verdicts (:func:`verdict`): *measured* (a closed interval with hi / lo <= :data:`MEASURED_RATIO`),
-*an upper bound only* (finite upper end, the interval reaching 0 or spanning more than that
-factor) or *not constrained* (an open interval).
+Verdicts (:func:`verdict`, decision 0072-verdicts-loosely-measured): *measured* (a closed
+interval with hi / lo <= :data:`MEASURED_RATIO`; for tau also one of half-width at most
+:data:`TAU_MEASURED_HALF_WIDTH`), *loosely measured* (a closed interval with a lower end clearly
+above 0, but wider), *an upper bound only* (finite upper end, the lower end 0: below
+:data:`ZERO_FRACTION` of the upper end) or *not constrained* (an open interval).
 """
 
 from __future__ import annotations
@@ -40,9 +48,11 @@ from scipy import special
 
 from forward.water import COEFFICIENT_PARAMS, NONWATER_ABSORPTION_TERMS
 
-__all__ = ["BANDS_NM", "BOUND_POINT_MAX_ITER", "CONFIDENCE", "MEASURED_RATIO", "PATH_CF",
-           "QUANTITIES", "SPECTRUM_BLOCK", "VERDICTS", "bound_points", "delta_interval",
-           "derived_from_fit", "describe", "quantity_names", "quantity_sd", "quantity_values", "spectrum_values", "verdict", "verdicts_of"]
+__all__ = ["BANDS_NM", "BOUND_POINT_MAX_ITER", "CONFIDENCE", "MEASURED_RATIO", "OPTICAL_DEPTH",
+           "PATH_CF", "QUANTITIES", "SPECTRUM_BLOCK", "TAU_MEASURED_HALF_WIDTH", "VERDICTS",
+           "ZERO_FRACTION", "bound_points", "delta_interval", "derived_from_fit", "describe",
+           "is_optical_depth", "quantity_names", "quantity_sd", "quantity_values",
+           "spectrum_values", "verdict", "verdicts_of"]
 
 #: The standard bands of the beam attenuation, nm (ocean-colour bands: SeaWiFS/MODIS 443, 490,
 #: 555, 670).
@@ -50,19 +60,32 @@ BANDS_NM = (443.0, 490.0, 555.0, 670.0)
 #: Confidence level of every interval.
 CONFIDENCE = 0.95
 #: A closed interval whose ends differ by at most this factor is a measurement (about a
-#: factor 1.7 either side of its centre); a wider one, or one reaching 0, is an upper bound.
+#: factor 1.7 either side of its centre); a wider one with a lower end clearly above 0 is
+#: loosely measured, one reaching 0 an upper bound (decision 0072-verdicts-loosely-measured).
 MEASURED_RATIO = 3.0
+#: The optical depth tau is measured when its 95 % interval's half-width is at most this
+#: (absolute: the photo measures tau to a roughly fixed precision whatever the water), or by
+#: :data:`MEASURED_RATIO` as any quantity (decision 0072-verdicts-loosely-measured).
+TAU_MEASURED_HALF_WIDTH = 0.1
+#: A lower end below this fraction of the upper end is 0 for the verdicts (the interval spans
+#: more than a factor 100: the delta method on the logarithm never reaches 0 exactly).
+ZERO_FRACTION = 0.01
 #: The verdicts, in order of knowledge.
-VERDICTS = ("measured", "upper bound", "not constrained")
+VERDICTS = ("measured", "loosely measured", "upper bound", "not constrained")
+#: The first field of an optical depth's entry in :data:`QUANTITIES`.
+OPTICAL_DEPTH = "tau"
 #: CF standard names of the path's attenuation coefficient, by path model
 PATH_CF = {"beam": "volume_beam_attenuation_coefficient_of_radiative_flux_in_sea_water",
            "absorption": "volume_absorption_coefficient_of_radiative_flux_in_sea_water",
            "split": ""}
-#: Each quantity: (its terms of c(x), or None for the path's coefficient; wavelength nm;
-#: description; units; CF standard name, "" where none or the path model's).
+#: Each quantity: (its terms of c(x), None for the path's coefficient or
+#: :data:`OPTICAL_DEPTH` for the path's optical depth; wavelength nm; description; units (CF:
+#: "1" dimensionless); CF standard name, "" where none or the path model's).
 QUANTITIES = {
     **{f"c_{b:.0f}": (None, b, f"attenuation coefficient of the light's path at {b:.0f} nm",
                       "m-1", "") for b in BANDS_NM},
+    **{f"tau_{b:.0f}": (OPTICAL_DEPTH, b, f"optical depth of the light's path at {b:.0f} nm, "
+                        "c (depth + distance)", "1", "") for b in BANDS_NM},
     "a_nw_440": (NONWATER_ABSORPTION_TERMS, 440.0,
                  "absorption by everything but water at 440 nm", "m-1", ""),
 }
@@ -73,6 +96,11 @@ def quantity_names() -> tuple:
     return tuple(QUANTITIES)
 
 
+def is_optical_depth(name) -> bool:
+    """Whether ``name`` is an optical depth of :data:`QUANTITIES` (``tau_443`` ...)."""
+    return name in QUANTITIES and QUANTITIES[name][0] == OPTICAL_DEPTH
+
+
 def _consts(params):
     return {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
 
@@ -81,8 +109,9 @@ def _spectral(wrt) -> tuple:
     return tuple(n for n in wrt if n in ("chl", "cdom") + COEFFICIENT_PARAMS)
 
 
-def _path_coefficient(water, wavelengths, params, wrt):
-    """tau / (depth + distance) on ``wavelengths`` and its derivatives (geometry included)."""
+def _optical_depth(water, wavelengths, params, wrt):
+    """tau on ``wavelengths``, its derivatives (geometry included) and the path's length
+    depth + distance (N, 1)."""
     chl = np.atleast_1d(np.asarray(params["chl"], float))
     cdom = np.atleast_1d(np.asarray(params.get("cdom", 0.0), float))
     depth = np.atleast_1d(np.asarray(params["depth"], float))
@@ -91,7 +120,13 @@ def _path_coefficient(water, wavelengths, params, wrt):
     tau, d = water.on_grid(wavelengths).optical_depth(chl, cdom, depth, distance,
                                                       values=_consts(params), wrt=wrt,
                                                       floor=1e-300)
-    L = np.maximum(depth + distance, 1e-300)[..., None]
+    return tau, d, np.maximum(depth + distance, 1e-300)[..., None]
+
+
+def _path_coefficient(water, wavelengths, params, wrt, tau_d=None):
+    """tau / (depth + distance) on ``wavelengths`` and its derivatives (geometry included);
+    ``tau_d``: :func:`_optical_depth`'s result there, where already computed."""
+    tau, d, L = tau_d or _optical_depth(water, wavelengths, params, wrt)
     out = {k: v / L for k, v in d.items()}
     for g in ("depth", "distance"):
         if g in out:
@@ -123,12 +158,15 @@ def quantity_values(water, params, wrt=()) -> dict:
     consts, spectral = _consts(params), _spectral(wrt)
     bands = np.array(BANDS_NM)
     grid = np.sort(np.concatenate([bands, bands + 1.0]))  # a grid of the bands (>= 3 points)
-    path, dpath = _path_coefficient(water, grid, params, wrt)
+    tau_d = _optical_depth(water, grid, params, wrt)
+    along = {None: _path_coefficient(water, grid, params, wrt, tau_d),
+             OPTICAL_DEPTH: tau_d[:2]}
     at = np.searchsorted(grid, bands)
     out = {}
     for name, (terms, band, *_) in QUANTITIES.items():
-        if terms is None:
+        if terms in along:
             j = at[BANDS_NM.index(band)]
+            path, dpath = along[terms]
             out[name] = (path[..., j], {k: v[..., j] for k, v in dpath.items()})
             continue
         g = water.on_grid(np.array([band - 1.0, band, band + 1.0]))
@@ -200,55 +238,74 @@ def delta_interval(value, grad, cov, confidence: float = CONFIDENCE):
     return np.stack([lo, hi], axis=-1)
 
 
-def verdict(lo, hi) -> np.ndarray:
-    """What an interval says, in :data:`VERDICTS`' words (arrays allowed).
+def verdict(lo, hi, name=None) -> np.ndarray:
+    """What an interval says, in :data:`VERDICTS`' words (arrays allowed; decision
+    0072-verdicts-loosely-measured).
 
     Parameters
     ----------
     lo, hi : float or array_like
         The interval's ends (``inf``: open).
+    name : str, optional
+        The quantity's name: any quantity is measured when hi / lo <= :data:`MEASURED_RATIO`
+        (the lower end above 0), an optical depth (:func:`is_optical_depth`) also when the
+        interval's half-width is at most :data:`TAU_MEASURED_HALF_WIDTH` (tau near 0 is then
+        measured to that absolute precision).
 
     Returns
     -------
     ndarray of str (a str for scalars)
-        'measured', 'upper bound' or 'not constrained'.
+        'measured', 'loosely measured' (closed, the lower end clearly above 0, wider than
+        'measured'), 'upper bound' (closed, the lower end 0: below :data:`ZERO_FRACTION` of the
+        upper end) or 'not constrained' (open).
     """
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        measured = (lo > 0) & np.isfinite(hi) & (hi <= MEASURED_RATIO * lo)
-    out = np.where(~np.isfinite(hi), VERDICTS[2], np.where(measured, VERDICTS[0], VERDICTS[1]))
+        closed = np.isfinite(hi)
+        above_zero = closed & (lo > 0) & (lo >= ZERO_FRACTION * hi)
+        measured = above_zero & (hi <= MEASURED_RATIO * lo)
+        if is_optical_depth(name):
+            measured |= closed & (hi - lo <= 2 * TAU_MEASURED_HALF_WIDTH)
+    out = np.select([~closed, measured, above_zero], [VERDICTS[3], VERDICTS[0], VERDICTS[1]],
+                    VERDICTS[2])
     return str(out) if out.ndim == 0 else out
 
 
 def describe(label: str, value, lo, hi, units: str, *, where: str = "these data",
-             narrow: str = "") -> str:
+             narrow: str = "", name=None) -> str:
     """One plain sentence: what the data say of a quantity.
 
     Parameters
     ----------
     label : str
-        The quantity's name for people ('C', 'a_CDOM(440)', 'c(490)').
+        The quantity's name for people ('C', 'a_CDOM(440)', 'c(490)', 'tau(490)').
     value, lo, hi : float
         The estimate and its 95 % interval (``inf``: open).
     units : str
-        Its units.
+        Its units ('' for a dimensionless one).
     where : str, optional
         What was measured ('this photo', 'this dive').
     narrow : str, optional
-        What would narrow it (appended to a bound or a non-constraint).
+        What would narrow it (appended unless it is measured).
+    name : str, optional
+        The quantity's name in :data:`QUANTITIES` (its verdict's rule: :func:`verdict`).
 
     Returns
     -------
     str
     """
-    v = verdict(lo, hi)
+    v = verdict(lo, hi, name)
     tail = f"; {narrow}" if narrow and v != "measured" else ""
+    u = f" {units}" if units else ""
     if v == "measured":
-        return f"{label}: measured, {value:.3g} {units} (95 %: {lo:.3g}-{hi:.3g})"
+        return f"{label}: measured, {value:.3g}{u} (95 %: {lo:.3g}-{hi:.3g})"
+    if v == "loosely measured":
+        return (f"{label}: loosely measured by {where}, {value:.3g}{u} (95 %: {lo:.3g}-"
+                f"{hi:.3g}){tail}")
     if v == "upper bound":
-        return (f"{label}: only an upper bound from {where}: at most {hi:.3g} {units} "
+        return (f"{label}: only an upper bound from {where}: at most {hi:.3g}{u} "
                 f"(95 %: {lo:.3g}-{hi:.3g}){tail}")
-    return f"{label}: not constrained by {where} (at least {lo:.3g} {units}){tail}"
+    return f"{label}: not constrained by {where} (at least {lo:.3g}{u}){tail}"
 
 
 #: Fits per block of the spectrum's intervals (their gradients are fits x wavelengths x
@@ -460,5 +517,5 @@ def verdicts_of(chl_ci, cdom_ci, quantity_intervals) -> dict:
     """name -> (N,) verdict (:func:`sca.derived.verdict`) of C, a_CDOM and every quantity."""
     out = {"chl": verdict(chl_ci[:, 0], chl_ci[:, 1]),
            "cdom": verdict(cdom_ci[:, 0], cdom_ci[:, 1])}
-    out.update({k: verdict(v[:, 0], v[:, 1]) for k, v in quantity_intervals.items()})
+    out.update({k: verdict(v[:, 0], v[:, 1], k) for k, v in quantity_intervals.items()})
     return out

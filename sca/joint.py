@@ -42,7 +42,7 @@ from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_of
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
-from .derived import derived_from_fit, quantity_sd, verdict
+from .derived import derived_from_fit, is_optical_depth, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
@@ -284,7 +284,8 @@ def _derived(prob: DiveProblem, theta, depth, distance, intervals) -> dict:
     """What the dive measures (:func:`sca.derived.derived_from_fit`) at one depth and distance
     (the photos' median), on the full grid; ``intervals`` (:func:`_intervals`) give the upper
     ends of C and a_CDOM whose profile points the quantities' intervals hold where C or a_CDOM
-    sits at its bound."""
+    sits at its bound. The optical depths (:func:`sca.derived.is_optical_depth`) are left out:
+    tau is a photo's, each photo's own fit reports it."""
     H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H
     full = prob.models[0].full
     ends = {}
@@ -293,9 +294,11 @@ def _derived(prob: DiveProblem, theta, depth, distance, intervals) -> dict:
         if np.isfinite(hi):
             ends[int(prob.layout[name][0])] = np.array(
                 [u_from_chl(hi, prob.models[0].e0) if name == "chl" else hi])
-    return derived_from_fit(prob, theta[None], H, prob.water, full.wavelengths,
-                            geometry={"depth": np.array([depth]),
-                                      "distance": np.array([distance])}, ends=ends)
+    out = derived_from_fit(prob, theta[None], H, prob.water, full.wavelengths,
+                           geometry={"depth": np.array([depth]),
+                                     "distance": np.array([distance])}, ends=ends)
+    out["quantities"] = {k: v for k, v in out["quantities"].items() if not is_optical_depth(k)}
+    return out
 
 
 def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_correlation):
@@ -564,7 +567,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     c_ci = np.stack([np.min([d["c_ci"][0, :, 0] for d in derived.values()], axis=0),
                      np.max([d["c_ci"][0, :, 1] for d in derived.values()], axis=0)], axis=-1)
     verdicts = {"chl": verdict(*cis["chl"]), "cdom": verdict(*cis["cdom"]),
-                **{k: verdict(*v) for k, v in qi.items()}}
+                **{k: verdict(*v, k) for k, v in qi.items()}}
     return JointEstimate(
         quantities={k: float(v[0][0]) for k, v in best_d["quantities"].items()},
         quantity_intervals={k: (float(a), float(b)) for k, (a, b) in qi.items()},
@@ -769,8 +772,8 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     held = [None if n in ("depth", "distance") else n for n in prob.names]  # at the median
     qv, qsd = quantity_sd(fitted, params, cov, held)
     out = {**at, "objective": float(objective), "converged": converged, "n_photos": N,
-           "quantities": {q: float(v[0]) for q, v in qv.items()},
-           "quantity_sd": {q: float(v[0]) for q, v in qsd.items()}}
+           "quantities": {q: float(v[0]) for q, v in qv.items() if not is_optical_depth(q)},
+           "quantity_sd": {q: float(v[0]) for q, v in qsd.items() if not is_optical_depth(q)}}
     if not np.all(np.isfinite(cov[[k, c]][:, [k, c]])):  # a direction the data do not determine
         return {**out, "chl_sd": np.inf, "cdom_sd": np.inf, "correlation": np.nan}
     sd_c, sd_a = float(np.sqrt(cov[k, k])), float(np.sqrt(cov[c, c]))

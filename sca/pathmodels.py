@@ -190,7 +190,7 @@ def combine_single(results: dict):
 
     chl_ci, cdom_ci = ints.get("chl", b.chl_ci), ints.get("cdom", b.cdom_ci)
     verdicts = {"chl": verdict(*chl_ci), "cdom": verdict(*cdom_ci),
-                **{k: verdict(*v) for k, v in qi.items()}}
+                **{k: verdict(*v, k) for k, v in qi.items()}}
     return dataclasses.replace(
         b, chl_ci=chl_ci, cdom_ci=cdom_ci, quantity_intervals=qi, beam_attenuation_ci=cci,
         verdicts=verdicts, intervals={**b.intervals, **ints}, flags=flags,

@@ -59,7 +59,7 @@ from forward.water import PATH_MODELS, Water, resolve_water
 
 from .bound import Z95, Precision, precision
 from .budget import DEFAULT_UNCERTAIN
-from .derived import BANDS_NM, QUANTITIES
+from .derived import BANDS_NM, QUANTITIES, is_optical_depth
 from .pathmodels import PATH_MODEL_DELTA
 from forward.errors import InputError
 
@@ -85,8 +85,10 @@ SECCHI_READING_REL = 0.10
 #: coefficient (:data:`sca.derived.BANDS_NM`).
 C_BANDS = tuple(f"c_{b:.0f}" for b in BANDS_NM)
 #: Names a target may have: C ('chl'), a_CDOM(440) ('cdom'), 'c' (the path's attenuation
-#: coefficient at every standard band: the worst of them) and every derived quantity.
-TARGETS = ("chl", "cdom", "c") + tuple(QUANTITIES)
+#: coefficient at every standard band: the worst of them) and every derived quantity but the
+#: optical depths (a photo's tau depends on its own depth and distance; a design's targets are
+#: the water's).
+TARGETS = ("chl", "cdom", "c") + tuple(q for q in QUANTITIES if not is_optical_depth(q))
 #: Where the best single depth is looked for: these fractions of the depth range.
 SINGLE_DEPTH_FRACTIONS = (1.0, 0.0, 0.5, 0.25, 0.75)
 

@@ -182,8 +182,8 @@ class Estimate:
     beam_attenuation: np.ndarray | None = None
     #: (q, 2) its 95 % interval at every wavelength
     beam_attenuation_ci: np.ndarray | None = None
-    #: name -> verdict of 'chl', 'cdom' and every quantity: 'measured', 'upper bound' or
-    #: 'not constrained' (:func:`sca.derived.verdict`)
+    #: name -> verdict of 'chl', 'cdom' and every quantity: 'measured', 'loosely
+    #: measured', 'upper bound' or 'not constrained' (:func:`sca.derived.verdict`)
     verdicts: dict = field(default_factory=dict)
     #: the readings and priors tested against the photos (:mod:`sca.consistency`):
     #: {'readings': {name: {'delta_chi2', 'p', 'conflict'}}, 'pulls': {nuisance: pull in its

@@ -249,7 +249,7 @@ def _derived(est, st, dof, intervals) -> dict:
                quantity_intervals={k: tuple(float(a) for a in ci[0])
                                    for k, (_, ci) in d["quantities"].items()},
                beam_attenuation=d["c"][0], beam_attenuation_ci=d["c_ci"][0])
-    out["verdicts"].update({k: verdict(*v) for k, v in out["quantity_intervals"].items()})
+    out["verdicts"].update({k: verdict(*v, k) for k, v in out["quantity_intervals"].items()})
     return out
 
 

@@ -87,9 +87,12 @@ def test_estimate_round_trip_and_json(tmp_path):
     assert "chl (C)" in out and "budget of C" in out
     assert "reliable         True" in out and "mode paper" in out
     assert "path model" in out  # the budget fits every path model and says what it found
-    # concise: the result, its budget and what is measured in words (one line each); the
-    # spectrum goes to --json, --spectrum FILE or --attenuation FILE
-    assert len(out.splitlines()) < 22 and "wavelength_nm" not in out
+    # concise: the result, its budget and what is measured in words (one line each: at most
+    # 16 besides a line per derived quantity, tau's included); the spectrum goes to --json,
+    # --spectrum FILE or --attenuation FILE
+    from sca.derived import QUANTITIES
+    assert len(out.splitlines()) < 17 + len(QUANTITIES) and "wavelength_nm" not in out
+    assert "tau(490): " in out
     k = tmp_path / "k.csv"
     code, out2, err = run(["estimate", str(f), "--depth", "10", "--distance", "5",
                            "--attenuation", str(k)])

@@ -8,8 +8,9 @@
 One chart is fitted by ``sca.estimate`` (``mode='lm'`` unless ``--mode`` says otherwise), a batch (``--batch``) by ``sca.estimate_batch`` (in
 blocks, with a progress bar on stderr, when it is big). The patch CSV conventions are those of
 :mod:`uw3p.patchfile`. The default output is the result, its uncertainty budget and what the
-chart measures in words (measured, only an upper bound, not constrained: C, a_CDOM(440), the
-attenuation coefficient of the light's path at 443, 490, 555 and 670 nm, a_nw(440));
+chart measures in words (measured, loosely measured, only an upper bound, not constrained:
+C, a_CDOM(440), the attenuation coefficient of the light's path at 443, 490, 555 and 670 nm,
+the path's optical depth tau there (dimensionless), a_nw(440));
 the coefficient's spectrum c(lambda) with its 95 % interval and the transmittance k(lambda) are
 in ``--json`` and in the ``--spectrum`` file. Measurements of the water besides the chart
 (``--cdom-sample``, ``--secchi``, ``--kd``) are fused in the fit. Exit status 0 when every
@@ -37,12 +38,14 @@ __all__ = ["NAME", "BUFFERED", "BATCH_COLUMNS", "FIT_BLOCK", "PROGRESS_CHARTS",
 NAME = "estimate"
 #: Output is collected and written when the command ends (see ``uw3p.cli.main``).
 BUFFERED = True
-#: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures, m^-1), as named
-#: in the outputs (plain data: the command's help imports no numpy).
-QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "a_nw_440")
+#: The quantities of :data:`sca.derived.QUANTITIES` (what a chart measures: c and a_nw in
+#: m^-1, the optical depth tau dimensionless), as named in the outputs (plain data: the
+#: command's help imports no numpy).
+QUANTITY_NAMES = ("c_443", "c_490", "c_555", "c_670", "tau_443", "tau_490", "tau_555",
+                  "tau_670", "a_nw_440")
 #: Columns of the batch output (one row per chart), ``backscatter_<j>`` one per channel; after
 #: the earlier 22: the verdicts of C and a_CDOM and, for every quantity of
-#: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1).
+#: :data:`QUANTITY_NAMES`, its value, 95 % interval and verdict (m^-1; tau dimensionless).
 BATCH_COLUMNS = ("chart", "chl", "chl_lo", "chl_hi", "cdom", "cdom_lo", "cdom_hi", "reliable",
                  "flags", "fit_rms", "chi2_dof", "backscatter_*", "gain", "gain_lo", "gain_hi",
                  "objective", "converged", "iterations", "status", "depth_m", "distance_m",

@@ -6,8 +6,8 @@ colour-corrected; or a dive: a folder of photos, each with its own depth and dis
                  [--chart-reflectance FILE]
     uw3p measure DIVE_FOLDER/ --metadata dive.csv --profile profile.json [--joint] --out DIR
 
-One photo: the estimate, and what the photo measures in words (measured, only an upper bound,
-not constrained), printed and in the files (:mod:`measure.statements`).
+One photo: the estimate, and what the photo measures in words (measured, loosely measured,
+only an upper bound, not constrained), printed and in the files (:mod:`measure.statements`).
 
 A folder (:func:`measure.dive.measure_dive`): one output folder per photo, summary.csv (every
 file of the folder: measured or why not), survey.nc, survey.png and, with ``--joint``,

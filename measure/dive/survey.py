@@ -42,6 +42,14 @@ def path_standard_name(path_models) -> str:
     return PATH_CF.get(models.pop(), "") if len(models) == 1 else ""
 
 
+def _verdict_words() -> str:
+    """The verdicts of :data:`sca.derived.VERDICTS` in words ('measured, ... or not
+    constrained')."""
+    from sca.derived import VERDICTS
+
+    return ", ".join(VERDICTS[:-1]) + " or " + VERDICTS[-1]
+
+
 def _quantity_attrs(name, standard_name):
     """Attributes of one derived quantity's variable (:data:`sca.derived.QUANTITIES`)."""
     from sca.derived import QUANTITIES
@@ -96,7 +104,8 @@ def _joint_variables(joint, wl):
                                  attrs | {"bounds": f"joint_{q}_bounds"} | {
                                      "comment": "at the photos' median depth and distance"})
             out[f"joint_{q}_bounds"] = (nv, [to_float(v) for v in intervals[q]],
-                                        {"units": "m-1", "long_name": f"95 % interval of joint_{q}"})
+                                        {"units": attrs["units"],
+                                         "long_name": f"95 % interval of joint_{q}"})
     c = np.asarray(joint.get("beam_attenuation") or [], float)
     if c.size and c.size == wl.size and np.allclose(joint.get("wavelengths"), wl):
         ci = np.asarray([[to_float(v) for v in pair] for pair in joint["beam_attenuation_ci"]])
@@ -109,8 +118,7 @@ def _joint_variables(joint, wl):
             {"units": "m-1", "long_name": "95 % interval of joint_attenuation_coefficient"})
     for name, verdict in (joint.get("verdicts") or {}).items():
         out[f"joint_{name}_verdict"] = ((), str(verdict), {
-            "long_name": f"what the dive says of {name}: measured, upper bound or not "
-                         "constrained"})
+            "long_name": f"what the dive says of {name}: {_verdict_words()}"})
     return out
 
 
@@ -135,8 +143,9 @@ def survey_dataset(rows, records, attrs=None, joint=None):
         Dimension ``photo`` (coordinate ``image``), ``wavelength`` (nm) and ``nv`` (2, the
         interval ends): ``chl`` (mg m-3) and ``cdom`` (m-1 at 440 nm) with CF standard names
         and ``chl_bounds``/``cdom_bounds`` (95 % intervals); what each photo measures
-        (:mod:`sca.derived`, m-1, each with ``<name>_bounds`` and ``<name>_verdict``): ``c_443``
-        ... ``c_670``, ``a_nw_440``, and the spectrum ``attenuation_coefficient``
+        (:mod:`sca.derived`, each with ``<name>_bounds`` and ``<name>_verdict``): ``c_443``
+        ... ``c_670`` and ``a_nw_440`` (m-1), the optical depth ``tau_443`` ... ``tau_670``
+        (units "1"; no CF standard name), and the spectrum ``attenuation_coefficient``
         (photo, wavelength) with ``attenuation_coefficient_bounds`` (photo, wavelength, nv) --
         the CF name of the beam attenuation or the absorption coefficient where every photo's
         path model says which (:func:`path_standard_name`); ``transmittance`` (photo,
@@ -171,9 +180,9 @@ def survey_dataset(rows, records, attrs=None, joint=None):
         k[i] = np.asarray(e["transmittance"], float)
         c[i] = np.asarray(e["beam_attenuation"], float)
         c_ci[i] = np.asarray([[to_float(v) for v in pair] for pair in e["beam_attenuation_ci"]])
-        for name in QUANTITIES:
-            q[name][i] = to_float(e["quantities"][name])
-            q_ci[name][i] = [to_float(v) for v in e["quantity_intervals"][name]]
+        for name in QUANTITIES:  # a record of an earlier version may lack one (tau): NaN
+            q[name][i] = to_float(e["quantities"].get(name))
+            q_ci[name][i] = [to_float(v) for v in e["quantity_intervals"].get(name, (None,) * 2)]
         for name, v in e["verdicts"].items():
             if name in verdicts:
                 verdicts[name][i] = str(v)
@@ -199,10 +208,10 @@ def survey_dataset(rows, records, attrs=None, joint=None):
         quantity_vars[name] = (photo, q[name], _quantity_attrs(name, cf)
                                | {"bounds": f"{name}_bounds"})
         quantity_vars[f"{name}_bounds"] = (("photo", "nv"), q_ci[name], {
-            "long_name": f"95 % interval of {name}", "units": "m-1"})
+            "long_name": f"95 % interval of {name}", "units": QUANTITIES[name][3]})
     verdict_vars = {f"{name}_verdict": (photo, np.array(v, dtype=object), {
-        "long_name": f"what the photo says of {name}: measured, upper bound or not "
-                     "constrained"}) for name, v in verdicts.items()}
+        "long_name": f"what the photo says of {name}: {_verdict_words()}"})
+        for name, v in verdicts.items()}
     band_coords = {f"{name}_wavelength": ((), float(QUANTITIES[name][1]), {
         "standard_name": "radiation_wavelength", "units": "nm"}) for name in QUANTITIES}
     ds = xr.Dataset(
