@@ -166,8 +166,8 @@ def _render(world, cond, rng):
     return h.render_set(world, cond, rng, keep=SHARED_DRAWS)
 
 
-def _water_set(water, n, rng, log):
-    """Render and fit one water type's charts in both worlds."""
+def _water_set(water, n, rng, log, beyond=True):
+    """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
     world = _world()
     cond_seq, air_seq, sky_seq, beyond_seq, uw_seq = rng.bit_generator.seed_seq.spawn(5)
     cond = h._water_conditions(np.random.default_rng(cond_seq), n, water)
@@ -184,26 +184,34 @@ def _water_set(water, n, rng, log):
                          DEFAULT: _summary(h.fit_set(rendered, None), cond, rendered,
                                            "two-sided")}}
     stated = np.array([b["daylight"]["sd"] for b in budgets])
-    far = {**cond, "daylight_mired": cond["surface_mired"] + _beyond(
-        np.random.default_rng(beyond_seq), cond["surface_mired"], stated)}
-    # the same charts, camera draws and noise (the same streams) under the sky changed beyond
-    beyond = _render(world, far, _fresh(uw_seq))
-    out["sky-beyond"] = {WITH_REF: _summary(_fit_each(beyond, budgets), far, beyond,
-                                            "one-sided")}
     out["lights"] = {"sd_fit_median": float(np.median([lt.sd for lt in lights])),
                      "error_median_abs": float(np.median(np.abs(
                          [lt.centre for lt in lights] - cond["surface_mired"]))),
                      "sd_stated_median": float(np.median(stated)),
                      "sky_change_sd": sky_sd(REFERENCE_MINUTES)}
-    out["render_s"] = rendered["render_s"] + beyond["render_s"] + air_s
+    out["render_s"] = rendered["render_s"] + air_s  # sky-beyond's renders: in 'elapsed_s'
+
+    if beyond:
+        out["sky-beyond"] = _sky_beyond(world, cond, budgets, beyond_seq, uw_seq)
     if log:
         log(f"reference/{water}: " + "; ".join(
             f"{w} {lab} reliable {s['reliable']}/{s['n']} fit {s['fit_s']:.1f} s"
-            for w in ("reference", "sky-beyond") for lab, s in out[w].items()))
+            for w in ("reference", "sky-beyond") for lab, s in out.get(w, {}).items()))
     return out
 
 
-def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None) -> dict:
+def _sky_beyond(world, cond, budgets, beyond_seq, uw_seq) -> dict:
+    """The same charts (camera draws and noise: the same streams) under a sky changed by
+    :data:`BEYOND_SD` x each chart's stated sd, fitted with its reference."""
+    stated = np.array([b["daylight"]["sd"] for b in budgets])
+    far = {**cond, "daylight_mired": cond["surface_mired"] + _beyond(
+        np.random.default_rng(beyond_seq), cond["surface_mired"], stated)}
+    beyond = _render(world, far, _fresh(uw_seq))
+    return {WITH_REF: _summary(_fit_each(beyond, budgets), far, beyond, "one-sided")}
+
+
+def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None, *, waters=None,
+                  beyond: bool = True) -> dict:
     """The reference-shot worlds on clear and coastal water (:data:`experiments.honesty.C_WATERS`).
 
     Parameters
@@ -214,6 +222,10 @@ def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None) -> dic
         Seed of the conditions and renders (its own streams).
     log : callable, optional
         Called with one progress line per water type.
+    waters : sequence of str, optional
+        The water types to run (default all of :data:`experiments.honesty.C_WATERS`).
+    beyond : bool, optional
+        Run the ``sky-beyond`` world too (default True).
 
     Returns
     -------
@@ -224,7 +236,8 @@ def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None) -> dic
     """
     t0 = time.perf_counter()
     streams = np.random.default_rng([seed, 47, 6]).spawn(len(h.C_WATERS))
-    waters = {w: _water_set(w, n, rng, log) for w, rng in zip(h.C_WATERS, streams)}
+    waters = {w: _water_set(w, n, rng, log, beyond) for w, rng in zip(h.C_WATERS, streams)
+              if waters is None or w in waters}
     return {"waters": waters, "pooled": _pooled(waters), "n": n, "seed": seed,
             "minutes": REFERENCE_MINUTES, "elapsed_s": time.perf_counter() - t0}
 
@@ -233,6 +246,8 @@ def _pooled(waters) -> dict:
     """world -> label -> both water types' counts added (:func:`_pool`)."""
     out = {}
     for world in ("reference", "sky-beyond"):
+        if world not in next(iter(waters.values())):
+            continue
         out[world] = {}
         for label in next(iter(waters.values()))[world]:
             parts = [w[world][label] for w in waters.values()]
@@ -279,7 +294,7 @@ def _table(ref) -> list:
              "|" + "---|" * (5 + len(qs) + len(DTAU_BANDS))]
     for world in ("reference", "sky-beyond"):
         for water, e in ref["waters"].items():
-            for label, s in e[world].items():
+            for label, s in e.get(world, {}).items():
                 lines.append(f"| {world} | {water} | {label} | {s['test']} | "
                              f"{s['reliable']}/{s['n']} | " +
                              " | ".join(_cell(s, k) for k, _ in qs) + " | " +
@@ -289,6 +304,8 @@ def _table(ref) -> list:
 
 def _beyond_text(ref) -> list:
     """Flagged or covered, per quantity, pooled: said plainly."""
+    if "sky-beyond" not in ref["pooled"]:
+        return []
     s = ref["pooled"]["sky-beyond"][WITH_REF]
     worst = {k: v["neither"] for k, v in s["flagged_or_covered"].items()}
     lines = [f"`sky-beyond` (pooled, {s['n']} charts, {s['reliable']} reliable): " + ", ".join(
