@@ -47,3 +47,22 @@ def test_the_report_says_whether_a_sky_beyond_its_sd_is_flagged_or_covered():
     text = "\n".join(rw._beyond_text({"pooled": {"sky-beyond": {rw.WITH_REF: s}}}))
     assert "3 neither" in text and "**Not honest** for c(443)" in text
     assert np.isclose(rw.BEYOND_SD[0], 3.0) and np.isclose(rw.BEYOND_SD[1], 4.0)
+
+
+def test_instrument_tabulates_delta_tau_with_the_measured_light():
+    from experiments import instrument
+    from sca.reference import REFERENCE_MINUTES, sky_sd
+
+    rows, prior = instrument.reference_table()
+    # the stated sd is computed: the in-air fit's typical sd and the sky's change, in quadrature
+    assert 0 < prior["sd_fit"] < 30.0 / 5
+    assert prior["sd"] == pytest.approx(np.hypot(prior["sd_fit"], sky_sd(REFERENCE_MINUTES)))
+    for r in rows:
+        if r["water"] != "turbid":  # where the daylight's colour limits tau at 443 nm
+            assert r["reference"]["443"] < 0.8 * r["default"]["443"], r
+        # a larger per-patch term never narrows tau
+        widths = [r["reference"]["555"]] + [r[f"patch {100 * v:g} %"]["555"]
+                                            for v in instrument.PATCH_LEVELS[1:]]
+        assert np.all(np.diff(widths) > 0), r
+    text = "\n".join(instrument._reference_section(rows, prior))
+    assert "with the reference" in text and " nan" not in text
