@@ -683,8 +683,8 @@ def _run_world(world: World, cond: dict, rng, charts: bool) -> dict:
     for label, uncertain in _budgets(world):
         est = fit_set(rendered, uncertain)
         entry["fits"][label] = summarise(est, cond, path, rendered["truth"], world.test)
-        if label == DEFAULT_LABEL and world.name in AT_BOUND_WORLDS:
-            at = np.asarray(est.chl, float) <= 0.0  # the charts whose C sits at its bound
+        at = np.asarray(est.chl, float) <= 0.0  # the charts whose C sits at its bound
+        if label == DEFAULT_LABEL and world.name in AT_BOUND_WORLDS and at.any():
             entry["fits"][AT_BOUND_LABEL] = summarise(
                 _rows_of(est, at), _rows_of(cond, at), path[at], _rows_of(rendered["truth"], at),
                 world.test)
