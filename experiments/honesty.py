@@ -361,7 +361,7 @@ def _chart_options(world: World, cond: dict, i: int, rng) -> dict:
     return opts
 
 
-def render_set(world: World, cond: dict, rng: np.random.Generator) -> dict:
+def render_set(world: World, cond: dict, rng: np.random.Generator, keep=()) -> dict:
     """Render every chart of ``cond`` in ``world``.
 
     Parameters
@@ -371,18 +371,21 @@ def render_set(world: World, cond: dict, rng: np.random.Generator) -> dict:
         From :func:`draw_conditions`.
     rng : numpy.random.Generator
         The world's stream (one child per chart).
+    keep : sequence of str, optional
+        Keys of the renderer's per-chart ``truth`` (its draws, e.g. 'camera_gains') to return.
 
     Returns
     -------
     dict
         'rgb' and 'sigma' (N, 3, 24), the told 'depth' and 'distance' (N,), 'saturated' (N,),
-        'truth' (the world's value of every quantity of :data:`QUANTITIES`, (N,) each:
-        :func:`true_quantities`) and 'render_s' (wall-clock seconds).
+        'truth' (the world's value of every quantity of :func:`reported_quantities`, (N,) each:
+        :func:`true_quantities`), 'drawn' (per chart: the ``keep`` entries of its truth) and
+        'render_s' (wall-clock seconds).
     """
     t0 = time.perf_counter()
     n = cond["chl"].size
     streams = rng.spawn(n)
-    rgb, sigma, saturated, truth = [], [], [], []
+    rgb, sigma, saturated, truth, drawn = [], [], [], [], []
     for i in range(n):
         opts = _chart_options(world, cond, i, streams[i])
         out = iw.render_chart(cond["chl"][i], cond["cdom"][i], cond["depth"][i],
@@ -391,13 +394,14 @@ def render_set(world: World, cond: dict, rng: np.random.Generator) -> dict:
         sigma.append(out["sigma"])
         saturated.append(out["saturated"])
         truth.append(true_quantities(out, opts.get("path", "paper")))
+        drawn.append({k: out["truth"][k] for k in keep})
     depth, distance = cond["depth"] + world.depth_bias, cond["distance"] * world.distance_factor
     if world.geometry_errors:
         depth = depth + cond["depth_error"]
         distance = distance * (1.0 + cond["distance_error"])
     return {"rgb": np.array(rgb), "sigma": np.array(sigma), "depth": depth, "distance": distance,
             "saturated": np.array(saturated),
-            "truth": {k: np.array([t[k] for t in truth]) for k, _ in QUANTITIES},
+            "truth": {k: np.array([t[k] for t in truth]) for k in truth[0]}, "drawn": drawn,
             "render_s": time.perf_counter() - t0}
 
 
@@ -417,18 +421,31 @@ def true_quantities(rendered: dict, path: str = "paper") -> dict:
     dict
         'chl', 'cdom'; 'c_443' ... 'c_670': the path's attenuation coefficient tau_true /
         (depth + distance) at the band (:func:`experiments.independent_world.path_coefficient`;
-        the beam attenuation c on the paper's path), m^-1; 'a_nw_440': a - a_w at 440 nm;
-        (K_d(490) is not published: decision 0067-kd-not-published.)
+        the beam attenuation c on the paper's path), m^-1; 'tau_443' ... where
+        :func:`sca.derived.quantity_names` has them: the optical depth tau_true at the band;
+        'a_nw_440': a - a_w at 440 nm; (K_d(490) is not published: decision
+        0067-kd-not-published.)
     """
     t, o = rendered["truth"], rendered["optics"]
     wl = rendered["wavelengths"]
     coef = iw.path_coefficient(o, t["depth"], t["distance"], path)
     out = {"chl": float(t["chl"]), "cdom": float(t["cdom"]),
            "a_nw_440": float(np.interp(440.0, wl, o["a"] - o["a_w"]))}
-    for key, _ in QUANTITIES:
-        if key.startswith("c_"):
-            out[key] = float(np.interp(float(key[2:]), wl, coef))
+    length = float(t["depth"]) + float(t["distance"])
+    for key, _ in reported_quantities():
+        band, scale = ((key[2:], 1.0) if key.startswith("c_") else
+                       (key[4:], length) if key.startswith("tau_") else (None, 0.0))
+        if band is not None:
+            out[key] = scale * float(np.interp(float(band), wl, coef))
     return out
+
+
+def reported_quantities() -> tuple:
+    """(key, label) of every quantity a user is shown: :data:`QUANTITIES` and any other of
+    :func:`sca.derived.quantity_names` (e.g. the optical depth 'tau_443', labelled by its
+    key), read from the package so that a new quantity is scored where its truth is known."""
+    known = {k for k, _ in QUANTITIES}
+    return QUANTITIES + tuple((k, k) for k in sca.derived.quantity_names() if k not in known)
 
 
 def fit_set(rendered: dict, uncertain):
@@ -524,7 +541,7 @@ def _estimates(est, truth) -> dict:
     q = getattr(est, "quantities", None) or {}
     qi = getattr(est, "quantity_intervals", None) or {}
     out = {"chl": (est.chl_ci, truth["chl"]), "cdom": (est.cdom_ci, truth["cdom"])}
-    out.update({k: (np.asarray(qi[k], float), truth[k]) for k, _ in QUANTITIES
+    out.update({k: (np.asarray(qi[k], float), truth[k]) for k, _ in reported_quantities()
                 if k in qi and k in q and k in truth})
     return out
 
@@ -666,8 +683,8 @@ def _run_world(world: World, cond: dict, rng, charts: bool) -> dict:
     for label, uncertain in _budgets(world):
         est = fit_set(rendered, uncertain)
         entry["fits"][label] = summarise(est, cond, path, rendered["truth"], world.test)
-        if label == DEFAULT_LABEL and world.name in AT_BOUND_WORLDS:
-            at = np.asarray(est.chl, float) <= 0.0  # the charts whose C sits at its bound
+        at = np.asarray(est.chl, float) <= 0.0  # the charts whose C sits at its bound
+        if label == DEFAULT_LABEL and world.name in AT_BOUND_WORLDS and at.any():
             entry["fits"][AT_BOUND_LABEL] = summarise(
                 _rows_of(est, at), _rows_of(cond, at), path[at], _rows_of(rendered["truth"], at),
                 world.test)
@@ -727,7 +744,8 @@ def _honest(summary) -> bool:
                for k in (*TESTED, "joint") if k in cov)
 
 
-def acceptance(results: dict, attenuation: dict | None = None) -> list[dict]:
+def acceptance(results: dict, attenuation: dict | None = None,
+               reference: dict | None = None) -> list[dict]:
     """Each acceptance criterion: whether it holds, per world (default budget).
 
     Parameters
@@ -736,6 +754,9 @@ def acceptance(results: dict, attenuation: dict | None = None) -> list[dict]:
         ``run(...)['results']``.
     attenuation : dict, optional
         :func:`run_attenuation`'s result: adds criterion 6, the attenuation coefficient's.
+    reference : dict, optional
+        :func:`experiments.reference_worlds.run_reference`'s result: adds criterion 7, the
+        reference shot's world covered at the nominal rate (two-sided).
 
     Returns
     -------
@@ -770,6 +791,14 @@ def acceptance(results: dict, attenuation: dict | None = None) -> list[dict]:
                     "coastal water at 1-15 m: covered at the nominal rate (two-sided) with a "
                     f"median half-width <= {100 * C_MAX_HALF_WIDTH:.0f} %",
                     "group": "attenuation", "worlds": verdicts, "holds": all(verdicts.values())})
+    if reference is not None:
+        from .reference_worlds import holds
+
+        verdicts = holds(reference)
+        out.append({"criterion": "7. the surface reference shot's world (the light measured in "
+                    "air, the sky changed within its stated sd): every quantity covered at the "
+                    "nominal rate (two-sided)", "group": "reference", "worlds": verdicts,
+                    "holds": all(verdicts.values())})
     return out
 
 
@@ -1097,7 +1126,7 @@ def _criteria_text(results, verdicts) -> list[str]:
     lines = []
     for v in verdicts:
         lines += ["", f"**{v['criterion']}** — {'holds' if v['holds'] else 'FAILS'}.", ""]
-        if v["group"] == "attenuation":
+        if v["group"] in ("attenuation", "reference"):
             lines.append("- " + ", ".join(f"{name} {'holds' if ok else 'FAILS'}"
                                           for name, ok in v["worlds"].items()) +
                          " (the section below gives the numbers).")
@@ -1261,8 +1290,10 @@ def report(out: dict) -> str:
     -------
     str
     """
+    from .reference_worlds import reference_text
+
     results = out["results"]
-    att = out.get("attenuation")
+    att, ref = out.get("attenuation"), out.get("reference")
     head = ["# Honesty: never a confident wrong answer", "",
             f"Generated by `{out.get('command', 'python -m experiments.honesty')}`; do not "
             "edit.", "",
@@ -1270,8 +1301,9 @@ def report(out: dict) -> str:
             _world_list(results), "",
             "Each quantity's cell: coverage · ±median half-width.", ""]
     return "\n".join(head + _table(results) + ["", "## Acceptance"] +
-                     _criteria_text(results, acceptance(results, att)) +
-                     _attenuation_text(att) + _limitation_text(results) +
+                     _criteria_text(results, acceptance(results, att, ref)) +
+                     _attenuation_text(att) + reference_text(ref) +
+                     _limitation_text(results) +
                      _contrast_text(results) +
                      _diagnostic_text(results) + _health_text(results)) + "\n"
 
@@ -1301,14 +1333,14 @@ def write_outputs(out: dict, report_path, json_path):
     report_path, json_path : str or pathlib.Path
     """
     text = report(out)
-    data = json.dumps({**out, "acceptance": acceptance(out["results"], out.get("attenuation"))},
-                      indent=1)
+    data = json.dumps({**out, "acceptance": acceptance(out["results"], out.get("attenuation"),
+                                                       out.get("reference"))}, indent=1)
     _write_atomic(Path(json_path), data)
     _write_atomic(Path(report_path), text)
 
 
 def main(argv=None) -> int:
-    """``python -m experiments.honesty [--quick] [--n N] [--c-n N] [--seed S] [--report P]
+    """``python -m experiments.honesty [--quick] [--n N] [--c-n N] [--ref-n N] [--seed S] [--report P]
     [--json P] [--per-chart] [--strict]``.
 
     Parameters
@@ -1330,6 +1362,9 @@ def main(argv=None) -> int:
     parser.add_argument("--c-n", type=int, default=None,
                         help="charts per world and water type of the attenuation coefficient's "
                              f"criterion (default {C_CHARTS_FULL}; --quick {C_CHARTS_QUICK})")
+    parser.add_argument("--ref-n", type=int, default=None,
+                        help="charts per water type of the reference-shot worlds (default "
+                             f"{C_CHARTS_FULL}; --quick {C_CHARTS_QUICK}; 0: leave them out)")
     parser.add_argument("--seed", type=int, default=SEED)
     parser.add_argument("--report", default=str(ROOT / "HONESTY.md"))
     parser.add_argument("--json", default=str(ROOT / "benchmarks" / "honesty.json"))
@@ -1345,12 +1380,18 @@ def main(argv=None) -> int:
     out = run(n, args.seed, charts=args.per_chart, log=log)
     c_n = args.c_n or (C_CHARTS_QUICK if args.quick else C_CHARTS_FULL)
     out["attenuation"] = run_attenuation(c_n, args.seed, log=log)
+    ref_n = C_CHARTS_QUICK if args.quick and args.ref_n is None else args.ref_n
+    if ref_n != 0:
+        from .reference_worlds import run_reference
+
+        out["reference"] = run_reference(ref_n or C_CHARTS_FULL, args.seed, log=log)
     out["command"] = "python -m experiments.honesty" + "".join(
         f" {flag} {v}" for flag, v in (("--n", args.n), ("--c-n", args.c_n),
+                                      ("--ref-n", args.ref_n),
                                       ("--seed", None if args.seed == SEED else args.seed))
         if v is not None) + (" --quick" if args.quick else "")
     write_outputs(out, args.report, args.json)
-    verdicts = acceptance(out["results"], out["attenuation"])
+    verdicts = acceptance(out["results"], out["attenuation"], out.get("reference"))
     for v in verdicts:
         print(f"{'holds' if v['holds'] else 'FAILS'}: {v['criterion']}")
     print(f"{out['elapsed_s']:.0f} s; wrote {args.report} and {args.json}")

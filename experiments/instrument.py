@@ -48,7 +48,8 @@ __all__ = ["cameras", "precision_table", "validation", "depth_limit", "depth_ran
            "paper_connection", "connection_text", "plot", "doc", "main", "WATERS", "DEPTHS_M",
            "DISTANCES_M", "LIGHTS_LUX", "BANDS_NM", "FWHM_NM", "DRAWS", "GAINS",
            "VALIDATION_SEED", "VALIDATION_DEPTHS_M", "VALIDATION_DISTANCE_M",
-           "CONNECTION_DRAWS", "CONNECTION_SEED"]
+           "CONNECTION_DRAWS", "CONNECTION_SEED", "reference_light", "reference_table",
+           "PATCH_LEVELS", "REFERENCE_SHOTS"]
 
 #: name: (C mg m^-3, a_CDOM(440) m^-1)
 WATERS = {"clear ocean": (0.1, 0.01), "coastal": (1.0, 0.1), "turbid": (10.0, 0.5)}
@@ -192,6 +193,64 @@ def budget_table() -> list:
                             c_rel95_budget=float(_c_rel95(hon)), limiting=hon.limiting,
                             limiting_share=float(shares.get(hon.limiting, float("nan")))))
     return out
+
+
+#: The reference shot's table: in-air charts (seeds 0..REFERENCE_SHOTS-1) whose median
+#: measured sd is the typical light's, and the per-patch term's levels beside it.
+REFERENCE_SHOTS = 10
+PATCH_LEVELS = (0.01, 0.03, 0.10, 0.20)
+
+
+def reference_light():
+    """The typical light of a reference shot: :func:`sca.reference.measure_light` on
+    :data:`REFERENCE_SHOTS` charts simulated in air (D65, the default camera), centre 0 and the
+    median of their sds (:class:`sca.reference.Light`)."""
+    from sca.reference import Light, measure_light
+
+    sds = []
+    for seed in range(REFERENCE_SHOTS):
+        sim = forward.simulate_chart(0.0, 0.0, 0.0, 0.0, seed=seed, backscatter=False)
+        sds.append(measure_light(sim.rgb, sim.rgb_sigma).sd)
+    return Light(0.0, float(np.median(sds)), float(forward.chart_setup().daylight_cct), 1.0)
+
+
+def _dtau95(p, length) -> dict:
+    """band -> 95 % half-width of the optical depth tau at the band: Z95 sd of 'tau_<band>'
+    where :func:`sca.precision` has it, else of c times ``length`` (depth + distance)."""
+    from sca.bound import Z95
+    from sca.derived import BANDS_NM
+
+    out = {}
+    for b in BANDS_NM:
+        tau = f"tau_{b:.0f}"
+        sd = p.quantity_sd[tau] if tau in p.quantity_sd else p.quantity_sd[f"c_{b:.0f}"] * length
+        out[f"{b:.0f}"] = Z95 * np.asarray(sd, float)
+    return out
+
+
+def reference_table(light=None) -> tuple:
+    """Δτ (95 % half-width of tau = c (depth + distance) at the standard bands, ``sca.precision``,
+    exposure unknown, distance 1 m, :data:`BUDGET_DEPTHS_M`) for every water type with the
+    default budget, with the reference shot (``light``, default :func:`reference_light`, 10
+    minutes before the dive: :func:`sca.reference.with_reference`), and with the reference and
+    the per-patch term at each of :data:`PATCH_LEVELS`. Returns (rows, the budget's daylight
+    prior)."""
+    from sca.budget import DEFAULT_UNCERTAIN
+    from sca.reference import with_reference
+
+    ref = with_reference(None, reference_light() if light is None else light)
+    budgets = {"default": None, "reference": ref}
+    budgets.update({f"patch {100 * v:g} %": {**ref, "patch": v} for v in PATCH_LEVELS
+                    if v != DEFAULT_UNCERTAIN["patch"]})
+    grid = list(itertools.product(WATERS.items(), BUDGET_DEPTHS_M))
+    chl, cdom = (np.array([w[1][i] for w, _ in grid]) for i in (0, 1))
+    depth = np.array([d for _, d in grid])
+    dtau = {k: _dtau95(sca.precision(chl, cdom, depth=depth, distance=1.0, gain="free",
+                                     uncertain=u), depth + 1.0) for k, u in budgets.items()}
+    rows = [dict(water=w, depth=d, **{k: {b: float(v[j]) for b, v in t.items()}
+                                      for k, t in dtau.items()})
+            for j, ((w, _), d) in enumerate(grid)]
+    return rows, ref["daylight"]
 
 
 def design_table() -> list:
@@ -453,7 +512,39 @@ def _design_section(drows) -> list:
     return L
 
 
-def doc(rows, val, conn, brows=(), drows=()) -> str:
+def _reference_section(rrows, prior) -> list:
+    """Δτ with and without the reference shot, and the per-patch term's levels beside it."""
+    if not rrows:
+        return []
+    from sca.budget import DEFAULT_UNCERTAIN
+
+    bands = list(rrows[0]["default"])
+    patch = [k for k in rrows[0] if k.startswith("patch")]
+    first = f"{100 * DEFAULT_UNCERTAIN['patch']:g} %"
+    cell = lambda t: " / ".join(f"{t[b]:.3f}" for b in bands)  # noqa: E731
+    L = ["## The surface reference shot: Δτ with and without it (default camera, 20 000 lx, "
+         "distance 1 m, exposure unknown)", "",
+         "Δτ: the 95 % half-width of the optical depth τ = c (d + L) at "
+         + ", ".join(bands) + " nm (`sca.precision`; the issue's target ≤ 0.10), with the "
+         "default budget (daylight colour: a prior of 30 mired) and with the light measured at "
+         "the site by a reference shot (`sca.reference.with_reference`: the daylight's prior "
+         f"sd {prior['sd']:.1f} mired = the typical sd `measure_light` gives on a chart "
+         f"simulated in air, {prior['sd_fit']:.1f} mired (median of {REFERENCE_SHOTS}), and "
+         f"the sky's change over {prior['minutes']:g} minutes, {prior['sd_sky']:.1f} mired; "
+         "decision 0069-reference-shot). Beside them, with the reference, the per-patch term "
+         f"(the budget's {first}) at " + ", ".join(f"{100 * v:g} %" for v in PATCH_LEVELS) +
+         ". Each cell: Δτ at " + " / ".join(bands) + " nm.", "",
+         f"| water | depth | default budget | with the reference (patch {first}) | " +
+         " | ".join(f"reference, {k}" for k in patch) + " |",
+         "|" + "---|" * (4 + len(patch))]
+    for r in rrows:
+        L.append(f"| {r['water']} | {r['depth']:g} m | {cell(r['default'])} | "
+                 f"{cell(r['reference'])} | " +
+                 " | ".join(cell(r[k]) for k in patch) + " |")
+    return L + [""]
+
+
+def doc(rows, val, conn, brows=(), drows=(), rrows=(), prior=None) -> str:
     cams = list(dict.fromkeys(r["camera"] for r in rows))
     L = ["# INSTRUMENT — how well can a camera measure the water?", "",
          "_Generated by `make reproduce-figures` (alone: `python -m experiments.instrument --doc "
@@ -527,6 +618,8 @@ def doc(rows, val, conn, brows=(), drows=()) -> str:
                  f"{v['flags'] or '–'} |")
     if brows:
         L += [""] + _budget_section(brows)[:-1]
+    if rrows:
+        L += [""] + _reference_section(rrows, prior)[:-1]
     if conn:
         s = _paper_like_setting()
         L += ["", "## Does the bound explain why r falls with depth in Fig 12?", "",
@@ -572,13 +665,15 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None, camera_csv=N
     conn = paper_connection(Path(outdir or "figures"), grid_name)
     brows = budget_table() if (grid_name or "paper") == "paper" else []
     drows = design_table() if (grid_name or "paper") == "paper" else []
+    rrows, prior = reference_table() if (grid_name or "paper") == "paper" else ([], None)
     if drows:
         dk = list(drows[0])
         write_csv(figures_dir(outdir) / "instrument_designs.csv", dk,
                   [[f"{r[k]:.6g}" if isinstance(r[k], float) else r[k] for k in dk]
                    for r in drows], comment="python -m experiments.instrument: sca.design")
     if doc_path:
-        Path(doc_path).write_text(doc(rows, val, conn, brows, drows), encoding="utf-8")
+        Path(doc_path).write_text(doc(rows, val, conn, brows, drows, rrows, prior),
+                                  encoding="utf-8")
     return rows
 
 
