@@ -13,7 +13,7 @@ the other nuisances of the default budget drawn from their priors as in the ``pr
    (:func:`sca.reference.sky_sd` at :data:`sca.reference.REFERENCE_MINUTES`), ``sky-beyond`` by
    :data:`BEYOND_SD` times the stated sd (sqrt(sd_fit^2 + sd_sky^2)), either sign;
 4. the chart underwater rendered under the changed light and fitted with
-   ``uncertain=with_reference(None, light)`` (a fit per chart: each has its own prior) and, on
+   ``uncertain=with_reference(None, lights)`` (one batch, each chart its own measured prior) and, on
    the very same photos, with the default budget (``reference`` only).
 
 :func:`run_reference` renders and fits; :func:`reference_text` is HONESTY.md's section.
@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -36,7 +35,7 @@ from . import honesty as h
 from . import independent_world as iw
 
 __all__ = ["BEYOND_SD", "DTAU_BANDS", "DTAU_TARGET", "REFERENCE_LABELS", "dtau_half_widths",
-           "reference_text", "run_reference", "stack_estimates"]
+           "reference_text", "run_reference"]
 
 #: The sky's change of the ``sky-beyond`` world, in units of the stated sd (uniform).
 BEYOND_SD = (3.0, 4.0)
@@ -92,31 +91,6 @@ def _air_shots(world, cond, drawn, rng) -> list:
         air = iw.render_calibration(rng=stream, **opts)
         lights.append(measure_light(np.maximum(air["rgb"], 0.0), air["sigma"]))
     return lights
-
-
-def stack_estimates(ests):
-    """One batch estimate (a namespace) of per-chart :class:`sca.batch.BatchEstimate`'s: every
-    per-chart array, list and dict entry joined, 'elapsed_s' summed."""
-    def join(vals):
-        v0 = vals[0]
-        if isinstance(v0, dict):
-            return {k: join([v[k] for v in vals]) for k in v0}
-        if isinstance(v0, np.ndarray) and v0.ndim:
-            return np.concatenate(vals)
-        if isinstance(v0, list):
-            return [x for v in vals for x in v]
-        return v0
-    names = [f.name for f in dataclasses.fields(ests[0])]
-    out = SimpleNamespace(**{n: join([getattr(e, n) for e in ests]) for n in names})
-    out.elapsed_s = float(sum(e.elapsed_s for e in ests))
-    out.wavelengths = ests[0].wavelengths
-    return out
-
-
-def _fit_each(rendered, budgets):
-    """Fit chart i of ``rendered`` with ``budgets[i]`` (a prior per chart)."""
-    one = [h._rows_of(rendered, np.arange(len(budgets)) == i) for i in range(len(budgets))]
-    return stack_estimates([h.fit_set(r, b) for r, b in zip(one, budgets)])
 
 
 def dtau_half_widths(est, rendered) -> dict:
@@ -178,12 +152,12 @@ def _water_set(water, n, rng, log, beyond=True):
     t0 = time.perf_counter()
     lights = _air_shots(world, cond, rendered["drawn"], np.random.default_rng(air_seq))
     air_s = time.perf_counter() - t0
-    budgets = [with_reference(None, lt, REFERENCE_MINUTES) for lt in lights]
-    out = {"reference": {WITH_REF: _summary(_fit_each(rendered, budgets), cond, rendered,
+    budgets = with_reference(None, lights, REFERENCE_MINUTES)
+    out = {"reference": {WITH_REF: _summary(h.fit_set(rendered, budgets), cond, rendered,
                                             "two-sided"),
                          DEFAULT: _summary(h.fit_set(rendered, None), cond, rendered,
                                            "two-sided")}}
-    stated = np.array([b["daylight"]["sd"] for b in budgets])
+    stated = budgets["daylight"]["sd"]
     out["lights"] = {"sd_fit_median": float(np.median([lt.sd for lt in lights])),
                      "error_median_abs": float(np.median(np.abs(
                          [lt.centre for lt in lights] - cond["surface_mired"]))),
@@ -203,11 +177,11 @@ def _water_set(water, n, rng, log, beyond=True):
 def _sky_beyond(world, cond, budgets, beyond_seq, uw_seq) -> dict:
     """The same charts (camera draws and noise: the same streams) under a sky changed by
     :data:`BEYOND_SD` x each chart's stated sd, fitted with its reference."""
-    stated = np.array([b["daylight"]["sd"] for b in budgets])
+    stated = budgets["daylight"]["sd"]
     far = {**cond, "daylight_mired": cond["surface_mired"] + _beyond(
         np.random.default_rng(beyond_seq), cond["surface_mired"], stated)}
     beyond = _render(world, far, _fresh(uw_seq))
-    return {WITH_REF: _summary(_fit_each(beyond, budgets), far, beyond, "one-sided")}
+    return {WITH_REF: _summary(h.fit_set(beyond, budgets), far, beyond, "one-sided")}
 
 
 def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None, *, waters=None,
@@ -362,7 +336,7 @@ def reference_text(ref) -> list:
             "then changes by N(0, sky_sd) mired (`sca.reference.sky_sd` at "
             f"{ref['minutes']:g} min: {first['lights']['sky_change_sd']:.1f} mired) and the "
             "chart underwater is rendered under the changed light and fitted with "
-            "`uncertain=with_reference(None, light)` (one fit per chart: each has its own "
+            "`uncertain=with_reference(None, lights)` (one batch, each chart its own measured "
             "prior), and on the same photos with the default budget. `sky-beyond`: the same "
             f"charts, the sky changed by {BEYOND_SD[0]:g}-{BEYOND_SD[1]:g} x the stated sd "
             "(either sign); honest there means flagged or covered. " + lights + ". "

@@ -93,7 +93,8 @@ class Budget:
     def to_dict(self) -> dict:
         """The budget as plain numbers: the sd given for every name and its source (a measured
         prior's own record: its centre, sd and source)."""
-        return {k: dict(v) if isinstance(v, dict) else
+        return {k: {a: np.asarray(b).tolist() if isinstance(b, np.ndarray) else b
+                    for a, b in v.items()} if isinstance(v, dict) else
                 {"sd": v, "source": BUDGET_SOURCES.get(k, "given")} for k, v in self.sd.items()}
 
 
@@ -178,13 +179,14 @@ def prior_of(name: str, value, water: Water):
     name : str
         A :data:`NUISANCE` name other than 'depth' and 'distance'.
     value : float or dict
-        The sd in the parameter's units, or a dict with 'centre' and 'sd' (own units).
+        The sd in the parameter's units, or a dict with 'centre' and 'sd' (own units; each a
+        number, or one per chart for the batch).
     water : forward.Water
         The water model (the default centre of its constants).
 
     Returns
     -------
-    (float, float)
+    (float, float), or arrays (one per chart) where the measured prior has them
 
     Raises
     ------
@@ -197,13 +199,18 @@ def prior_of(name: str, value, water: Water):
     if "centre" not in value or "sd" not in value:
         raise InputError(label, "a measured prior needs 'centre' and 'sd', got keys "
                          f"{sorted(value)}")
-    try:
-        centre = float(value["centre"])
-    except (TypeError, ValueError):
-        centre = float("nan")
-    if isinstance(value["centre"], bool) or not np.isfinite(centre):
-        raise InputError(label, f"'centre' must be a finite number, got {value['centre']!r}")
-    return centre, float(parse_sd(name, value["sd"]))
+    out = []
+    for key, ok in (("centre", np.isfinite), ("sd", lambda x: np.isfinite(x) & (x >= 0))):
+        v = value[key]
+        try:
+            x = np.asarray(v, float) if not isinstance(v, (bool, str)) else np.array(np.nan)
+        except (TypeError, ValueError):
+            x = np.array(np.nan)
+        if x.ndim > 1 or x.size == 0 or not np.all(ok(x)):
+            raise InputError(label, f"'{key}' must be a finite number{' >= 0' if key == 'sd' else ''}"
+                             f" (or one per chart), got {v!r}")
+        out.append(float(x) if x.ndim == 0 else x)
+    return out[0], out[1]
 
 
 def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:
@@ -245,7 +252,14 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
                          f"{tuple(NUISANCE + SYSTEMATIC)}")
     lengths = {"depth": np.atleast_1d(np.asarray(depth, float)),
                "distance": np.atleast_1d(np.asarray(distance, float))}
-    N = max(lengths["depth"].size, lengths["distance"].size)
+    measured = [np.size(v[k]) for v in uncertain.values() if isinstance(v, dict)
+                for k in ("centre", "sd") if k in v]
+    N = max(lengths["depth"].size, lengths["distance"].size, *measured)
+    for name, v in uncertain.items():
+        sizes = {np.size(v[k]) for k in ("centre", "sd") if k in v} if isinstance(v, dict) else ()
+        if any(size not in (1, N) for size in sizes):
+            raise InputError(f"uncertain[{name!r}]", f"one centre and sd, or one per chart "
+                             f"({N}), got {sorted(sizes)}")
     priors = {}
     for name, value in uncertain.items():
         if name in SYSTEMATIC:
@@ -255,7 +269,7 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
             sd = np.broadcast_to(parse_sd(name, value, mean), (N,)).astype(float)
         else:
             centre, spread = prior_of(name, value, water)
-            mean, sd = np.full(N, centre), np.full(N, spread)
+            mean, sd = (np.broadcast_to(x, (N,)).astype(float) for x in (centre, spread))
         if name in free or name in fixed or not np.any(sd > 0):
             continue
         priors[name] = (mean, sd)

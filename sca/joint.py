@@ -316,6 +316,9 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
         if name in ("depth", "distance", "patch"):
             continue
         centre, sd = prior_of(name, value, water)
+        if np.ndim(centre) or np.ndim(sd):
+            raise InputError(f"uncertain[{name!r}]", "a dive has one light: one centre and sd, "
+                             "not one per chart")
         if sd > 0:
             priors[name] = (centre, sd)
     geo = {}

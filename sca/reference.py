@@ -118,11 +118,16 @@ def with_reference(uncertain, light: Light | None, minutes=REFERENCE_MINUTES,
                    source: str = "") -> dict | None:
     """``uncertain`` (None: the default budget) with its 'daylight' prior replaced by the
     reference's (:meth:`Light.prior`); ``uncertain`` as given without a reference or for the
-    paper's exact model ``{}``."""
+    paper's exact model ``{}``. ``light`` may be a sequence of lights, one per chart of a
+    batch (each chart its own prior, one fit of them all)."""
     if light is None or uncertain == {}:
         return uncertain
     base = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
-    return base | {"daylight": light.prior(minutes, source)}
+    if isinstance(light, Light):
+        return base | {"daylight": light.prior(minutes, source)}
+    each = [lt.prior(minutes, source) for lt in light]  # one light per chart of a batch
+    return base | {"daylight": {k: (np.array([e[k] for e in each]) if k in ("centre", "sd", "sd_fit")
+                                    else each[0][k]) for k in each[0]}}
 
 
 def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None) -> Light:

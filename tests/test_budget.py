@@ -193,3 +193,27 @@ def test_independent_calibrations_measure_their_systematic_term(options, reliabl
     prof = measure.calibrate(sample)
     assert prof.reliable == reliable and ("systematic" in prof.flags) != reliable
     assert (prof.patch_sd < 0.01) == reliable
+
+
+def test_a_measured_prior_may_hold_one_centre_per_chart():
+    """A batch's charts each with its own measured light (one reference shot each): the
+    priors hold them chart by chart; a count that is neither 1 nor the charts' is refused,
+    naming the entry, and a dive (one light) refuses a per-chart prior."""
+    import numpy as np
+    import pytest
+    from forward.errors import InputError
+    from forward.water import PAPER_WATER
+    from sca.budget import resolve_budget
+
+    centres, sds = np.array([10.0, -5.0, 30.0]), np.array([8.0, 9.0, 10.0])
+    b = resolve_budget({"daylight": {"centre": centres, "sd": sds}},
+                       depth=np.array([2.0, 5.0, 9.0]), distance=1.0, water=PAPER_WATER)
+    np.testing.assert_array_equal(b.priors["daylight"][0], centres)
+    np.testing.assert_array_equal(b.priors["daylight"][1], sds)
+    with pytest.raises(InputError, match="daylight"):
+        resolve_budget({"daylight": {"centre": centres[:2], "sd": 8.0}},
+                       depth=np.array([2.0, 5.0, 9.0]), distance=1.0, water=PAPER_WATER)
+    from sca.joint import _budget
+    with pytest.raises(InputError, match="one light"):
+        _budget({"daylight": {"centre": centres, "sd": sds}}, PAPER_WATER, np.array([2.0, 5.0, 9.0]),
+                np.ones(3), None, None, 0.5)
