@@ -166,7 +166,7 @@ class Bracket:
 def bracket(lights, minutes) -> Bracket:
     """Two reference shots, one before and one after the dive, ``minutes`` from it each:
     their difference tested against their sds and the sky's change (decision
-    0071-reference-bracket).
+    0070-reference-bracket).
 
     Raises
     ------

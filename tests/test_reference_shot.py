@@ -126,6 +126,14 @@ def test_measure_takes_a_reference_shot_and_says_which_daylight_it_used(chart_ph
     assert "daylight: prior 30 mired" in text
     code, _, err = run(["--reference", f"{ph['air']}:-5"], tmp_path / "bad")
     assert code == 2 and "--reference" in err
+    two = ["--reference", f"{ph['air']}:5", "--reference", f"{ph['air']}:15"]
+    code, text, _ = run(two, tmp_path / "two")
+    day = json.loads((tmp_path / "two" / "measurement.json").read_text())["inputs"][
+        "uncertain"]["daylight"]
+    assert "measured at the site by two shots" in text and len(day["shots"]) == 2
+    assert not day["conflict"] and "reference-conflict" not in text
+    code, _, err = run(two + ["--reference", str(ph["air"])], tmp_path / "three")
+    assert code == 2 and "--reference" in err
 
 
 def _bracket(after, minutes=(5.0, 5.0)):

@@ -69,11 +69,13 @@ def add_parser(sub):
                         "cdom_sample,cdom_sample_sd (m^-1), secchi_m,secchi_sd_m (m), "
                         "kd_<nm>,kd_<nm>_sd (m^-1) (image names relative to the folder, range "
                         "maps to the CSV's; a photo without a row is not measured)")
-    p.add_argument("--reference", default=None, metavar="PHOTO[:MINUTES]",
+    p.add_argument("--reference", default=None, action="append", metavar="PHOTO[:MINUTES]",
                    help="a photo of the chart in air at the site under the same sky (a reference "
                         "shot), MINUTES (default 10) before or after the dive: the daylight's "
                         "colour it measures replaces the budget's 30-mired prior (decision "
-                        "0069-reference-shot)")
+                        "0069-reference-shot); given twice, a shot before and one after the "
+                        "dive, combined and checked against each other (decision "
+                        "0070-reference-bracket)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
@@ -129,23 +131,39 @@ def _reference_arg(text):
 
 
 def _with_reference(args, uncertain):
-    """``uncertain`` with the daylight measured by ``--reference`` (as given without it)."""
-    if getattr(args, "reference", None) is None or uncertain == {}:
+    """``uncertain`` with the daylight measured by ``--reference`` (one shot, or two
+    bracketing the dive: :func:`sca.reference.bracket`; as given without it)."""
+    refs = getattr(args, "reference", None) or []
+    if not refs or uncertain == {}:
         return uncertain
     import measure
-    from measure.camera import read_chart_reflectance
-    from sca.reference import with_reference
+    from sca.reference import bracket, with_reference
 
-    photo, minutes = _reference_arg(args.reference)
+    if len(refs) > 2:
+        raise InputError("--reference", f"at most two reference shots (before and after the "
+                         f"dive), got {len(refs)}")
+    shots = [_reference_arg(r) for r in refs]
     profile = measure.load_profile(args.profile) if args.profile else None
-    setup = measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
-                                 gains=None if profile is None else profile.gains,
-                                 reflectances=None if args.chart_reflectance is None else
-                                 read_chart_reflectance(args.chart_reflectance))
-    light = measure.reference_light(read_photo(args, photo), setup, args.layout)
+    setup = _reference_setup(args, profile)
+    lights = [measure.reference_light(read_photo(args, photo), setup, args.layout)
+              for photo, _ in shots]
+    light = lights[0] if len(lights) == 1 else bracket(lights, [t for _, t in shots])
     base = uncertain if uncertain is not None else measure.budget_for(
         None, profile, measured_chart=args.chart_reflectance is not None)
-    return with_reference(base, light, minutes, f"measured at the site by {photo}")
+    return with_reference(base, light, shots[0][1], "measured at the site by "
+                          + " and ".join(photo for photo, _ in shots))
+
+
+def _reference_setup(args, profile):
+    """The camera set-up a reference shot is fitted with: the profile's gains, the options'
+    camera, illuminant and chart."""
+    import measure
+    from measure.camera import read_chart_reflectance
+
+    return measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
+                                gains=None if profile is None else profile.gains,
+                                reflectances=None if args.chart_reflectance is None else
+                                read_chart_reflectance(args.chart_reflectance))
 
 
 def daylight_line(uncertain) -> str:
@@ -153,6 +171,13 @@ def daylight_line(uncertain) -> str:
     from sca.budget import DEFAULT_UNCERTAIN
 
     day = (DEFAULT_UNCERTAIN if uncertain is None else uncertain).get("daylight", 0.0)
+    if isinstance(day, dict) and "shots" in day:
+        return (f"daylight: measured at the site by two shots, {day['centre']:+.1f} +- "
+                f"{day['sd']:.1f} mired (before/after "
+                + " / ".join(f"{s['centre']:+.1f}" for s in day["shots"])
+                + f", chi2 {day['chi2']:.3g}, p {day['p']:.2g}"
+                + ("; THE SHOTS DISAGREE: the sky changed beyond its sd (reference-conflict)"
+                   if day.get("conflict") else "") + ")")
     if isinstance(day, dict):
         return (f"daylight: measured at the site, {day['centre']:+.1f} +- {day['sd']:.1f} mired "
                 f"(fit {day.get('sd_fit', float('nan')):.1f}, sky's change "
