@@ -33,7 +33,8 @@ from forward.imaging import ChartSetup
 from .budget_defaults import DEFAULT_UNCERTAIN
 
 __all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "CONFLICT_FLAG", "Light", "Bracket",
-           "bracket", "conflict_of", "measure_light", "sky_sd", "with_reference"]
+           "bracket", "conflict_of", "measure_light", "planned", "sky_sd", "with_reference",
+           "PLANNED_FIT_SD"]
 
 #: The sky's change reaches the default prior's spread (mired) ...
 SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
@@ -43,6 +44,10 @@ SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
 SKY_MINUTES = 120.0
 #: The time between the reference shot and the dive where none is given, minutes.
 REFERENCE_MINUTES = 10.0
+#: The sd (mired) of the light a planned reference shot will measure (:func:`planned`): the
+#: fit's sd in air, 1.8 mired in simulation (decision 0069-reference-shot), rounded up
+#: (decision 0071-design-reference-shot).
+PLANNED_FIT_SD = 2.0
 #: The flag (:data:`sca.assess.BLOCKING`) of an estimate whose budget holds reference shots that
 #: disagree beyond their sds (:func:`bracket`: chi^2 p below :data:`sca.consistency.CONFLICT_P`).
 CONFLICT_FLAG = "reference-conflict"
@@ -191,6 +196,14 @@ def conflict_of(uncertain) -> bool:
     """Whether ``uncertain`` holds a measured prior whose reference shots disagree
     (:attr:`Bracket.conflict`, recorded as ``"conflict"`` in the prior)."""
     return any(isinstance(v, dict) and bool(v.get("conflict")) for v in (uncertain or {}).values())
+
+
+def planned(uncertain, minutes=REFERENCE_MINUTES) -> dict | None:
+    """``uncertain`` as a design plans it with a reference shot ``minutes`` from the dive: the
+    daylight's prior centred where the budget's is, its sd sqrt(:data:`PLANNED_FIT_SD`^2 +
+    :func:`sky_sd`^2) (:func:`with_reference` of a :class:`Light` of that sd)."""
+    return with_reference(uncertain, Light(0.0, PLANNED_FIT_SD, float("nan"), float("nan")),
+                          minutes, "a reference shot planned")
 
 
 def with_reference(uncertain, light, minutes=REFERENCE_MINUTES,

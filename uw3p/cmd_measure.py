@@ -109,49 +109,21 @@ def _options(args) -> dict:
                 k: v for k, v in extra.items() if v}
 
 
-def _reference_arg(text):
-    """(photo, minutes) of ``--reference PHOTO[:MINUTES]``."""
-    from sca.reference import REFERENCE_MINUTES, sky_sd
-
-    photo, minutes = text, REFERENCE_MINUTES
-    head, sep, tail = text.rpartition(":")
-    if sep and head and not Path(text).exists():
-        try:
-            minutes = float(tail)
-        except ValueError:
-            raise InputError("--reference", f"expected PHOTO[:MINUTES], got {text!r}") from None
-        photo = head
-    try:
-        sky_sd(minutes)
-    except InputError as exc:
-        raise InputError("--reference", exc.reason) from None
-    if not Path(photo).is_file():
-        raise InputError("--reference", f"file not found: {photo}")
-    return photo, minutes
-
-
 def _with_reference(args, uncertain):
     """``uncertain`` with the daylight measured by ``--reference`` (one shot, or two
-    bracketing the dive: :func:`sca.reference.bracket`; as given without it)."""
+    bracketing the dive: :func:`measure.reference.reference_budget`; as given without it)."""
     refs = getattr(args, "reference", None) or []
     if not refs or uncertain == {}:
         return uncertain
     import measure
-    from sca.reference import bracket, with_reference
+    from measure.reference import parse_reference, reference_budget
 
-    if len(refs) > 2:
-        raise InputError("--reference", f"at most two reference shots (before and after the "
-                         f"dive), got {len(refs)}")
-    shots = [_reference_arg(r) for r in refs]
+    shots = [parse_reference(r) for r in refs]
     profile = measure.load_profile(args.profile) if args.profile else None
-    setup = _reference_setup(args, profile)
-    lights = [measure.reference_light(read_photo(args, photo), setup, args.layout)
-              for photo, _ in shots]
-    light = lights[0] if len(lights) == 1 else bracket(lights, [t for _, t in shots])
     base = uncertain if uncertain is not None else measure.budget_for(
         None, profile, measured_chart=args.chart_reflectance is not None)
-    return with_reference(base, light, shots[0][1], "measured at the site by "
-                          + " and ".join(photo for photo, _ in shots))
+    return reference_budget(base, shots, lambda photo: read_photo(args, photo),
+                            _reference_setup(args, profile), args.layout)
 
 
 def _reference_setup(args, profile):
