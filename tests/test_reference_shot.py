@@ -167,3 +167,29 @@ def test_two_reference_shots_that_agree_cover_the_sky_between_them(site):
     assert CONFLICT_FLAG not in flags
     with pytest.raises(InputError, match="lights"):
         bracket(b.lights[:1], (5.0,))
+
+
+def test_a_dives_metadata_names_its_reference_shots_and_the_photos_fit_takes_them(
+        chart_photos, tmp_path):
+    from measure.dive.metadata import read_metadata
+    from measure.dive.worker import _budget
+
+    from pathlib import Path
+
+    air = Path(chart_photos["air"])
+    csv = tmp_path / "dive_ref.csv"
+    (tmp_path / air.name).write_bytes(air.read_bytes())
+    air = tmp_path / air.name
+    csv.write_text(f"image,depth_m,distance_m,reference,reference_after\n"
+                   f"UW.dng,5,1.5,{air.name}:5,{air.name}:15\n")
+    row = read_metadata(csv)["UW.dng"]
+    assert row["reference"] == [[str(air), 5.0], [str(air), 15.0]]
+    prof = tmp_path / "profile.json"
+    prof.write_text(chart_photos["profile"].to_json())
+    options = {"camera": forward.DEFAULT_CAMERA, "profile": str(prof)}
+    day = _budget(options, {"reference": row["reference"]})["daylight"]
+    assert len(day["shots"]) == 2 and not day["conflict"] and day["sd"] < SKY_SD
+    assert _budget(options, {"reference": []}) is None  # none: the run's budget
+    csv.write_text("image,depth_m,distance_m,reference\nUW.dng,5,1.5,missing.dng:5\n")
+    with pytest.raises(InputError, match="reference: file not found"):
+        read_metadata(csv)
