@@ -67,8 +67,10 @@ def add_parser(sub):
                         "optionally depth_sd_m,distance_sd_m,corners,range_m,range_map and the "
                         "water measured with each photo, each with its sd: "
                         "cdom_sample,cdom_sample_sd (m^-1), secchi_m,secchi_sd_m (m), "
-                        "kd_<nm>,kd_<nm>_sd (m^-1) (image names relative to the folder, range "
-                        "maps to the CSV's; a photo without a row is not measured)")
+                        "kd_<nm>,kd_<nm>_sd (m^-1), and the reference shots reference,reference_after "
+                        "(PHOTO[:MINUTES], as --reference) (image names relative to the folder, "
+                        "range maps and reference shots to the CSV's; a photo without a row is "
+                        "not measured)")
     p.add_argument("--reference", default=None, action="append", metavar="PHOTO[:MINUTES]",
                    help="a photo of the chart in air at the site under the same sky (a reference "
                         "shot), MINUTES (default 10) before or after the dive: the daylight's "
