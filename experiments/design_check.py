@@ -57,20 +57,23 @@ RATIO_RANGE = (0.75, 1.33)
 #: targets (relative 95 % half-widths) and the water sample's sd (m^-1; None: the default);
 #: 'truth', where given, the water the dives are rendered in (C, a_CDOM(440)) when it is not
 #: the water guessed (informational rows: no criterion).
-#: The clear water's sample is a long-path cell's (0.001 m^-1, a tenth of its a_CDOM): with
-#: the default 0.0025 m^-1 no protocol reaches even +-60 % there.
+#: The coastal designs' sample is a precise one (0.0025 m^-1, underway long-path
+#: spectrophotometry; DESIGN.md was made with it): with the default 0.015 m^-1 no protocol
+#: reaches C +-30 % there (decision 0075-design-reference-shot). The clear water's sample is a
+#: long-path cell's (0.001 m^-1, a tenth of its a_CDOM): with 0.0025 m^-1 no protocol reaches
+#: even +-60 % there.
 DESIGNS = (
     {"name": "coastal, C to ±30 %", "chl": 1.0, "cdom": 0.1, "depth": (2.0, 15.0),
-     "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": None},
+     "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": 0.0025},
     {"name": "clear, C to ±30 %", "chl": 0.1, "cdom": 0.01, "depth": (2.0, 15.0),
      "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": 0.001},
     {"name": "clear, C to ±60 %", "chl": 0.1, "cdom": 0.01, "depth": (2.0, 15.0),
      "distance": (1.0, 3.0), "targets": {"chl": 0.60}, "sample_sd": 0.001},
     {"name": "coastal, C to ±30 %, the water 0.6× the guess", "chl": 1.0, "cdom": 0.1,
-     "depth": (2.0, 15.0), "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": None,
+     "depth": (2.0, 15.0), "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": 0.0025,
      "truth": (0.6, 0.06)},
     {"name": "coastal, C to ±30 %, the water 1.5× the guess", "chl": 1.0, "cdom": 0.1,
-     "depth": (2.0, 15.0), "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": None,
+     "depth": (2.0, 15.0), "distance": (1.0, 3.0), "targets": {"chl": 0.30}, "sample_sd": 0.0025,
      "truth": (1.5, 0.15)},
 )
 #: The world's draws: the default budget's own sds (sca.budget.DEFAULT_UNCERTAIN): per-patch

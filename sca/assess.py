@@ -16,7 +16,8 @@ One set of rules for :func:`sca.estimate` and :func:`sca.estimate_batch` (decisi
   ColorChecker not falling from white to black);
 * **readings and priors against the photos** (:mod:`sca.consistency`): ``reading-conflict``
   (an auxiliary reading's likelihood-ratio test below ``CONFLICT_P``) and ``nuisance-pulled``
-  (a prior's pull beyond ``PULL_MAX`` of its sds);
+  (a prior's pull beyond ``PULL_MAX`` of its sds); ``reference-conflict`` (two reference shots
+  bracketing the dive that disagree, :func:`sca.reference.bracket`);
 * ``reliable`` is True only when no flag of :data:`BLOCKING` is raised.
 """
 
@@ -58,7 +59,8 @@ GREY_ROW = tuple(range(WHITE_PATCH, WHITE_PATCH + 6))
 #: Flags that make an estimate unreliable; any other flag is information.
 BLOCKING = ("not-converged", "misfit", "noise-unknown", "unbounded-chl", "unbounded-cdom",
             "interval-failed", "interval-approximate", "no-interval", "dark", "saturated",
-            "patch-order", "scale-mismatch", "reading-conflict", "nuisance-pulled")
+            "patch-order", "scale-mismatch", "reading-conflict", "nuisance-pulled",
+            "reference-conflict")
 #: Flags that describe the estimate without making it unreliable.
 INFORMATIVE = ("at-bound-chl", "at-bound-cdom")
 

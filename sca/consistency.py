@@ -178,9 +178,11 @@ def nuisance_pulls(prob, theta) -> dict:
     return out
 
 
-def consistency_flag_table(tests: dict, pulls: dict, n: int) -> dict:
-    """{'reading-conflict': (N,) bool, 'nuisance-pulled': (N,) bool} of :func:`reading_tests`
-    and :func:`nuisance_pulls` (:data:`CONFLICT_P`, :data:`PULL_MAX`).
+def consistency_flag_table(tests: dict, pulls: dict, n: int, uncertain=None) -> dict:
+    """{'reading-conflict': (N,) bool, 'nuisance-pulled': (N,) bool, 'reference-conflict':
+    (N,) bool} of :func:`reading_tests` and :func:`nuisance_pulls` (:data:`CONFLICT_P`,
+    :data:`PULL_MAX`) and of the budget's reference shots (:func:`sca.reference.conflict_of`:
+    two shots bracketing the dive that disagree).
 
     Parameters
     ----------
@@ -188,6 +190,8 @@ def consistency_flag_table(tests: dict, pulls: dict, n: int) -> dict:
         As :func:`reading_tests` and :func:`nuisance_pulls` return.
     n : int
         N, the number of units.
+    uncertain : dict, optional
+        The budget the units were fitted with.
 
     Returns
     -------
@@ -198,7 +202,10 @@ def consistency_flag_table(tests: dict, pulls: dict, n: int) -> dict:
         conflict |= np.asarray(p, float) < CONFLICT_P
     for v in pulls.values():
         pulled |= np.abs(np.asarray(v, float)) > PULL_MAX
-    return {"reading-conflict": conflict, "nuisance-pulled": pulled}
+    from .reference import CONFLICT_FLAG, conflict_of
+
+    return {"reading-conflict": conflict, "nuisance-pulled": pulled,
+            CONFLICT_FLAG: np.full(n, conflict_of(uncertain))}
 
 
 def consistency_records(tests: dict, pulls: dict, i: int = 0) -> dict:
@@ -224,7 +231,7 @@ def consistency_records(tests: dict, pulls: dict, i: int = 0) -> dict:
             "pull_max": PULL_MAX, "conflict_p": CONFLICT_P}
 
 
-def combined(objectives, alones, pulls_of_best) -> tuple:
+def combined(objectives, alones, pulls_of_best, uncertain=None) -> tuple:
     """The tests of N units fitted under K candidate models, and the flags they raise.
 
     Parameters
@@ -235,6 +242,8 @@ def combined(objectives, alones, pulls_of_best) -> tuple:
         Each candidate's :func:`objectives_alone` (name -> (N,)).
     pulls_of_best : dict
         :func:`nuisance_pulls` of the chosen candidate of each unit (name -> (N,)).
+    uncertain : dict, optional
+        The budget (:func:`consistency_flag_table`).
 
     Returns
     -------
@@ -248,7 +257,7 @@ def combined(objectives, alones, pulls_of_best) -> tuple:
     alone = {k: np.column_stack([np.asarray(a.get(k, np.full(obj.shape[0], np.nan)), float)
                                  .reshape(-1) for a in alones]) for k in names}
     tests = reading_tests(obj, alone)
-    return tests, consistency_flag_table(tests, pulls_of_best, obj.shape[0])
+    return tests, consistency_flag_table(tests, pulls_of_best, obj.shape[0], uncertain)
 
 
 def add_flags(flags, table, i: int | None = None) -> tuple:
@@ -272,7 +281,7 @@ def finalize_single(ests, best: int):
     pulls = {k: np.array([v]) for k, v in ests[best].consistency.get("pulls", {}).items()}
     tests, table = combined([[e.objective] for e in ests],
                             [{k: [v] for k, v in e.consistency.get("alone", {}).items()}
-                             for e in ests], pulls)
+                             for e in ests], pulls, ests[best].uncertain)
     return consistency_records(tests, pulls), table
 
 
@@ -295,7 +304,8 @@ def finalize_batch(ests, best):
     pulls = {k: np.stack([np.asarray(e.consistency["pulls"].get(k, np.zeros(best.size)), float)
                           for e in ests])[best, rows] for k in names}
     tests, table = combined([e.objective for e in ests],
-                            [e.consistency.get("alone", {}) for e in ests], pulls)
+                            [e.consistency.get("alone", {}) for e in ests], pulls,
+                            ests[0].uncertain if ests else None)
     readings = {k: {"delta_chi2": s, "p": p, "conflict": p < CONFLICT_P}
                 for k, (s, p) in tests.items()}
     return {"readings": readings, "pulls": pulls, "pull_max": PULL_MAX,

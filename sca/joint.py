@@ -534,7 +534,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         flags.append("not-converged")
     if float(p) < MISFIT_P:
         flags.append("misfit")
-    consistency, table = _consistency(fits, models, best)
+    consistency, table = _consistency(fits, models, best, budget)
     for k, v in consistency["readings"].items():
         if v["conflict"]:
             notes.append(f"the reading '{k}' contradicts the photos (likelihood-ratio "
@@ -587,12 +587,12 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         consistency=consistency)
 
 
-def _consistency(fits, models, best):
+def _consistency(fits, models, best, uncertain):
     """The readings and priors of the dive tested against its photos (:mod:`sca.consistency`)
-    over the path models: (record, flag table)."""
+    over the path models, and the budget's reference shots: (record, flag table)."""
     alones = [objectives_alone(fits[pm][0], fits[pm][1][None]) for pm in models]
     pulls = nuisance_pulls(fits[best][0], fits[best][1][None])
-    tests, table = combined([[fits[pm][2]] for pm in models], alones, pulls)
+    tests, table = combined([[fits[pm][2]] for pm in models], alones, pulls, uncertain)
     return consistency_records(tests, pulls), table
 
 

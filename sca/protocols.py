@@ -13,7 +13,11 @@ The space searched (small and documented):
 * **auxiliary measurements** (:data:`AUXILIARY_OPTIONS`): none, a Secchi depth, a water
   sample's a_CDOM(440), or both (:mod:`sca.auxiliary`; their sds :data:`SAMPLE_SD` and
   :data:`SECCHI_READING_REL` unless given);
-* at most ``max_photos`` photos (:data:`MAX_PHOTOS`; depths x distances).
+* at most ``max_photos`` photos (:data:`MAX_PHOTOS`; depths x distances);
+* with ``reference_shot``, a chart photographed in air at the site (:mod:`sca.reference`) in
+  every protocol: the daylight's prior becomes the one a reference shot will measure
+  (:func:`sca.reference.planned`), and the design without it is given beside
+  (:attr:`Design.without_reference`).
 
 **Cost**: fewest photos, then the auxiliary measurements in the order of
 :data:`AUXILIARY_OPTIONS` (nothing; a Secchi disk, a minute at the surface; a water sample,
@@ -72,11 +76,12 @@ __all__ = ["AUXILIARY_OPTIONS", "C_BANDS", "MAX_PHOTOS", "SAMPLE_SD", "SECCHI_RE
 AUXILIARY_OPTIONS = ("none", "secchi", "sample", "sample+secchi")
 #: Most photos of a protocol (a dive's worth of charts).
 MAX_PHOTOS = 12
-#: Default sd of a water sample's a_CDOM(440), m^-1: the precision of a_CDOM(440) against
-#: independent measurements, about 0.0025 m^-1 (Dall'Olmo et al. 2017, "Determination of the
-#: absorption coefficient of chromophoric dissolved organic matter from underway
-#: spectrophotometry", Optics Express); a long-path cell does better, a 10 cm cuvette worse.
-SAMPLE_SD = 0.0025
+#: Default sd of a water sample's a_CDOM(440), m^-1: 0.015, the middle of 0.01-0.02 m^-1, what
+#: a filtered sample in a 10 cm cuvette of a benchtop spectrophotometer gives (the README's
+#: example ``--cdom-sample 0.12:0.02``); 0.0025 m^-1 is the precision of underway long-path
+#: spectrophotometry against independent data (Dall'Olmo et al. 2017, Optics Express), which a
+#: diver's sample rarely has (decision 0075-design-reference-shot).
+SAMPLE_SD = 0.015
 #: Default sd of a Secchi reading relative to the depth read (an assumption: the reading
 #: itself; the relation's own scatter, :data:`sca.auxiliary.SECCHI_GAMMA_REL` = 20 %, is added
 #: by :func:`sca.auxiliary.secchi_observation` and dominates).
@@ -258,6 +263,11 @@ class Design:
         How many bounds the search evaluated.
     one_photo_budget : sca.Precision
         One photo's single-chart bound (its budget shares and limiting source).
+    reference_shot : bool
+        The protocols include a reference shot (the daylight's prior of
+        :func:`sca.reference.planned`).
+    without_reference : Design or None
+        With ``reference_shot``, the same design without it (what the shot buys).
     """
 
     chl: float
@@ -275,6 +285,8 @@ class Design:
     searched: list = field(default_factory=list)
     bounds: int = 0
     one_photo_budget: Precision | None = None
+    reference_shot: bool = False
+    without_reference: "Design | None" = None
 
     @property
     def meets(self) -> bool:
@@ -349,12 +361,43 @@ def _half_widths(intervals: list, truth: dict) -> dict:
     return out
 
 
-def design(chl, cdom, *, depth, distance, targets=None, max_photos: int = MAX_PHOTOS,
-           auxiliary=AUXILIARY_OPTIONS, sample_sd: float = SAMPLE_SD, secchi_sd=None,
-           gain: str = "free", uncertain=None, camera=DEFAULT_CAMERA, illuminant=None,
-           reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
-           water: Water | None = None, setup: ChartSetup | None = None) -> Design:
-    """The cheapest protocol that measures the water to the precision asked.
+def design(chl, cdom, *, reference_shot: bool = False, reference_minutes=None,
+           uncertain=None, **kw) -> Design:
+    """The cheapest protocol that measures the water to the precision asked; with
+    ``reference_shot``, the protocols include a chart photographed in air at the site
+    ``reference_minutes`` (default :data:`sca.reference.REFERENCE_MINUTES`) from the dive, and
+    the design without it is given beside (:attr:`Design.without_reference`). The other
+    arguments are :func:`_design`'s; ``uncertain={}`` (the camera-only bound) has no daylight
+    for a reference shot to measure.
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming 'uncertain' for a budget that is not a dict, 'minutes' as
+        :func:`sca.reference.sky_sd`, and :func:`_design`'s.
+    """
+    import dataclasses
+
+    from .reference import REFERENCE_MINUTES, planned
+
+    if not reference_shot:
+        return _design(chl, cdom, uncertain=uncertain, **kw)
+    if uncertain is not None and not isinstance(uncertain, dict):
+        raise InputError("uncertain", "expected a dict name -> standard deviation, or {}")
+    minutes = REFERENCE_MINUTES if reference_minutes is None else reference_minutes
+    with_shot = planned(dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain), minutes)
+    without = _design(chl, cdom, uncertain=uncertain, **kw)
+    return dataclasses.replace(_design(chl, cdom, uncertain=with_shot, **kw),
+                               reference_shot=True, without_reference=without)
+
+
+def _design(chl, cdom, *, depth, distance, targets=None, max_photos: int = MAX_PHOTOS,
+            auxiliary=AUXILIARY_OPTIONS, sample_sd: float = SAMPLE_SD, secchi_sd=None,
+            gain: str = "free", uncertain=None, camera=DEFAULT_CAMERA, illuminant=None,
+            reflectances=None, wavelengths=None, sensor: SensorSettings | None = None,
+            water: Water | None = None, setup: ChartSetup | None = None) -> Design:
+    """The cheapest protocol that measures the water to the precision asked (:func:`design`
+    without a reference shot).
 
     Parameters
     ----------

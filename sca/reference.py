@@ -32,8 +32,9 @@ from forward.imaging import ChartSetup
 
 from .budget_defaults import DEFAULT_UNCERTAIN
 
-__all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "Light", "measure_light", "sky_sd",
-           "with_reference"]
+__all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "CONFLICT_FLAG", "Light", "Bracket",
+           "bracket", "conflict_of", "measure_light", "planned", "sky_sd", "with_reference",
+           "PLANNED_FIT_SD", "PER_CHART"]
 
 #: The sky's change reaches the default prior's spread (mired) ...
 SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
@@ -43,6 +44,13 @@ SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
 SKY_MINUTES = 120.0
 #: The time between the reference shot and the dive where none is given, minutes.
 REFERENCE_MINUTES = 10.0
+#: The sd (mired) of the light a planned reference shot will measure (:func:`planned`): the
+#: fit's sd in air, 1.8 mired in simulation (decision 0069-reference-shot), rounded up
+#: (decision 0075-design-reference-shot).
+PLANNED_FIT_SD = 2.0
+#: The flag (:data:`sca.assess.BLOCKING`) of an estimate whose budget holds reference shots that
+#: disagree beyond their sds (:func:`bracket`: chi^2 p below :data:`sca.consistency.CONFLICT_P`).
+CONFLICT_FLAG = "reference-conflict"
 #: The nuisances of the camera held to their priors in the fit in air.
 CAMERA_PRIORS = ("balance", "camera_shift")
 
@@ -114,20 +122,111 @@ class Light:
                 "source": source or "measured at the site by a reference shot"}
 
 
-def with_reference(uncertain, light: Light | None, minutes=REFERENCE_MINUTES,
+@dataclass(frozen=True)
+class Bracket:
+    """Two reference shots bracketing the dive (one before, one after), combined
+    (:func:`bracket`).
+
+    Attributes
+    ----------
+    lights : tuple of Light
+        The two shots.
+    minutes : tuple of float
+        Each shot's time from the dive, minutes.
+    chi2, p : float
+        Their disagreement: (centre_a - centre_b)^2 / (v_a + v_b), v = sd_fit^2 + sd_sky^2
+        (:func:`sky_sd`), and its chi^2_1 p-value.
+    """
+
+    lights: tuple
+    minutes: tuple
+    chi2: float
+    p: float
+
+    @property
+    def conflict(self) -> bool:
+        """The shots disagree beyond their sds: p below :data:`sca.consistency.CONFLICT_P`."""
+        from .consistency import CONFLICT_P
+
+        return self.p < CONFLICT_P
+
+    def prior(self, source: str = "") -> dict:
+        """The budget's measured 'daylight' prior of both shots: centre the inverse-variance
+        mean of the shots' priors (:meth:`Light.prior`; weights ~ 1/minutes when the fits'
+        sds are small: the Brownian bridge's time-weighted mean), sd theirs times
+        max(1, sqrt(chi2)) (their disagreement), never below the nearer shot's sky sd; the
+        record keeps both shots, the chi^2, its p and ``conflict``."""
+        one = [lt.prior(t) for lt, t in zip(self.lights, self.minutes)]
+        w = np.array([1.0 / p["sd"] ** 2 for p in one])
+        centre = float(np.dot(w, [p["centre"] for p in one]) / w.sum())
+        sd = max(float(np.sqrt(max(1.0, self.chi2) / w.sum())), sky_sd(min(self.minutes)))
+        return {"centre": centre, "sd": sd, "shots": one, "chi2": self.chi2, "p": self.p,
+                "conflict": self.conflict, "minutes": float(min(self.minutes)),
+                "sd_fit": float(np.sqrt(1.0 / sum(1.0 / lt.sd ** 2 for lt in self.lights))),
+                "sd_sky": sky_sd(min(self.minutes)),
+                "source": source or "measured at the site by reference shots before and "
+                "after the dive"}
+
+
+def bracket(lights, minutes) -> Bracket:
+    """Two reference shots, one before and one after the dive, ``minutes`` from it each:
+    their difference tested against their sds and the sky's change (decision
+    0074-reference-bracket).
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming 'lights' unless two lights and two times are given; 'minutes' as
+        :func:`sky_sd`.
+    """
+    from scipy.special import chdtrc
+
+    lights, minutes = tuple(lights), tuple(minutes)
+    if len(lights) != 2 or len(minutes) != 2:
+        raise InputError("lights", f"a bracket is two reference shots (before and after the "
+                         f"dive), got {len(lights)} shots and {len(minutes)} times")
+    [sky_sd(t) for t in minutes]  # each a number of minutes >= 0
+    minutes = tuple(float(t) for t in minutes)
+    v = [lt.sd ** 2 + sky_sd(t) ** 2 for lt, t in zip(lights, minutes)]
+    chi2 = float((lights[0].centre - lights[1].centre) ** 2 / sum(v))
+    return Bracket(lights, minutes, chi2, float(chdtrc(1, chi2)))
+
+
+def conflict_of(uncertain) -> bool:
+    """Whether ``uncertain`` holds a measured prior whose reference shots disagree
+    (:attr:`Bracket.conflict`, recorded as ``"conflict"`` in the prior)."""
+    return any(isinstance(v, dict) and bool(v.get("conflict")) for v in (uncertain or {}).values())
+
+
+def planned(uncertain, minutes=REFERENCE_MINUTES) -> dict | None:
+    """``uncertain`` as a design plans it with a reference shot ``minutes`` from the dive: the
+    daylight's prior centred where the budget's is, its sd sqrt(:data:`PLANNED_FIT_SD`^2 +
+    :func:`sky_sd`^2) (:func:`with_reference` of a :class:`Light` of that sd)."""
+    return with_reference(uncertain, Light(0.0, PLANNED_FIT_SD, float("nan"), float("nan")),
+                          minutes, "a reference shot planned")
+
+
+#: The entries of a measured prior that a batch holds chart by chart.
+PER_CHART = ("centre", "sd", "sd_fit")
+
+
+def with_reference(uncertain, light, minutes=REFERENCE_MINUTES,
                    source: str = "") -> dict | None:
     """``uncertain`` (None: the default budget) with its 'daylight' prior replaced by the
-    reference's (:meth:`Light.prior`); ``uncertain`` as given without a reference or for the
-    paper's exact model ``{}``. ``light`` may be a sequence of lights, one per chart of a
-    batch (each chart its own prior, one fit of them all)."""
+    reference's: a :class:`Light`'s (:meth:`Light.prior` at ``minutes``), a
+    :class:`Bracket`'s (:meth:`Bracket.prior`, its own times), or a sequence of lights, one per
+    chart of a batch (each chart its own prior, one fit of them all); ``uncertain`` as given
+    without a reference or for the paper's exact model ``{}``."""
     if light is None or uncertain == {}:
         return uncertain
     base = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
+    if isinstance(light, Bracket):
+        return base | {"daylight": light.prior(source)}
     if isinstance(light, Light):
         return base | {"daylight": light.prior(minutes, source)}
-    each = [lt.prior(minutes, source) for lt in light]  # one light per chart of a batch
-    return base | {"daylight": {k: (np.array([e[k] for e in each]) if k in ("centre", "sd", "sd_fit")
-                                    else each[0][k]) for k in each[0]}}
+    each = [lt.prior(minutes, source) for lt in light]
+    return base | {"daylight": {k: np.array([e[k] for e in each]) if k in PER_CHART else each[0][k]
+                                for k in each[0]}}
 
 
 def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None) -> Light:

@@ -134,7 +134,9 @@ def designs():
         "dive": sca.design(**COASTAL, targets={"chl": 0.90}, auxiliary=("none",)),
         "photos only, C 30 %": sca.design(**COASTAL, targets={"chl": 0.30},
                                           auxiliary=("none",)),
-        "auxiliary": sca.design(**COASTAL, targets={"chl": 0.30}),
+        # a precise sample (long-path spectrophotometry): the default 0.015 m^-1 does not reach
+        # C +-30 % here (decision 0075-design-reference-shot)
+        "auxiliary": sca.design(**COASTAL, targets={"chl": 0.30}, sample_sd=0.0025),
         "nothing": sca.design(**COASTAL, targets={"chl": 0.05}),
     }
 
@@ -244,7 +246,7 @@ def test_cli_none_meets_exit_1_and_says_what_limits():
 @pytest.mark.slow
 def test_cli_default_budget_asks_for_a_water_sample():
     code, out, err = run(["design", "--chl", 1, "--cdom", 0.1, "--depth", 2, 15,
-                          "--distance", 1, 3, "--target", "C=30%"])
+                          "--distance", 1, 3, "--target", "C=30%", "--sample-sd", 0.0025])
     assert code == 0, err
     assert "budget           the default uncertainty budget" in out
     assert "with a water sample's a_CDOM(440)" in out.split("protocol")[1]
@@ -396,3 +398,30 @@ def test_design_check_reports_a_design_that_promises_nothing_without_rendering()
     assert not s["meets"] and s["dives"] == 0 and dc.check(s) == {}
     text = dc.report([s], "cmd")
     assert "No protocol of the space meets the target" in text and "limits it: noise" in text
+
+
+def test_the_reference_shot_asks_for_no_more_photos_and_narrows_c443():
+    from sca.reference import planned
+
+    kw = dict(chl=1.0, cdom=0.1, depth=(2.0, 10.0), distance=1.0, targets={"c_443": 0.2})
+    d = sca.design(**kw, reference_shot=True, reference_minutes=5)
+    w = d.without_reference
+    assert d.reference_shot and w is not None and not w.reference_shot
+    assert d.meets and w.meets and d.protocol.protocol.n_photos <= w.protocol.protocol.n_photos
+    one, one_w = d.one_photo, w.one_photo
+    assert one.protocol == one_w.protocol
+    for k in ("c_443", "chl"):
+        assert one.rel95[k] < one_w.rel95[k]
+    # the prediction is sca.precision's with the daylight a reference shot 5 min away measures
+    depth, distance = one.protocol.photos[0]
+    p = sca.precision(1.0, 0.1, depth=depth, distance=distance, gain="free",
+                      uncertain=planned(None, 5))
+    assert one.precision.quantity_sd["c_443"] == pytest.approx(p.quantity_sd["c_443"])
+
+
+def test_cli_design_with_the_reference_shot_prints_both_and_the_command():
+    code, text, _ = run(["design", "--chl", "1", "--cdom", "0.1", "--depth", "10",
+                         "--distance", "1", "--target", "c_443=20%", "--reference-shot",
+                         "--no-auxiliary", "--max-photos", "2"])
+    assert code == 0 and "--reference AIR.dng:10" in text
+    assert "  with it" in text and "  without it" in text

@@ -10,7 +10,10 @@ import sca
 from forward.daylight import D_SERIES_CCT, daylight_spd, mired
 from forward.errors import InputError
 from sca.budget import DEFAULT_UNCERTAIN, resolve_budget
-from sca.reference import SKY_SD, measure_light, sky_sd, with_reference
+from sca.assess import BLOCKING
+from sca.consistency import CONFLICT_P
+from sca.reference import (CONFLICT_FLAG, SKY_SD, bracket, measure_light, sky_sd,
+                           with_reference)
 
 SHIFT = 40.0  # mired warmer than D65: the site's light
 WL = forward.wavelength_grid()
@@ -123,3 +126,70 @@ def test_measure_takes_a_reference_shot_and_says_which_daylight_it_used(chart_ph
     assert "daylight: prior 30 mired" in text
     code, _, err = run(["--reference", f"{ph['air']}:-5"], tmp_path / "bad")
     assert code == 2 and "--reference" in err
+    two = ["--reference", f"{ph['air']}:5", "--reference", f"{ph['air']}:15"]
+    code, text, _ = run(two, tmp_path / "two")
+    day = json.loads((tmp_path / "two" / "measurement.json").read_text())["inputs"][
+        "uncertain"]["daylight"]
+    assert "measured at the site by two shots" in text and len(day["shots"]) == 2
+    assert not day["conflict"] and "reference-conflict" not in text
+    code, _, err = run(two + ["--reference", str(ph["air"])], tmp_path / "three")
+    assert code == 2 and "--reference" in err
+
+
+def _bracket(after, minutes=(5.0, 5.0)):
+    """Shots before (at SHIFT) and after (at SHIFT + ``after``) the dive, the same camera."""
+    balance = np.array([0.01, -0.01, 0.0])
+    lights = [measure_light(s.rgb, s.rgb_sigma) for s in (
+        forward.simulate_chart(0.0, 0.0, 0.0, 0.0, setup=_site_setup(SHIFT + d, balance),
+                               seed=11 + i, backscatter=False) for i, d in enumerate((0, after)))]
+    return bracket(lights, minutes)
+
+
+def test_two_reference_shots_that_disagree_are_flagged_and_block_the_estimate(site):
+    _, uw, _ = site
+    b = _bracket(40.0)
+    assert b.conflict and b.p < CONFLICT_P
+    prior = with_reference(None, b)["daylight"]
+    assert prior["conflict"] and prior["sd"] >= sky_sd(5.0)
+    _, flags = _c443(uw, with_reference(None, b))
+    assert CONFLICT_FLAG in flags and CONFLICT_FLAG in BLOCKING
+
+
+def test_two_reference_shots_that_agree_cover_the_sky_between_them(site):
+    _, uw, _ = site
+    b = _bracket(5.0)
+    assert not b.conflict
+    prior = with_reference(None, b)["daylight"]
+    # the sky drifted from SHIFT to SHIFT + 5 over the dive: every value between is covered
+    assert all(abs(prior["centre"] - x) <= 1.96 * prior["sd"] for x in (SHIFT, SHIFT + 5.0))
+    assert prior["sd"] >= sky_sd(5.0)
+    _, flags = _c443(uw, with_reference(None, b))
+    assert CONFLICT_FLAG not in flags
+    with pytest.raises(InputError, match="lights"):
+        bracket(b.lights[:1], (5.0,))
+
+
+def test_a_dives_metadata_names_its_reference_shots_and_the_photos_fit_takes_them(
+        chart_photos, tmp_path):
+    from measure.dive.metadata import read_metadata
+    from measure.dive.worker import _budget
+
+    from pathlib import Path
+
+    air = Path(chart_photos["air"])
+    csv = tmp_path / "dive_ref.csv"
+    (tmp_path / air.name).write_bytes(air.read_bytes())
+    air = tmp_path / air.name
+    csv.write_text(f"image,depth_m,distance_m,reference,reference_after\n"
+                   f"UW.dng,5,1.5,{air.name}:5,{air.name}:15\n")
+    row = read_metadata(csv)["UW.dng"]
+    assert row["reference"] == [[str(air), 5.0], [str(air), 15.0]]
+    prof = tmp_path / "profile.json"
+    prof.write_text(chart_photos["profile"].to_json())
+    options = {"camera": forward.DEFAULT_CAMERA, "profile": str(prof)}
+    day = _budget(options, {"reference": row["reference"]})["daylight"]
+    assert len(day["shots"]) == 2 and not day["conflict"] and day["sd"] < SKY_SD
+    assert _budget(options, {"reference": []}) is None  # none: the run's budget
+    csv.write_text("image,depth_m,distance_m,reference\nUW.dng,5,1.5,missing.dng:5\n")
+    with pytest.raises(InputError, match="reference: file not found"):
+        read_metadata(csv)

@@ -2,8 +2,8 @@
 
     uw3p design --chl 1 --cdom 0.1 --depth 2 15 --distance 1 3 [--target C=30%]
                 [--target a_CDOM=10%] [--target c=5%] [--lux 20000] [--camera ...]
-                [--sample-sd 0.0025] [--secchi-sd M] [--no-auxiliary] [--max-photos 12]
-                [--camera-only] [--plan plan.csv [--overwrite]]
+                [--sample-sd 0.015] [--secchi-sd M] [--no-auxiliary] [--max-photos 12]
+                [--reference-shot [MINUTES]] [--camera-only] [--plan plan.csv [--overwrite]]
 
 A thin wrapper of :func:`sca.design` (:mod:`sca.protocols`): for a guessed water and the depths
 and distances a dive can use, the cheapest protocol (photos x depths x distances, with or
@@ -13,7 +13,9 @@ Predictions use the default uncertainty budget; ``--camera-only`` gives the came
 (photon and read noise only), labelled as such. The advice ends with how to follow it: what to
 photograph and measure on the dive and the ``uw3p measure`` command that fits it (a dive: its
 folder, the metadata CSV ``--plan`` writes, ``--joint``; the auxiliary measurement as
-``--cdom-sample`` or ``--secchi``). ``--plan`` never replaces an existing file (a dive's
+``--cdom-sample`` or ``--secchi``). ``--reference-shot`` adds a chart photographed in air at
+the site to every protocol (the daylight's prior a reference shot measures, decision
+0075-design-reference-shot) and prints the design with and without it side by side. ``--plan`` never replaces an existing file (a dive's
 metadata with real depths) unless ``--overwrite`` is given.
 
 Refused before any work (exit 2, naming the option): a ``--distance`` not > 0, a ``--depth``
@@ -93,7 +95,12 @@ def add_parser(sub):
     p.add_argument("--max-photos", type=int, default=12, metavar="N",
                    help="most photos of a protocol (default 12)")
     p.add_argument("--sample-sd", type=float, default=None, metavar="SD",
-                   help="sd of a water sample's a_CDOM(440), m^-1 (default 0.0025)")
+                   help="sd of a water sample's a_CDOM(440), m^-1 (default 0.015)")
+    p.add_argument("--reference-shot", nargs="?", type=float, default=None,
+                   const=float("nan"), metavar="MINUTES",
+                   help="with a reference shot (the chart in air at the site, MINUTES from the "
+                        "dive, default 10): the daylight measured; prints the design with and "
+                        "without it")
     p.add_argument("--secchi-sd", type=float, default=None, metavar="SD",
                    help="sd of a Secchi reading, m (default 10 %% of the depth the water "
                         "predicts; the relation's own 20 %% scatter is added)")
@@ -123,6 +130,7 @@ def add_parser(sub):
                                            "depth": "--depth", "distance": "--distance",
                                            "max_photos": "--max-photos",
                                            "sample_sd": "--sample-sd",
+                                           "minutes": "--reference-shot",
                                            "secchi_sd": "--secchi-sd", "targets": "--target",
                                            "plan": "--plan"})
     return p
@@ -189,12 +197,33 @@ def _span(pred) -> str:
             f"C {_pm(pred.bound_rel95['chl'])})")
 
 
+def _minutes(value):
+    """The minutes of ``--reference-shot [MINUTES]`` (None: the default)."""
+    return None if value is None or math.isnan(value) else value
+
+
+def _with_and_without(d, targets) -> list:
+    """What the reference shot buys: the design's protocol (or best) and the one photo's
+    prediction, with the shot and without it, side by side."""
+    w = d.without_reference
+    day = d.uncertain.get("daylight", {})
+    out = [f"reference shot   the daylight measured at the site: prior +-"
+           f"{day.get('sd', float('nan')):.1f} mired ({day.get('minutes', float('nan')):g} min "
+           f"from the dive) in place of +-{float(w.uncertain.get('daylight', 0.0)):g}"]
+    for name, x in (("  with it", d), ("  without it", w)):
+        p = x.protocol if x.meets else x.best
+        out.append(f"{name:<17}{p.protocol.describe()}: {_gives(p, targets)}"
+                   f"{'' if x.meets else ' (best; no protocol meets the targets)'}; one photo "
+                   f"{_gives(x.one_photo, targets)}")
+    return out
+
+
 def _aux_text(d) -> str:
     return (f"a water sample's a_CDOM(440) sd {d.auxiliary_sd['sample']:.3g} m^-1, "
             f"a Secchi depth sd {d.auxiliary_sd['secchi']:.2g} m")
 
 
-def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
+def follow(protocol, auxiliary_sd: dict, plan: str | None = None, reference=False) -> list:
     """How to follow a protocol: what to do on the dive and the ``uw3p measure`` command that
     measures it as the design predicted (the joint fit of a dive with the auxiliary
     measurement fused).
@@ -207,6 +236,8 @@ def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
         'sample' (m^-1) and 'secchi' (m): the sds the design assumed (:class:`sca.Design`).
     plan : str, optional
         The metadata CSV's name in the command (default ``dive.csv``).
+    reference : False, None or float, optional
+        With a reference shot: its minutes from the dive (None: the default); False: none.
 
     Returns
     -------
@@ -229,6 +260,15 @@ def follow(protocol, auxiliary_sd: dict, plan: str | None = None) -> list:
         todo.append(f"read a Secchi depth (sd {sd:.2g} m or better)")
         opts += f" --secchi Z:{sd:.2g}"
         said.append("Z the Secchi depth in m")
+    if reference is not False:
+        from sca.reference import REFERENCE_MINUTES
+
+        t = REFERENCE_MINUTES if reference is None else reference
+        todo.append(f"photograph the chart in air at the site, under the dive's sky, {t:g} min "
+                    "from the dive (a second one on the other side of the dive is checked "
+                    "against it)")
+        opts += f" --reference AIR.dng:{t:g}"
+        said.append("AIR.dng the reference shot")
     if protocol.n_photos == 1:
         (d, r), = protocol.photos
         cmd = (f"uw3p measure PHOTO.dng --profile profile.json --depth {d:g} --distance {r:g}"
@@ -386,7 +426,9 @@ def run(args, out, err) -> int:
                max_photos=args.max_photos,
                auxiliary=("none",) if args.no_auxiliary else AUXILIARY_OPTIONS,
                sample_sd=SAMPLE_SD if args.sample_sd is None else args.sample_sd,
-               secchi_sd=args.secchi_sd, gain=args.gain, uncertain=uncertain, **kw)
+               secchi_sd=args.secchi_sd, gain=args.gain, uncertain=uncertain,
+               reference_shot=args.reference_shot is not None,
+               reference_minutes=_minutes(args.reference_shot), **kw)
     lo, hi = d.depth_range
     depths = f"{lo:g} m" if lo == hi else f"{lo:g}-{hi:g} m"
     gains = {"known": "one photo's exposure known", "free": "each photo's exposure unknown",
@@ -434,7 +476,8 @@ def run(args, out, err) -> int:
             + ", ".join(f"{LABELS[k]} {_pm(p.rel95[k])}" for k in targets)
             + " at 95 %: a reliable measurement is possible; the cheapest protocol of those "
             f"searched ({searched})."))
-        lines += follow(p.protocol, d.auxiliary_sd, args.plan)
+        lines += follow(p.protocol, d.auxiliary_sd, args.plan,
+                        _minutes(args.reference_shot) if d.reference_shot else False)
         if d.camera_only:
             lines.append("  note           a camera-only design: uw3p measure fits with the "
                          "default budget, whose intervals are wider than predicted here")
@@ -460,6 +503,8 @@ def run(args, out, err) -> int:
                      f"meets every target; the best gives {LABELS[worst]} {_pm(b.rel95[worst])}, "
                      f"{why}.")
     shown = d.protocol if d.meets else d.best
+    if d.reference_shot:
+        lines += _with_and_without(d, targets)
     if args.plan:
         n = write_plan(args.plan, shown.protocol)
         lines.append(f"plan             wrote {args.plan}: {n} row(s), the "

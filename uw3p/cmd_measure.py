@@ -67,13 +67,17 @@ def add_parser(sub):
                         "optionally depth_sd_m,distance_sd_m,corners,range_m,range_map and the "
                         "water measured with each photo, each with its sd: "
                         "cdom_sample,cdom_sample_sd (m^-1), secchi_m,secchi_sd_m (m), "
-                        "kd_<nm>,kd_<nm>_sd (m^-1) (image names relative to the folder, range "
-                        "maps to the CSV's; a photo without a row is not measured)")
-    p.add_argument("--reference", default=None, metavar="PHOTO[:MINUTES]",
+                        "kd_<nm>,kd_<nm>_sd (m^-1), and the reference shots reference,reference_after "
+                        "(PHOTO[:MINUTES], as --reference) (image names relative to the folder, "
+                        "range maps and reference shots to the CSV's; a photo without a row is "
+                        "not measured)")
+    p.add_argument("--reference", default=None, action="append", metavar="PHOTO[:MINUTES]",
                    help="a photo of the chart in air at the site under the same sky (a reference "
                         "shot), MINUTES (default 10) before or after the dive: the daylight's "
                         "colour it measures replaces the budget's 30-mired prior (decision "
-                        "0069-reference-shot)")
+                        "0069-reference-shot); given twice, a shot before and one after the "
+                        "dive, combined and checked against each other (decision "
+                        "0074-reference-bracket)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
@@ -107,45 +111,33 @@ def _options(args) -> dict:
                 k: v for k, v in extra.items() if v}
 
 
-def _reference_arg(text):
-    """(photo, minutes) of ``--reference PHOTO[:MINUTES]``."""
-    from sca.reference import REFERENCE_MINUTES, sky_sd
-
-    photo, minutes = text, REFERENCE_MINUTES
-    head, sep, tail = text.rpartition(":")
-    if sep and head and not Path(text).exists():
-        try:
-            minutes = float(tail)
-        except ValueError:
-            raise InputError("--reference", f"expected PHOTO[:MINUTES], got {text!r}") from None
-        photo = head
-    try:
-        sky_sd(minutes)
-    except InputError as exc:
-        raise InputError("--reference", exc.reason) from None
-    if not Path(photo).is_file():
-        raise InputError("--reference", f"file not found: {photo}")
-    return photo, minutes
-
-
 def _with_reference(args, uncertain):
-    """``uncertain`` with the daylight measured by ``--reference`` (as given without it)."""
-    if getattr(args, "reference", None) is None or uncertain == {}:
+    """``uncertain`` with the daylight measured by ``--reference`` (one shot, or two
+    bracketing the dive: :func:`measure.reference.reference_budget`; as given without it)."""
+    refs = getattr(args, "reference", None) or []
+    if not refs or uncertain == {}:
         return uncertain
     import measure
-    from measure.camera import read_chart_reflectance
-    from sca.reference import with_reference
+    from measure.reference import parse_reference, reference_budget
 
-    photo, minutes = _reference_arg(args.reference)
+    shots = [parse_reference(r) for r in refs]
     profile = measure.load_profile(args.profile) if args.profile else None
-    setup = measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
-                                 gains=None if profile is None else profile.gains,
-                                 reflectances=None if args.chart_reflectance is None else
-                                 read_chart_reflectance(args.chart_reflectance))
-    light = measure.reference_light(read_photo(args, photo), setup, args.layout)
     base = uncertain if uncertain is not None else measure.budget_for(
         None, profile, measured_chart=args.chart_reflectance is not None)
-    return with_reference(base, light, minutes, f"measured at the site by {photo}")
+    return reference_budget(base, shots, lambda photo: read_photo(args, photo),
+                            _reference_setup(args, profile), args.layout)
+
+
+def _reference_setup(args, profile):
+    """The camera set-up a reference shot is fitted with: the profile's gains, the options'
+    camera, illuminant and chart."""
+    import measure
+    from measure.camera import read_chart_reflectance
+
+    return measure.camera_setup(args.camera, quantal=args.quantal, illuminant=args.illuminant,
+                                gains=None if profile is None else profile.gains,
+                                reflectances=None if args.chart_reflectance is None else
+                                read_chart_reflectance(args.chart_reflectance))
 
 
 def daylight_line(uncertain) -> str:
@@ -153,6 +145,13 @@ def daylight_line(uncertain) -> str:
     from sca.budget import DEFAULT_UNCERTAIN
 
     day = (DEFAULT_UNCERTAIN if uncertain is None else uncertain).get("daylight", 0.0)
+    if isinstance(day, dict) and "shots" in day:
+        return (f"daylight: measured at the site by two shots, {day['centre']:+.1f} +- "
+                f"{day['sd']:.1f} mired (before/after "
+                + " / ".join(f"{s['centre']:+.1f}" for s in day["shots"])
+                + f", chi2 {day['chi2']:.3g}, p {day['p']:.2g}"
+                + ("; THE SHOTS DISAGREE: the sky changed beyond its sd (reference-conflict)"
+                   if day.get("conflict") else "") + ")")
     if isinstance(day, dict):
         return (f"daylight: measured at the site, {day['centre']:+.1f} +- {day['sd']:.1f} mired "
                 f"(fit {day.get('sd_fit', float('nan')):.1f}, sky's change "

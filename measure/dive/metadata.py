@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 from forward.errors import InputError
 
-__all__ = ["AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
+__all__ = ["REFERENCE_COLUMNS", "AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
            "read_metadata", "separator"]
 
@@ -23,7 +23,14 @@ METADATA_COLUMNS = ("image", "depth_m", "distance_m")
 #: ``range_m``, the camera-to-scene range (m), or ``range_map``, a range-map file (a float TIFF
 #: in m, a 16-bit PNG in mm or a .npy in m; relative to the metadata file's folder;
 #: :mod:`measure.rangemap`). Without either a photo is corrected at its ``distance_m``.
-METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners", "range_m", "range_map")
+METADATA_OPTIONAL = ("depth_sd_m", "distance_sd_m", "corners", "range_m", "range_map",
+                     "reference", "reference_after")
+#: Optional columns of the reference shots (the chart in air at the site, decisions
+#: 0069-reference-shot and 0074-reference-bracket): ``PHOTO[:MINUTES]`` relative to the
+#: metadata file's folder, MINUTES from the dive (default 10); ``reference_after`` a second
+#: shot on the other side of the dive. The photo's fit takes the daylight they measure, as
+#: ``uw3p measure --reference``.
+REFERENCE_COLUMNS = ("reference", "reference_after")
 #: Optional columns of what was measured of the water besides the photo
 #: (:mod:`sca.auxiliary`), each with its standard deviation: a water sample's a_CDOM(440)
 #: (m^-1) and a Secchi-disk depth (m); a radiometer's K_d at a band (m^-1) is
@@ -128,7 +135,7 @@ def separator(text: str) -> str:
 
 #: Cells that are text, not numbers (a decimal comma is read in the others when the
 #: separator is not a comma)
-_TEXT_CELLS = ("image", "corners", "range_map")
+_TEXT_CELLS = ("image", "corners", "range_map") + REFERENCE_COLUMNS
 
 
 def _rows(p: Path, fh, sep: str = ",") -> dict:
@@ -188,10 +195,25 @@ def _rows(p: Path, fh, sep: str = ",") -> dict:
                           "range_m": _number(cell.get("range_m", ""), "range_m", where),
                           "range_map": _range_map(p, cell.get("range_map", ""), where),
                           "auxiliary": _auxiliary(cell, pairs, where), "line": n,
+                          "reference": _references(p, cell, where),
                           "raw_name": cell["image"]}
     except csv.Error as exc:
         raise InputError("metadata", f"{p} line {reader.line_num}: {exc}") from None
     return rows
+
+
+def _references(csv_path: Path, cell: dict, where: str) -> list:
+    """The row's reference shots [(absolute path, minutes)] (:data:`REFERENCE_COLUMNS`)."""
+    from ..reference import parse_reference
+
+    out = []
+    for col in REFERENCE_COLUMNS:
+        if cell.get(col, "").strip():
+            try:
+                out.append(list(parse_reference(cell[col], csv_path.parent, col)))
+            except InputError as exc:
+                raise InputError("metadata", f"{where}: {exc.argument}: {exc.reason}") from None
+    return out
 
 
 def _range_map(csv_path: Path, value: str, where: str):

@@ -102,7 +102,7 @@ def resolve_inputs(photo: Path, row, exif, depth, distance, corners) -> dict:
             "corners": c if c is None or isinstance(c, str) else np.asarray(c, float).tolist(),
             "corners_source": c_src, "time": exif.get("time"),
             "range_m": row.get("range_m"), "range_map": row.get("range_map"),
-            "auxiliary": row.get("auxiliary") or {},
+            "auxiliary": row.get("auxiliary") or {}, "reference": row.get("reference") or [],
             "auxiliary_source": f"metadata line {row['line']}" if row.get("line") else ""}
 
 

@@ -35,18 +35,37 @@ def dask_setup(worker) -> None:
 
 
 def _budget(options, inputs) -> dict | None:
-    """``uncertain=`` for one photo: the options' budget with the row's sds over it."""
+    """``uncertain=`` for one photo: the options' budget with the row's sds over it and the
+    daylight its reference shots measure (metadata ``reference``, ``reference_after``:
+    :func:`measure.reference.reference_budget`, as ``uw3p measure --reference``)."""
     sds = {k: inputs[f"{k}_sd_m"] for k in ("depth", "distance")
            if inputs.get(f"{k}_sd_m") is not None}
-    if not sds:
+    shots = [tuple(s) for s in inputs.get("reference") or []]
+    if not sds and not shots:
         return options.get("uncertain")
     from ..camera import load_profile
     from ..measurement import budget_for
 
     prof = options.get("profile")
     prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
-    return budget_for(options.get("uncertain"), prof,
-                      measured_chart=options.get("chart_reflectance") is not None) | sds
+    base = budget_for(options.get("uncertain"), prof,
+                      measured_chart=options.get("chart_reflectance") is not None)
+    return _referenced(base, shots, options) | sds
+
+
+def _referenced(base, shots, options) -> dict:
+    """``base`` with the daylight the row's reference shots measure (the run's set-up)."""
+    if not shots:
+        return base
+    from ..image import read_image
+    from ..reference import reference_budget
+    from .run import _run_setup
+
+    def read(photo):
+        return read_image(photo, black_level=options.get("black_level"),
+                          white_level=options.get("white_level"))
+    return reference_budget(base, shots, read, _run_setup(options),
+                            options.get("layout", "patches"))
 
 
 def _auxiliary(options, inputs) -> tuple:
