@@ -42,7 +42,7 @@ from .assess import (
 )
 from .auxiliary import auxiliary_observations
 from .consistency import finalize_batch, nuisance_pulls, objectives_alone
-from .budget import resolve_budget, variance_shares
+from .budget import prior_arrays, resolve_budget, variance_shares
 from .fitspec import fit_spec
 from .intervals import BOUND_FAILED, BOUND_FOUND, BOUND_OPEN, profile_intervals
 from .limits import EXACT_FIT, MAX_RGB
@@ -669,12 +669,7 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None,
     if budget is not None and budget.priors:
         extra = [n for n in budget.priors for _ in range(mdl.m if n in CAMERA else 1)]
         names = names + tuple(extra)
-        mean = np.zeros((N, len(names)))
-        weight = np.zeros((N, len(names)))
-        for j, n in enumerate(names):
-            if n in budget.priors:
-                mu, sd = budget.priors[n]
-                mean[:, j], weight[:, j] = mu, 1.0 / sd ** 2
+        mean, weight = prior_arrays(budget.priors, names, N)
     fixed = dict(geometry)
     for k in ("chl", "cdom"):
         if k in spec.fixed:

@@ -44,7 +44,8 @@ from forward.water import Water, resolve_water
 
 from .assess import flag_tuples, input_flag_table
 from .derived import quantity_sd
-from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
+from .budget import (DEFAULT_UNCERTAIN, limiting_source, prior_arrays, resolve_budget,
+                     variance_shares)
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
@@ -291,10 +292,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     params = {"chl": chl, "cdom": cdom, "depth": depth, "distance": distance}
     pred = mdl.predict(params, names + extra, chl_floor=CHL_DERIVATIVE_FLOOR)
     columns = list(pred.columns)
-    prior = np.zeros((N, len(columns)))
-    for j, nm in enumerate(columns):
-        if nm in budget.priors:
-            prior[:, j] = 1.0 / budget.priors[nm][1] ** 2
+    prior = prior_arrays(budget.priors, columns, N)[1]
     s = veiling_light(setup.wavelengths, chl, cdom, depth, distance, illuminant=setup.illuminant,
                       water=spec.water) @ setup.sensitivities  # (N, m)
     M0 = pred.signal.reshape(N, m, n) + s[:, :, None]

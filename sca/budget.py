@@ -40,7 +40,7 @@ from .model import covariance
 from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
-           "SYSTEMATIC", "Budget", "prior_centre", "resolve_budget", "parse_sd",
+           "SYSTEMATIC", "Budget", "prior_arrays", "prior_centre", "resolve_budget", "parse_sd",
            "variance_shares", "limiting_source"]
 
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
@@ -160,6 +160,35 @@ def prior_centre(name: str, water: Water) -> float:
     float
     """
     return 0.0 if name in CENTRED else float(getattr(water, name))
+
+
+def prior_arrays(priors: dict, names, n: int = 1):
+    """The priors of a problem's columns (:attr:`sca.problem.Problem.prior_mean`,
+    :attr:`~sca.problem.Problem.prior_weight`): the one place a budget's priors become arrays.
+
+    Parameters
+    ----------
+    priors : dict
+        Name -> (mean, sd): a scalar or (n,) each, in the parameter's units (sd > 0), as
+        :attr:`Budget.priors`.
+    names : sequence of str, (p,)
+        The problem's columns (a name of several columns, such as 'balance', gets the same
+        prior on each).
+    n : int, optional
+        The number of units (rows). Default 1.
+
+    Returns
+    -------
+    mean, weight : ndarray, (n, p)
+        Each column's prior centre and information 1 / sd^2; 0 and 0 (no prior) for a name
+        not in ``priors``.
+    """
+    mean, weight = np.zeros((n, len(names))), np.zeros((n, len(names)))
+    for j, name in enumerate(names):
+        if name in priors:
+            mu, sd = priors[name]
+            mean[:, j], weight[:, j] = mu, 1.0 / np.asarray(sd, float) ** 2
+    return mean, weight
 
 
 def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:

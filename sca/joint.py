@@ -38,7 +38,7 @@ from forward.imaging import ChartSetup
 from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
-from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_centre
+from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_arrays, prior_centre
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
@@ -196,10 +196,7 @@ def _problem(d: _Dive, groups) -> DiveProblem:
     prob = DiveProblem(d.models, d.M, d.W2, d.scale, groups, tuple(d.priors), d.depth,
                        d.distance, free_geo["depth"], free_geo["distance"], d.patch_shared > 0,
                        None, None, auxiliary_observations(d.auxiliary, d.models[0].water))
-    p = len(prob.names)
-    mean, weight = np.zeros((1, p)), np.zeros((1, p))
-    for name, (mu, sd) in d.priors.items():
-        mean[0, prob.layout[name]], weight[0, prob.layout[name]] = mu, 1.0 / sd ** 2
+    mean, weight = prior_arrays(d.priors, prob.names)
     for name in ("depth", "distance"):
         cols = prob.layout[name]
         for i in range(N):

@@ -24,7 +24,7 @@ from scipy import special
 
 from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
     profile_delta
-from .budget import variance_shares
+from .budget import prior_arrays, variance_shares
 from .intervals import BOUND_OPEN, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
@@ -102,10 +102,7 @@ def _problem(est, st, priors: bool = True) -> ChartProblem:
         n for n in priors for _ in range(st.mdl.m if n in CAMERA else 1))
     mean = weight = None
     if priors:
-        mean, weight = np.zeros((1, len(names))), np.zeros((1, len(names)))
-        for j, n in enumerate(names):
-            if n in priors:
-                mean[0, j], weight[0, j] = priors[n][0][0], 1.0 / priors[n][1][0] ** 2
+        mean, weight = prior_arrays(priors, names)
     fixed = {"depth": np.array([est.depth]), "distance": np.array([est.distance])}
     for k in ("chl", "cdom"):
         if k in est.fixed:

@@ -36,7 +36,8 @@ from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
 from sca.lm import evaluate, levenberg_marquardt
 from sca.model import CHL_MAX
 from sca.problem import chl_from_u, u_from_chl
-from sca.spectral import KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CHL, TOL, SpectrumProblem
+from sca.spectral import (KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CHL, TOL, SpectrumProblem,
+                          scaled_spectra)
 
 __all__ = ["CHL_FLOOR", "MOREL_POWER", "MOREL_TABLE", "MorelFit", "MorelModel", "fit_morel",
            "morel_coefficients", "morel_problem", "score"]
@@ -113,13 +114,9 @@ class MorelModel:
 def morel_problem(wavelengths, kd, rel: float) -> SpectrumProblem:
     """N K_d spectra against Morel's law, C the one free parameter: the layout of
     :class:`sca.spectral.SpectrumProblem` with :class:`MorelModel` and the weights
-    1 / (rel K_d)^2 of :func:`sca.spectral.fit_spectrum` (NaN: a missing band, weight 0)."""
+    1 / (rel K_d)^2 of :func:`sca.spectral.scaled_spectra` (NaN: a missing band, weight 0)."""
     kd = np.atleast_2d(np.asarray(kd, float))
-    valid = np.isfinite(kd)
-    scale = np.nanmax(kd, axis=1)
-    M = np.where(valid, kd / scale[:, None], 0.0)
-    with np.errstate(divide="ignore"):
-        W2 = np.where(valid, 1.0 / (rel * M) ** 2, 0.0)
+    M, W2, scale = scaled_spectra(kd, np.isfinite(kd), rel)
     return SpectrumProblem(MorelModel(wavelengths), M, W2, scale, ("chl",))
 
 
