@@ -44,7 +44,7 @@ from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
 from .derived import derived_from_fit, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
-from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
+from .intervals import BOUND_FAILED, own_units, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
 from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
@@ -261,13 +261,10 @@ def _intervals(prob: DiveProblem, theta, f_min):
     caps[cols[1]] = upper_cap("cdom", prob.water)
     ends, codes = profile_intervals(prob, theta[None], np.array([f_min]),
                                     np.array([PATH_MODEL_DELTA]), H, caps, which=cols)
+    own = own_units(ends, codes, prob.powers)
     out, flags = {}, []
     for name, j in (("chl", cols[0]), ("cdom", cols[1])):
-        lo, hi = ends[0, j]
-        if name == "chl":
-            lo, hi = (float(chl_from_u(v, e0)) for v in (lo, hi))
-        if codes[0, j, 1] == BOUND_OPEN:
-            hi = np.inf
+        lo, hi = own[0, j]
         if np.any(codes[0, j] == BOUND_FAILED):
             flags.append("not-converged")
         if not (np.isfinite(lo) and np.isfinite(hi)):

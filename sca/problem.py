@@ -10,8 +10,9 @@ r the unit's whitened residual (the layout's :meth:`Problem.data_terms`: its mod
 called by name, its noise, its closed-form linear unknowns) and the Gaussian priors of the
 uncertainty budget (:attr:`Problem.prior_mean`, :attr:`Problem.prior_weight`; added here, the one
 place they are). A column may be iterated in a power coordinate u = x^e (C in u = C^e0, eq 10's
-exponent: every C term is smooth in u at C = 0; :attr:`Problem.powers`): :meth:`Problem.params`
-and the chain rule :meth:`Problem.chain` are the one place it is undone.
+exponent: every C term is smooth in u at C = 0; :attr:`Problem.powers`): :func:`undo_powers`
+(for :meth:`Problem.params`, and for interval ends through :func:`sca.intervals.own_units`) and
+the chain rule :meth:`Problem.chain` are the one place it is undone.
 
 Everything that fits, bounds or assesses a problem takes one of these: the Levenberg-Marquardt of
 :mod:`sca.lm`, the profile-likelihood ends of :mod:`sca.intervals` and the covariance of
@@ -28,7 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from forward.errors import InputError
 
-__all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
+__all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl",
+           "undo_powers"]
 
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
@@ -68,6 +70,25 @@ def chl_from_u(u, e0):
         x, same shape as ``u`` (a scalar for a scalar ``u``).
     """
     return np.fmax(u, 0.0) ** (1.0 / e0)
+
+
+def undo_powers(x, powers):
+    """Values in their own units from theta's coordinates: :func:`chl_from_u` where a column's
+    exponent is > 0 (a power coordinate), the value itself where it is 0.
+
+    Parameters
+    ----------
+    x : ndarray
+        Values in theta's coordinates (columns, or interval ends, of a problem).
+    powers : ndarray, broadcastable to ``x``
+        Each value's exponent (:attr:`Problem.powers`; 0: its own coordinate).
+
+    Returns
+    -------
+    ndarray
+        The values in their own units (a power coordinate's values <= 0 give 0).
+    """
+    return np.where(powers > 0, chl_from_u(x, np.where(powers > 0, powers, 1.0)), x)
 
 
 def du_chain(chl, e0):
@@ -248,7 +269,7 @@ class Problem:
             x = theta[:, cols]
             power = self.powers[cols]
             if np.any(power > 0):
-                x = np.where(power > 0, chl_from_u(x, np.where(power > 0, power, 1.0)), x)
+                x = undo_powers(x, power)
             out[name] = x if len(cols) > 1 else x[:, 0]
         return out
 

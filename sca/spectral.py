@@ -47,10 +47,10 @@ from .assess import goodness, profile_delta
 from .auxiliary import auxiliary_observations
 from .biooptical import binds
 from .budget import DEFAULT_UNCERTAIN, prior_arrays
-from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
+from .intervals import BOUND_FOUND, BOUND_ZERO, own_units, profile_intervals
 from .lm import evaluate, levenberg_marquardt
 from .model import lower_bound, upper_cap
-from .problem import TINY, Evaluation, Problem, chl_from_u, u_from_chl
+from .problem import TINY, Evaluation, Problem, u_from_chl
 from forward.errors import InputError
 
 __all__ = [
@@ -439,9 +439,7 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
                          for n in names])
         caps[0] = u_from_chl(caps[0], model.e0)
         e, c = profile_intervals(prob, theta, f, delta, H, caps, which=(0, 1))
-        ends, codes = e[:, :2], c[:, :2]
-        ends[:, 0] = chl_from_u(ends[:, 0], model.e0)
-        ends = np.where(codes == BOUND_OPEN, np.array([-np.inf, np.inf]), ends)
+        ends, codes = own_units(e[:, :2], c[:, :2], prob.powers[:2]), c[:, :2]
     chl_ok = np.all(np.isin(codes[:, 0], (BOUND_FOUND, BOUND_ZERO)), axis=1)
     reliable = (p_value >= RELIABLE_P) & (code <= 2) & chl_ok
     return KdFit(chl=np.asarray(values["chl"], float), cdom=np.asarray(values["cdom"], float),

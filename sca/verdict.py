@@ -25,7 +25,7 @@ from scipy import special
 from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
     profile_delta
 from .budget import prior_arrays, variance_shares
-from .intervals import BOUND_OPEN, profile_intervals
+from .intervals import own_units, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
 from .consistency import nuisance_pulls, objectives_alone, tested
@@ -313,16 +313,8 @@ def _profile(est, st, dof):
     if "chl" in names:
         caps[names.index("chl")] = u_from_chl(caps[names.index("chl")], st.mdl.e0)
     ends, codes = profile_intervals(prob, theta, f, delta, H, caps, which=range(len(names)))
-    out = {}
-    for j, n in enumerate(names):
-        lo, hi = ends[0, j]
-        if n == "chl":
-            lo, hi = (max(v, 0.0) ** (1.0 / st.mdl.e0) for v in (lo, hi))
-        if codes[0, j, 0] == BOUND_OPEN:
-            lo = -np.inf
-        if codes[0, j, 1] == BOUND_OPEN:
-            hi = np.inf
-        out[n] = (float(lo), float(hi))
+    own = own_units(ends, codes, prob.powers)
+    out = {n: (float(own[0, j, 0]), float(own[0, j, 1])) for j, n in enumerate(names)}
     ci_codes = []
     for n in ("chl", "cdom"):
         ci_codes += list(codes[0, names.index(n)]) if n in names else [0, 0]

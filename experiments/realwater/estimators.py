@@ -32,7 +32,7 @@ import numpy as np
 from forward.spectra import read_spectral_table, wavelength_grid
 from forward.water import resolve_water
 from sca.assess import goodness, profile_delta
-from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
+from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, own_units, profile_intervals
 from sca.lm import evaluate, levenberg_marquardt
 from sca.model import CHL_MAX
 from sca.problem import chl_from_u, u_from_chl
@@ -181,8 +181,7 @@ def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     _, p_value = goodness(ev.f, dof, True)
     cap = np.array([u_from_chl(CHL_MAX, MOREL_POWER)])
     ends, codes = profile_intervals(prob, theta, ev.f, profile_delta(True, ev.f, dof), ev.H, cap)
-    ci = chl_from_u(ends[:, 0], MOREL_POWER)
-    ci = np.where(codes[:, 0] == BOUND_OPEN, np.array([-np.inf, np.inf]), ci)
+    ci = own_units(ends, codes, prob.powers)[:, 0]
     ci = np.where(np.isin(codes[:, 0], (BOUND_FOUND, BOUND_ZERO, BOUND_OPEN)), ci, np.nan)
     return MorelFit(chl=chl_from_u(theta[:, 0], MOREL_POWER), chl_ci=ci, chi2=ev.f,
                     p_value=p_value, code=code)
