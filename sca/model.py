@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from forward.imaging import ChartSetup
+from forward.imaging import ChartSetup, camera_response
 from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
 from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
@@ -314,8 +314,8 @@ class ChartModel:
         P, i, R = setup.sensitivities, setup.illuminant, setup.reflectances
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
-        self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
-        self.Bt = np.ascontiguousarray(self.B.T)
+        self.Bt = response_matrix(P, i, R)
+        self.B = np.ascontiguousarray(self.Bt.T)
         #: where :attr:`Dt` comes from: None (this setup's curves) or (model, factor) for a
         #: :meth:`scaled` copy (the model's Dt / factor)
         self._dt_source = None
@@ -410,9 +410,7 @@ class ChartModel:
             model, factor = self._dt_source
             return model.Dt / factor
         P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
-        dP = curve_shift_derivative(P, self.wavelengths)
-        return np.ascontiguousarray(
-            (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
+        return response_matrix(curve_shift_derivative(P, self.wavelengths), i, R)
 
     @functools.cached_property
     def BDt(self) -> np.ndarray:
@@ -690,6 +688,34 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     else:  # the gain is 1: s needs sum w, sum w M and sum w G alone (the kernel reads no more)
         sGG = sGM = sG
     return linear_part_stats(sw, sM, sG, sGG, sGM, fixed_s=fixed_s, free_gain=free_gain)
+
+
+def response_matrix(P, i, R) -> np.ndarray:
+    """Eq 15 as a linear map of the transmittance: Bt (q, m n) with vec(G) = Bt^T k.
+
+    Row l is the chart's response to the light of wavelength l alone (k the l-th unit vector)
+    by :func:`forward.imaging.camera_response`, the one place eq 15 is written.
+
+    Parameters
+    ----------
+    P : ndarray, (q, m)
+        Camera sensitivities (or their derivative by a wavelength shift).
+    i : ndarray, (q,)
+        The illuminant.
+    R : ndarray, (q, n)
+        The patches' reflectances.
+
+    Returns
+    -------
+    ndarray, (q, m n), contiguous
+        Bt[l, (c, j)] = P[l, c] i[l] R[l, j] (row-major vec of the m x n matrix).
+
+    References
+    ----------
+    Blasinski & Farrell, eq 15.
+    """
+    q = np.shape(P)[0]
+    return np.ascontiguousarray(camera_response(P, i, np.eye(q), R).reshape(q, -1))
 
 
 def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
