@@ -42,7 +42,7 @@ from forward.sensor import SensorSettings, noise_model
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from .assess import flag_tuples, input_flag_table
+from .assess import Z95, flag_tuples, input_flag_table
 from .derived import quantity_sd
 from .budget import (DEFAULT_UNCERTAIN, limiting_source, prior_arrays, resolve_budget,
                      variance_shares)
@@ -55,8 +55,6 @@ from forward.errors import InputError
 __all__ = ["GAINS", "Z95", "Precision", "precision"]
 
 GAINS = ("known", "free", "channels")
-#: The 97.5 % point of the standard normal (95 % two-sided).
-Z95 = 1.959963984540054
 
 
 @dataclass

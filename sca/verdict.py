@@ -20,9 +20,8 @@ import dataclasses
 from dataclasses import dataclass, field as dataclass_field
 
 import numpy as np
-from scipy import special
 
-from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
+from .assess import estimate_flags, gain_wald, wald, goodness, input_flags, is_reliable, \
     profile_delta
 from .budget import prior_arrays, variance_shares
 from .intervals import own_units, profile_intervals
@@ -417,9 +416,8 @@ def finish(settled: Settled, scale_test: bool = True) -> Estimate:
     elif mdl.z == 1:
         intervals, codes = _profile(est, st, dof)
     else:  # Wald intervals (z > 1)
-        z95 = special.ndtri(0.5 + CONFIDENCE / 2)
-        intervals = {n: (max(x[n] - z95 * se_of[n], 0.0) if n in ("chl", "cdom") else
-                         x[n] - z95 * se_of[n], x[n] + z95 * se_of[n]) for n in names}
+        intervals = {n: tuple(float(v) for v in wald(
+            x[n], se_of[n], 0.0 if n in ("chl", "cdom") else -np.inf)) for n in names}
         codes = None
     for n in ("chl", "cdom"):
         if n not in names:
