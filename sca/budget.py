@@ -255,7 +255,10 @@ def variance_shares(J, names, w2_total, w2_photon, active, prior_weight, of=("ch
     the active backscatter included) and the priors' information P = diag(prior_weight), the
     covariance is S = (Jw^T Jw + P)^-1 = S Jw^T Jw S + sum_k S P_k S, and the data's part splits
     into the photon noise (fraction w2_total / w2_photon of each patch's variance) and the
-    per-patch systematic term. The shares of each parameter add up to 1.
+    per-patch systematic term. The shares of each parameter add up to 1. (The information is
+    :func:`sca.model.information`'s, through :func:`sca.model.covariance`, with the veiling
+    light as indicator columns instead of :func:`sca.model.profiled_information`'s projection:
+    each data row's share is read from S Jw^T row by row.)
 
     Parameters
     ----------

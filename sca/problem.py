@@ -30,7 +30,7 @@ import numpy as np
 from forward.errors import InputError
 
 __all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl",
-           "undo_powers"]
+           "undo_powers", "with_priors"]
 
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
@@ -89,6 +89,25 @@ def undo_powers(x, powers):
         The values in their own units (a power coordinate's values <= 0 give 0).
     """
     return np.where(powers > 0, chl_from_u(x, np.where(powers > 0, powers, 1.0)), x)
+
+
+def with_priors(F, prior_weight):
+    """F + diag(prior_weight): an information (Gauss-Newton) matrix with Gaussian priors'
+    information 1 / sd^2 on its diagonal, the one place priors enter one
+    (:meth:`Problem.evaluate`, :func:`sca.model.information`).
+
+    Parameters
+    ----------
+    F : ndarray, (..., p, p)
+    prior_weight : array_like, broadcastable to (..., p), or None (no priors: F itself)
+
+    Returns
+    -------
+    ndarray, (..., p, p)
+    """
+    if prior_weight is None:
+        return F
+    return F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
 
 
 def du_chain(chl, e0):
@@ -320,7 +339,7 @@ class Problem:
             ev.f = ev.f + np.einsum("ip,ip->i", pw, d * d)
             if grad:
                 ev.g = ev.g + pw * d
-                ev.H = ev.H + pw[:, :, None] * np.eye(theta.shape[1])
+                ev.H = with_priors(ev.H, pw)
         for obs in self.observations:
             self._observe(obs, idx, params, chain, ev, grad)
         if not grad:
