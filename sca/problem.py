@@ -30,7 +30,7 @@ import numpy as np
 from forward.errors import InputError
 
 __all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl",
-           "undo_powers", "with_priors"]
+           "observation_terms", "undo_powers", "with_priors"]
 
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
@@ -347,30 +347,67 @@ class Problem:
         return ev
 
     def _observe(self, obs: Observation, idx, params, chain, ev: Evaluation, grad: bool):
-        """An auxiliary measurement's term ((h - y) / sd)^2, its half gradient and
-        Gauss-Newton matrix, added to ``ev`` (units without a measurement add nothing).
-
-        Where a unit holds G waters (a dive fitted with a (C, a_CDOM) per group of photos:
-        'chl' and 'cdom' repeat G times), h is (k, G) and the measurement is of each of them:
-        one term per group, its derivatives on that group's columns (a name of one column,
-        a shared nuisance, takes every group's)."""
-        y, sd = obs.value[idx], obs.sd[idx]
-        have = np.isfinite(y)
-        if not have.any():
+        """An auxiliary measurement's term ((h - y) / sd)^2 (:func:`observation_terms`), its
+        half gradient and Gauss-Newton matrix, added to ``ev``."""
+        terms = observation_terms(obs, idx, params, self.columns, chain,
+                                  self.free if grad else ())
+        if terms is None:
             return
-        k = len(idx)
-        h, dh = obs.function(params, self.free if grad else ())
-        h = np.asarray(h, float).reshape(k, -1)  # (k, G)
-        r = np.where(have[:, None], (h - y[:, None]) / np.where(have, sd, 1.0)[:, None], 0.0)
+        r, J = terms
         ev.f = ev.f + np.einsum("kg,kg->k", r, r)
         if grad:
-            J = np.zeros((k, h.shape[1], len(self.names)))
-            G = h.shape[1]
-            for n in dh:
-                cols = self.columns(n)
-                d = np.broadcast_to(np.asarray(dh[n], float).reshape(k, -1), h.shape)
-                for g in range(G):
-                    for j in ([cols[g]] if G > 1 and len(cols) == G else cols):
-                        J[:, g, j] = np.where(have, d[:, g] * chain[:, j] / sd, 0.0)
             ev.g = ev.g + np.einsum("kgp,kg->kp", J, r)
             ev.H = ev.H + np.einsum("kgp,kgq->kpq", J, J)
+
+
+def observation_terms(obs: Observation, idx, params, columns, chain, wrt=()):
+    """An auxiliary measurement's whitened residual and Jacobian: the one place its term is
+    written (:meth:`Problem.evaluate` adds r^2, J^T r and J^T J; :func:`sca.precision` adds
+    J^T J to its information).
+
+    Units without a measurement (value NaN) add nothing. Where a unit holds G waters (a dive
+    fitted with a (C, a_CDOM) per group of photos: 'chl' and 'cdom' repeat G times), h is
+    (k, G) and the measurement is of each of them: one term per group, its derivatives on
+    that group's columns (a name of one column, a shared nuisance, takes every group's).
+
+    Parameters
+    ----------
+    obs : Observation
+        The measurement (its value and sd one or one per unit).
+    idx : array_like of int, (k,)
+        The units.
+    params : dict
+        The model's parameters of the units (own units).
+    columns : callable
+        name -> the theta columns that hold it (:meth:`Problem.columns`).
+    chain : ndarray, (k, p)
+        d x / d theta of every column (:meth:`Problem.chain`; ones in the own units).
+    wrt : sequence of str, optional
+        The names to differentiate by (none: no Jacobian).
+
+    Returns
+    -------
+    (r, J) or None
+        r = (h - y) / sd (k, G); J = d r / d theta (k, G, p), None without ``wrt``; None
+        where no unit has a measurement.
+    """
+    k = len(idx)
+    sub = obs.rows(idx)
+    y, sd = (np.broadcast_to(np.asarray(v, float), (k,)) for v in (sub.value, sub.sd))
+    have = np.isfinite(y)
+    if not have.any():
+        return None
+    h, dh = obs.function(params, wrt)
+    h = np.asarray(h, float).reshape(k, -1)  # (k, G)
+    r = np.where(have[:, None], (h - y[:, None]) / np.where(have, sd, 1.0)[:, None], 0.0)
+    if not wrt:
+        return r, None
+    G = h.shape[1]
+    J = np.zeros((k, G, chain.shape[1]))
+    for n in dh:
+        cols = columns(n)
+        d = np.broadcast_to(np.asarray(dh[n], float).reshape(k, -1), h.shape)
+        for g in range(G):
+            for j in ([cols[g]] if G > 1 and len(cols) == G else cols):
+                J[:, g, j] = np.where(have, d[:, g] * chain[:, j] / sd, 0.0)
+    return r, J
