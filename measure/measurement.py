@@ -337,15 +337,14 @@ def _band(estimate: sca.Estimate, depth, distance) -> np.ndarray:
     length, widened by 1.96 times the relative sd of L the budget gives its depth and distance
     (c = tau / L: adding the two relative widths bounds tau's from above, so the band is
     conservative where the geometry is uncertain and exact where it is held)."""
-    from sca.derived import CONFIDENCE
-    from scipy import special
+    from sca.assess import Z95
 
     ci = np.asarray(estimate.beam_attenuation_ci, float)
     nuisance = estimate.nuisance or {}
     L = float(nuisance.get("depth", depth)) + float(nuisance.get("distance", distance))
     sd = [float(parse_sd(g, estimate.uncertain[g], ref)) if g in estimate.uncertain else 0.0
           for g, ref in (("depth", depth), ("distance", distance))]
-    widen = np.exp(special.ndtri(0.5 + CONFIDENCE / 2) * np.hypot(*sd) / L)
+    widen = np.exp(Z95 * np.hypot(*sd) / L)
     with np.errstate(over="ignore", invalid="ignore"):
         return np.vstack([np.exp(-L * ci[:, 1] * widen), np.exp(-L * ci[:, 0] / widen)])
 

@@ -31,12 +31,15 @@ from forward.spectra import WHITE_PATCH
 from .model import CDOM_MAX, CHL_MAX  # where a profile interval is open (one definition)
 
 __all__ = ["CONFIDENCE", "MISFIT_P", "SCALE_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
-           "BLOCKING", "INFORMATIVE", "profile_delta", "gain_wald", "goodness",
+           "BLOCKING", "INFORMATIVE", "Z95", "profile_delta", "gain_wald", "wald", "goodness",
            "input_flag_table", "input_flags", "estimate_flag_table", "estimate_flags",
            "flag_tuples", "is_reliable", "EXACT_SIGMA_FLOOR", "ORDER_FRACTION"]
 
 #: Confidence level of ``chl_ci`` and ``cdom_ci``.
 CONFIDENCE = 0.95
+#: The standard normal quantile of :data:`CONFIDENCE`'s two-sided interval (1.96): every Wald
+#: interval's and :func:`sca.precision`'s half-width in standard deviations.
+Z95 = float(special.ndtri(0.5 + CONFIDENCE / 2))
 #: A fit whose chi^2 p-value is below this is a ``misfit`` (one in a thousand false alarms).
 MISFIT_P = 1e-3
 #: A known gain whose likelihood-ratio test against a free one (:func:`sca.batch.scale_test`)
@@ -133,8 +136,27 @@ def gain_wald(gain, var, f_min, dof, noise_known: bool):
     gain = np.asarray(gain, float)
     var = np.asarray(var, float) * (1.0 if noise_known else np.asarray(f_min, float)
                                     / np.maximum(np.asarray(dof), 1))
-    half = special.ndtri(0.5 + CONFIDENCE / 2) * np.sqrt(var)
-    return np.column_stack([np.maximum(gain - half, 0.0), gain + half])
+    return wald(gain, np.sqrt(var))
+
+
+def wald(value, sd, lower=0.0):
+    """The Wald interval value -/+ :data:`Z95` sd, the lower end clipped at ``lower``: the one
+    linear interval (a log-scale one is :func:`sca.derived.delta_interval`).
+
+    Parameters
+    ----------
+    value, sd : array_like, S
+        The estimate and its standard deviation.
+    lower : float or array_like, optional
+        The lowest value possible (default 0; -inf: none).
+
+    Returns
+    -------
+    ndarray, S + (2,)
+        Lower and upper ends.
+    """
+    value, half = np.asarray(value, float), Z95 * np.asarray(sd, float)
+    return np.stack([np.maximum(value - half, lower), value + half], axis=-1)
 
 
 def goodness(chi2, dof, noise_known: bool):

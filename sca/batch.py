@@ -42,9 +42,9 @@ from .assess import (
 )
 from .auxiliary import auxiliary_observations
 from .consistency import finalize_batch, nuisance_pulls, objectives_alone
-from .budget import resolve_budget, variance_shares
+from .budget import prior_arrays, resolve_budget, variance_shares
 from .fitspec import fit_spec
-from .intervals import BOUND_FAILED, BOUND_FOUND, BOUND_OPEN, profile_intervals
+from .intervals import BOUND_FAILED, BOUND_FOUND, own_units, profile_intervals
 from .limits import EXACT_FIT, MAX_RGB
 from .charts import ChartProblem
 from .lm import LM_MU_MIN, LM_TOL, STATUS, evaluate, levenberg_marquardt
@@ -670,12 +670,7 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None,
     if budget is not None and budget.priors:
         extra = [n for n in budget.priors for _ in range(mdl.m if n in CAMERA else 1)]
         names = names + tuple(extra)
-        mean = np.zeros((N, len(names)))
-        weight = np.zeros((N, len(names)))
-        for j, n in enumerate(names):
-            if n in budget.priors:
-                mu, sd = budget.priors[n]
-                mean[:, j], weight[:, j] = mu, 1.0 / sd ** 2
+        mean, weight = prior_arrays(budget.priors, names, N)
     fixed = dict(geometry)
     for k in ("chl", "cdom"):
         if k in spec.fixed:
@@ -930,10 +925,7 @@ def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
         # intervals hold their profile points where C or a_CDOM sits at its bound
         upper = {j: np.where(codes[:, j, 1] == BOUND_FOUND, ends[:, j, 1], np.nan)
                  for j, n in enumerate(spec.names) if n in ("chl", "cdom")}
-        if prob.chl_col >= 0:
-            ends[:, prob.chl_col] = np.where(ends[:, prob.chl_col] > 0,
-                                             ends[:, prob.chl_col], 0.0) ** (1.0 / mdl.e0)
-        ends = np.where(codes == BOUND_OPEN, np.array([-np.inf, np.inf]), ends)
+        ends = own_units(ends, codes, prob.powers)
     res["values"] = {n: np.asarray(values[n], float) for n in prob.free}
     res["intervals"] = {n: ends[:, j] for j, n in enumerate(spec.names)}
     res["ci_codes"] = _chl_cdom_codes(spec.names, codes)

@@ -42,20 +42,20 @@ from forward.sensor import SensorSettings, noise_model
 from forward.spectra import DEFAULT_CAMERA
 from forward.water import Water, resolve_water
 
-from .assess import flag_tuples, input_flag_table
+from .assess import Z95, flag_tuples, input_flag_table
 from .derived import quantity_sd
-from .budget import DEFAULT_UNCERTAIN, limiting_source, resolve_budget, variance_shares
+from .budget import (DEFAULT_UNCERTAIN, limiting_source, prior_arrays, resolve_budget,
+                     variance_shares)
 from .fitspec import fit_spec
 from .metrics import RRMSE_BANDS_NM
 from .model import (CHL_DERIVATIVE_FLOOR, ChartModel, covariance_from_information,
                     profiled_information)
+from .problem import observation_terms
 from forward.errors import InputError
 
 __all__ = ["GAINS", "Z95", "Precision", "precision"]
 
 GAINS = ("known", "free", "channels")
-#: The 97.5 % point of the standard normal (95 % two-sided).
-Z95 = 1.959963984540054
 
 
 @dataclass
@@ -291,10 +291,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     params = {"chl": chl, "cdom": cdom, "depth": depth, "distance": distance}
     pred = mdl.predict(params, names + extra, chl_floor=CHL_DERIVATIVE_FLOOR)
     columns = list(pred.columns)
-    prior = np.zeros((N, len(columns)))
-    for j, nm in enumerate(columns):
-        if nm in budget.priors:
-            prior[:, j] = 1.0 / budget.priors[nm][1] ** 2
+    prior = prior_arrays(budget.priors, columns, N)[1]
     s = veiling_light(setup.wavelengths, chl, cdom, depth, distance, illuminant=setup.illuminant,
                       water=spec.water) @ setup.sensitivities  # (N, m)
     M0 = pred.signal.reshape(N, m, n) + s[:, :, None]
@@ -316,8 +313,8 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
     active = np.full((N, m), spec.free_s)
     F = profiled_information(J, 1.0 / sigma ** 2, active,
                              gain_column=M0 if gain == "free" else None, prior_weight=prior_all)
-    for dh in _observed(auxiliary, spec.water, params, columns):  # (N, p) whitened rows
-        F[:, :dh.shape[1], :dh.shape[1]] += dh[:, :, None] * dh[:, None, :]
+    for Ja in _observed(auxiliary, spec.water, params, columns):  # (N, G, p) whitened
+        F[:, :Ja.shape[-1], :Ja.shape[-1]] += np.einsum("kgp,kgq->kpq", Ja, Ja)
     cov = covariance_from_information(F)
     qv, qsd = quantity_sd(spec.water, {**params, "chl": np.maximum(chl, CHL_DERIVATIVE_FLOOR)},
                           cov, list(columns) + [None] * (cov.shape[-1] - len(columns)))
@@ -371,17 +368,19 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
 
 
 def _observed(auxiliary, water, params, columns) -> list:
-    """The whitened rows d h / d theta / sd (N, p) of each auxiliary measurement planned at the
-    conditions (its value the condition's own: :func:`sca.auxiliary.planned`)."""
+    """The whitened Jacobians (N, G, p) of each auxiliary measurement planned at the conditions
+    (its value the condition's own: :func:`sca.auxiliary.planned`), by the fit's own term
+    (:func:`sca.problem.observation_terms`) in the columns' own units."""
     from .auxiliary import auxiliary_observations, planned
 
-    out = []
-    for obs in auxiliary_observations(planned(auxiliary, water, params), water):
-        h, dh = obs.function(params, tuple(dict.fromkeys(columns)))
-        sd = np.broadcast_to(np.asarray(obs.sd, float), np.shape(h))
-        out.append(np.stack([np.asarray(dh.get(c, np.zeros(np.shape(h))), float)
-                             * np.ones(np.shape(h)) / sd for c in columns], axis=-1))
-    return out
+    held = {}
+    for j, c in enumerate(columns):
+        held.setdefault(c, []).append(j)
+    N = np.size(params["chl"])
+    units, chain = np.arange(N), np.ones((N, len(columns)))
+    terms = (observation_terms(obs, units, params, lambda n: held.get(n, []), chain, tuple(held))
+             for obs in auxiliary_observations(planned(auxiliary, water, params), water))
+    return [t[1] for t in terms if t is not None]
 
 
 def _dive(chl, cdom, depth, distance, setup, water, uncertain, sigma_photon, s, gain, fix,

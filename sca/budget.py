@@ -44,8 +44,8 @@ from .model import covariance
 from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
-           "SYSTEMATIC", "Budget", "prior_centre", "prior_of", "resolve_budget", "parse_sd",
-           "variance_shares", "limiting_source"]
+           "SYSTEMATIC", "Budget", "prior_arrays", "prior_centre", "prior_of", "resolve_budget",
+           "parse_sd", "variance_shares", "limiting_source"]
 
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
 # plain data in sca.budget_defaults, re-exported here.
@@ -213,6 +213,35 @@ def prior_of(name: str, value, water: Water):
     return out[0], out[1]
 
 
+def prior_arrays(priors: dict, names, n: int = 1):
+    """The priors of a problem's columns (:attr:`sca.problem.Problem.prior_mean`,
+    :attr:`~sca.problem.Problem.prior_weight`): the one place a budget's priors become arrays.
+
+    Parameters
+    ----------
+    priors : dict
+        Name -> (mean, sd): a scalar or (n,) each, in the parameter's units (sd > 0), as
+        :attr:`Budget.priors`.
+    names : sequence of str, (p,)
+        The problem's columns (a name of several columns, such as 'balance', gets the same
+        prior on each).
+    n : int, optional
+        The number of units (rows). Default 1.
+
+    Returns
+    -------
+    mean, weight : ndarray, (n, p)
+        Each column's prior centre and information 1 / sd^2; 0 and 0 (no prior) for a name
+        not in ``priors``.
+    """
+    mean, weight = np.zeros((n, len(names))), np.zeros((n, len(names)))
+    for j, name in enumerate(names):
+        if name in priors:
+            mu, sd = priors[name]
+            mean[:, j], weight[:, j] = mu, 1.0 / np.asarray(sd, float) ** 2
+    return mean, weight
+
+
 def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=()) -> Budget:
     """The :class:`Budget` of ``uncertain`` for charts at ``depth`` and ``distance``.
 
@@ -285,7 +314,10 @@ def variance_shares(J, names, w2_total, w2_photon, active, prior_weight, of=("ch
     the active backscatter included) and the priors' information P = diag(prior_weight), the
     covariance is S = (Jw^T Jw + P)^-1 = S Jw^T Jw S + sum_k S P_k S, and the data's part splits
     into the photon noise (fraction w2_total / w2_photon of each patch's variance) and the
-    per-patch systematic term. The shares of each parameter add up to 1.
+    per-patch systematic term. The shares of each parameter add up to 1. (The information is
+    :func:`sca.model.information`'s, through :func:`sca.model.covariance`, with the veiling
+    light as indicator columns instead of :func:`sca.model.profiled_information`'s projection:
+    each data row's share is read from S Jw^T row by row.)
 
     Parameters
     ----------

@@ -31,12 +31,13 @@ from __future__ import annotations
 import numpy as np
 
 from .lm import SINGULAR_PIVOT, evaluate, levenberg_marquardt
-from .problem import Problem
+from .problem import Problem, undo_powers
 from forward.errors import InputError
 
 __all__ = ["BOUND_FOUND", "BOUND_ZERO", "BOUND_OPEN", "BOUND_FAILED", "PROFILE_MAX_ITER",
            "BRACKET_STEPS", "ILLINOIS_STEPS", "BRACKET_OVERSHOOT", "BRACKET_GROWTH",
-           "ROOT_TOL", "VM_MAX_ITER", "profile_intervals", "profile_slopes", "effective_curvature"]
+           "ROOT_TOL", "VM_MAX_ITER", "own_units", "profile_intervals", "profile_slopes",
+           "effective_curvature"]
 
 #: Result codes of a profile end: found, at the lower bound (e.g. 0), open (beyond the cap),
 #: failed.
@@ -472,3 +473,27 @@ def profile_intervals(prob: Problem, theta_hat, f_hat, delta, H, caps, which=Non
     ends[charts, cols, k] = res
     codes[charts, cols, k] = code
     return ends, codes
+
+
+def own_units(ends, codes, powers):
+    """Interval ends (:func:`profile_intervals`) in the parameters' own units: the one place an
+    estimator turns them into what it reports.
+
+    A power coordinate's ends are undone (:func:`sca.problem.undo_powers`: C = u^(1/e0), an
+    end <= 0 gives 0); an open end (``BOUND_OPEN``) becomes -inf (lower) or +inf (upper); a
+    failed end stays NaN.
+
+    Parameters
+    ----------
+    ends, codes : ndarray, (..., p, 2)
+        The ends in theta's coordinates and their codes.
+    powers : ndarray, (p,)
+        Each column's exponent (:attr:`sca.problem.Problem.powers`).
+
+    Returns
+    -------
+    ndarray, (..., p, 2)
+    """
+    ends = np.asarray(ends, float)
+    x = np.where(np.isnan(ends), np.nan, undo_powers(ends, np.asarray(powers, float)[:, None]))
+    return np.where(np.asarray(codes) == BOUND_OPEN, np.array([-np.inf, np.inf]), x)

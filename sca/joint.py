@@ -38,13 +38,13 @@ from forward.imaging import ChartSetup
 from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
-from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_of
+from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_arrays, prior_of
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
 from .derived import derived_from_fit, is_optical_depth, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
-from .intervals import BOUND_FAILED, BOUND_OPEN, profile_intervals
+from .intervals import BOUND_FAILED, own_units, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
 from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
@@ -196,10 +196,7 @@ def _problem(d: _Dive, groups) -> DiveProblem:
     prob = DiveProblem(d.models, d.M, d.W2, d.scale, groups, tuple(d.priors), d.depth,
                        d.distance, free_geo["depth"], free_geo["distance"], d.patch_shared > 0,
                        None, None, auxiliary_observations(d.auxiliary, d.models[0].water))
-    p = len(prob.names)
-    mean, weight = np.zeros((1, p)), np.zeros((1, p))
-    for name, (mu, sd) in d.priors.items():
-        mean[0, prob.layout[name]], weight[0, prob.layout[name]] = mu, 1.0 / sd ** 2
+    mean, weight = prior_arrays(d.priors, prob.names)
     for name in ("depth", "distance"):
         cols = prob.layout[name]
         for i in range(N):
@@ -264,13 +261,10 @@ def _intervals(prob: DiveProblem, theta, f_min):
     caps[cols[1]] = upper_cap("cdom", prob.water)
     ends, codes = profile_intervals(prob, theta[None], np.array([f_min]),
                                     np.array([PATH_MODEL_DELTA]), H, caps, which=cols)
+    own = own_units(ends, codes, prob.powers)
     out, flags = {}, []
     for name, j in (("chl", cols[0]), ("cdom", cols[1])):
-        lo, hi = ends[0, j]
-        if name == "chl":
-            lo, hi = (float(chl_from_u(v, e0)) for v in (lo, hi))
-        if codes[0, j, 1] == BOUND_OPEN:
-            hi = np.inf
+        lo, hi = own[0, j]
         if np.any(codes[0, j] == BOUND_FAILED):
             flags.append("not-converged")
         if not (np.isfinite(lo) and np.isfinite(hi)):

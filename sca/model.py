@@ -26,16 +26,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from forward.imaging import ChartSetup
+from forward.imaging import ChartSetup, camera_response
 from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
-from .problem import TINY, chl_from_u, du_chain, u_from_chl  # noqa: F401 - re-exported
+from .problem import TINY, chl_from_u, du_chain, u_from_chl, with_priors  # noqa: F401 - re-exported
 from .projection import linear_part_stats
 from forward.errors import InputError
 
 __all__ = ["PARAMS", "SPECTRAL", "GEOMETRY", "LINEAR", "CAMERA", "LIGHT", "PER_CHANNEL", "CHL_DERIVATIVE_FLOOR", "CHL_MAX",
            "CDOM_MAX", "LENGTH_MAX", "ChartModel", "Prediction", "lower_bound", "upper_cap",
-           "check_names", "curve_shift_derivative", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
+           "check_names", "curve_shift_derivative", "linear_part", "linear_part_stats", "covariance", "covariance_from_information", "information", "profiled_covariance", "profiled_information", "chl_from_u", "u_from_chl",
            "du_chain"]
 
 def curve_shift_derivative(P, wavelengths) -> np.ndarray:
@@ -314,8 +314,8 @@ class ChartModel:
         P, i, R = setup.sensitivities, setup.illuminant, setup.reflectances
         self.m, self.n = P.shape[1], R.shape[1]
         # B[(c, j), l] = P[l, c] i[l] R[l, j]: vec(G) = B @ k (row-major vec of the m x n matrix)
-        self.B = np.einsum("lc,lj->cjl", P, R).reshape(self.m * self.n, self.wavelengths.size) * i
-        self.Bt = np.ascontiguousarray(self.B.T)
+        self.Bt = response_matrix(P, i, R)
+        self.B = np.ascontiguousarray(self.Bt.T)
         #: where :attr:`Dt` comes from: None (this setup's curves) or (model, factor) for a
         #: :meth:`scaled` copy (the model's Dt / factor)
         self._dt_source = None
@@ -410,9 +410,7 @@ class ChartModel:
             model, factor = self._dt_source
             return model.Dt / factor
         P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
-        dP = curve_shift_derivative(P, self.wavelengths)
-        return np.ascontiguousarray(
-            (np.einsum("lc,lj->cjl", dP, R).reshape(self.m * self.n, -1) * i).T)
+        return response_matrix(curve_shift_derivative(P, self.wavelengths), i, R)
 
     @functools.cached_property
     def BDt(self) -> np.ndarray:
@@ -692,6 +690,34 @@ def linear_part(M3, G3, w2, fixed_s=None, free_gain: bool = True):
     return linear_part_stats(sw, sM, sG, sGG, sGM, fixed_s=fixed_s, free_gain=free_gain)
 
 
+def response_matrix(P, i, R) -> np.ndarray:
+    """Eq 15 as a linear map of the transmittance: Bt (q, m n) with vec(G) = Bt^T k.
+
+    Row l is the chart's response to the light of wavelength l alone (k the l-th unit vector)
+    by :func:`forward.imaging.camera_response`, the one place eq 15 is written.
+
+    Parameters
+    ----------
+    P : ndarray, (q, m)
+        Camera sensitivities (or their derivative by a wavelength shift).
+    i : ndarray, (q,)
+        The illuminant.
+    R : ndarray, (q, n)
+        The patches' reflectances.
+
+    Returns
+    -------
+    ndarray, (q, m n), contiguous
+        Bt[l, (c, j)] = P[l, c] i[l] R[l, j] (row-major vec of the m x n matrix).
+
+    References
+    ----------
+    Blasinski & Farrell, eq 15.
+    """
+    q = np.shape(P)[0]
+    return np.ascontiguousarray(camera_response(P, i, np.eye(q), R).reshape(q, -1))
+
+
 def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
     """Gauss-Newton covariance sigma^2 (J^T J)^-1 of whitened Jacobians J (..., rows, p).
 
@@ -728,11 +754,38 @@ def covariance(J, sigma2=1.0, *, cond_max: float = COND_MAX, prior_weight=None):
     S. M. Kay, Fundamentals of Statistical Signal Processing: Estimation Theory, Prentice Hall
     (1993), ch. 3 (the inverse Fisher information as the Cramér-Rao bound).
     """
+    return covariance_from_information(information(J, prior_weight), sigma2, cond_max=cond_max)
+
+
+def information(J, prior_weight=None):
+    """J^T J + diag(prior_weight): the information matrix of whitened Jacobians J (..., rows,
+    p) with the priors' (:func:`sca.problem.with_priors`).
+
+    The package's information matrices, and why there are three entries to it:
+
+    * :meth:`sca.problem.Problem.evaluate`'s H: the same sum, built by each layout's
+      :meth:`~sca.problem.Problem.data_terms` in theta's coordinates (C as u = C^e0) with the
+      linear unknowns (gain, veiling light) projected out in closed form, plus the auxiliary
+      measurements' terms: what the fit, the intervals and the derived quantities use;
+    * :func:`profiled_information`: this sum in the parameters' own units (C itself) of a
+      Jacobian from :meth:`ChartModel.predict`, the active channels' veiling light projected
+      out of the columns (the single chart's covariance and :func:`sca.precision`'s bound,
+      which have no problem to evaluate);
+    * :func:`sca.budget.variance_shares`: this sum (through :func:`covariance`) with the veiling
+      light as explicit indicator columns, not projected out, because each data row's and each
+      prior's share of the variance is read from S Jw^T row by row.
+
+    Parameters
+    ----------
+    J : array_like, (..., rows, p)
+    prior_weight : array_like, broadcastable to (..., p), optional
+
+    Returns
+    -------
+    ndarray, (..., p, p)
+    """
     J = np.asarray(J, float)
-    F = np.swapaxes(J, -1, -2) @ J
-    if prior_weight is not None:
-        F = F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
-    return covariance_from_information(F, sigma2, cond_max=cond_max)
+    return with_priors(np.swapaxes(J, -1, -2) @ J, prior_weight)
 
 
 def covariance_from_information(F, sigma2=1.0, *, cond_max: float = COND_MAX):
@@ -835,8 +888,4 @@ def profiled_information(J, w2, active, *, gain_column=None, prior_weight=None):
     a = np.asarray(active, bool)[..., None, None]
     cols = cols - a * (w2 * cols).sum(2, keepdims=True) / w2.sum(2, keepdims=True)
     N = cols.shape[0]
-    Jw = (np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1])
-    F = np.swapaxes(Jw, -1, -2) @ Jw
-    if prior_weight is not None:
-        F = F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
-    return F
+    return information((np.sqrt(w2) * cols).reshape(N, -1, cols.shape[-1]), prior_weight)

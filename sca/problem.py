@@ -10,8 +10,9 @@ r the unit's whitened residual (the layout's :meth:`Problem.data_terms`: its mod
 called by name, its noise, its closed-form linear unknowns) and the Gaussian priors of the
 uncertainty budget (:attr:`Problem.prior_mean`, :attr:`Problem.prior_weight`; added here, the one
 place they are). A column may be iterated in a power coordinate u = x^e (C in u = C^e0, eq 10's
-exponent: every C term is smooth in u at C = 0; :attr:`Problem.powers`): :meth:`Problem.params`
-and the chain rule :meth:`Problem.chain` are the one place it is undone.
+exponent: every C term is smooth in u at C = 0; :attr:`Problem.powers`): :func:`undo_powers`
+(for :meth:`Problem.params`, and for interval ends through :func:`sca.intervals.own_units`) and
+the chain rule :meth:`Problem.chain` are the one place it is undone.
 
 Everything that fits, bounds or assesses a problem takes one of these: the Levenberg-Marquardt of
 :mod:`sca.lm`, the profile-likelihood ends of :mod:`sca.intervals` and the covariance of
@@ -28,7 +29,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from forward.errors import InputError
 
-__all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl"]
+__all__ = ["Evaluation", "Observation", "Problem", "chl_from_u", "du_chain", "u_from_chl",
+           "observation_terms", "undo_powers", "with_priors"]
 
 #: Smallest normal float: where C = 0, d/du is evaluated at C = TINY (finite, exact in the limit).
 TINY = np.finfo(float).tiny
@@ -68,6 +70,44 @@ def chl_from_u(u, e0):
         x, same shape as ``u`` (a scalar for a scalar ``u``).
     """
     return np.fmax(u, 0.0) ** (1.0 / e0)
+
+
+def undo_powers(x, powers):
+    """Values in their own units from theta's coordinates: :func:`chl_from_u` where a column's
+    exponent is > 0 (a power coordinate), the value itself where it is 0.
+
+    Parameters
+    ----------
+    x : ndarray
+        Values in theta's coordinates (columns, or interval ends, of a problem).
+    powers : ndarray, broadcastable to ``x``
+        Each value's exponent (:attr:`Problem.powers`; 0: its own coordinate).
+
+    Returns
+    -------
+    ndarray
+        The values in their own units (a power coordinate's values <= 0 give 0).
+    """
+    return np.where(powers > 0, chl_from_u(x, np.where(powers > 0, powers, 1.0)), x)
+
+
+def with_priors(F, prior_weight):
+    """F + diag(prior_weight): an information (Gauss-Newton) matrix with Gaussian priors'
+    information 1 / sd^2 on its diagonal, the one place priors enter one
+    (:meth:`Problem.evaluate`, :func:`sca.model.information`).
+
+    Parameters
+    ----------
+    F : ndarray, (..., p, p)
+    prior_weight : array_like, broadcastable to (..., p), or None (no priors: F itself)
+
+    Returns
+    -------
+    ndarray, (..., p, p)
+    """
+    if prior_weight is None:
+        return F
+    return F + np.asarray(prior_weight, float)[..., None] * np.eye(F.shape[-1])
 
 
 def du_chain(chl, e0):
@@ -248,7 +288,7 @@ class Problem:
             x = theta[:, cols]
             power = self.powers[cols]
             if np.any(power > 0):
-                x = np.where(power > 0, chl_from_u(x, np.where(power > 0, power, 1.0)), x)
+                x = undo_powers(x, power)
             out[name] = x if len(cols) > 1 else x[:, 0]
         return out
 
@@ -299,7 +339,7 @@ class Problem:
             ev.f = ev.f + np.einsum("ip,ip->i", pw, d * d)
             if grad:
                 ev.g = ev.g + pw * d
-                ev.H = ev.H + pw[:, :, None] * np.eye(theta.shape[1])
+                ev.H = with_priors(ev.H, pw)
         for obs in self.observations:
             self._observe(obs, idx, params, chain, ev, grad)
         if not grad:
@@ -307,30 +347,67 @@ class Problem:
         return ev
 
     def _observe(self, obs: Observation, idx, params, chain, ev: Evaluation, grad: bool):
-        """An auxiliary measurement's term ((h - y) / sd)^2, its half gradient and
-        Gauss-Newton matrix, added to ``ev`` (units without a measurement add nothing).
-
-        Where a unit holds G waters (a dive fitted with a (C, a_CDOM) per group of photos:
-        'chl' and 'cdom' repeat G times), h is (k, G) and the measurement is of each of them:
-        one term per group, its derivatives on that group's columns (a name of one column,
-        a shared nuisance, takes every group's)."""
-        y, sd = obs.value[idx], obs.sd[idx]
-        have = np.isfinite(y)
-        if not have.any():
+        """An auxiliary measurement's term ((h - y) / sd)^2 (:func:`observation_terms`), its
+        half gradient and Gauss-Newton matrix, added to ``ev``."""
+        terms = observation_terms(obs, idx, params, self.columns, chain,
+                                  self.free if grad else ())
+        if terms is None:
             return
-        k = len(idx)
-        h, dh = obs.function(params, self.free if grad else ())
-        h = np.asarray(h, float).reshape(k, -1)  # (k, G)
-        r = np.where(have[:, None], (h - y[:, None]) / np.where(have, sd, 1.0)[:, None], 0.0)
+        r, J = terms
         ev.f = ev.f + np.einsum("kg,kg->k", r, r)
         if grad:
-            J = np.zeros((k, h.shape[1], len(self.names)))
-            G = h.shape[1]
-            for n in dh:
-                cols = self.columns(n)
-                d = np.broadcast_to(np.asarray(dh[n], float).reshape(k, -1), h.shape)
-                for g in range(G):
-                    for j in ([cols[g]] if G > 1 and len(cols) == G else cols):
-                        J[:, g, j] = np.where(have, d[:, g] * chain[:, j] / sd, 0.0)
             ev.g = ev.g + np.einsum("kgp,kg->kp", J, r)
             ev.H = ev.H + np.einsum("kgp,kgq->kpq", J, J)
+
+
+def observation_terms(obs: Observation, idx, params, columns, chain, wrt=()):
+    """An auxiliary measurement's whitened residual and Jacobian: the one place its term is
+    written (:meth:`Problem.evaluate` adds r^2, J^T r and J^T J; :func:`sca.precision` adds
+    J^T J to its information).
+
+    Units without a measurement (value NaN) add nothing. Where a unit holds G waters (a dive
+    fitted with a (C, a_CDOM) per group of photos: 'chl' and 'cdom' repeat G times), h is
+    (k, G) and the measurement is of each of them: one term per group, its derivatives on
+    that group's columns (a name of one column, a shared nuisance, takes every group's).
+
+    Parameters
+    ----------
+    obs : Observation
+        The measurement (its value and sd one or one per unit).
+    idx : array_like of int, (k,)
+        The units.
+    params : dict
+        The model's parameters of the units (own units).
+    columns : callable
+        name -> the theta columns that hold it (:meth:`Problem.columns`).
+    chain : ndarray, (k, p)
+        d x / d theta of every column (:meth:`Problem.chain`; ones in the own units).
+    wrt : sequence of str, optional
+        The names to differentiate by (none: no Jacobian).
+
+    Returns
+    -------
+    (r, J) or None
+        r = (h - y) / sd (k, G); J = d r / d theta (k, G, p), None without ``wrt``; None
+        where no unit has a measurement.
+    """
+    k = len(idx)
+    sub = obs.rows(idx)
+    y, sd = (np.broadcast_to(np.asarray(v, float), (k,)) for v in (sub.value, sub.sd))
+    have = np.isfinite(y)
+    if not have.any():
+        return None
+    h, dh = obs.function(params, wrt)
+    h = np.asarray(h, float).reshape(k, -1)  # (k, G)
+    r = np.where(have[:, None], (h - y[:, None]) / np.where(have, sd, 1.0)[:, None], 0.0)
+    if not wrt:
+        return r, None
+    G = h.shape[1]
+    J = np.zeros((k, G, chain.shape[1]))
+    for n in dh:
+        cols = columns(n)
+        d = np.broadcast_to(np.asarray(dh[n], float).reshape(k, -1), h.shape)
+        for g in range(G):
+            for j in ([cols[g]] if G > 1 and len(cols) == G else cols):
+                J[:, g, j] = np.where(have, d[:, g] * chain[:, j] / sd, 0.0)
+    return r, J

@@ -46,11 +46,11 @@ from forward.water import COEFFICIENT_PARAMS, DIFFUSE_TERMS, Water, resolve_wate
 from .assess import goodness, profile_delta
 from .auxiliary import auxiliary_observations
 from .biooptical import binds
-from .budget import DEFAULT_UNCERTAIN
-from .intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
+from .budget import DEFAULT_UNCERTAIN, prior_arrays
+from .intervals import BOUND_FOUND, BOUND_ZERO, own_units, profile_intervals
 from .lm import evaluate, levenberg_marquardt
 from .model import lower_bound, upper_cap
-from .problem import TINY, Evaluation, Problem, chl_from_u, u_from_chl
+from .problem import TINY, Evaluation, Problem, u_from_chl
 from forward.errors import InputError
 
 __all__ = [
@@ -65,6 +65,7 @@ __all__ = [
     "KdModel",
     "SpectrumProblem",
     "fit_spectrum",
+    "scaled_spectra",
 ]
 
 #: Names :class:`KdModel` differentiates by: C (mg m^-3), a_CDOM(440) (m^-1), mu_d and every
@@ -314,6 +315,33 @@ def _start(model, kd, w2, nuisance_mean, observations=()):
     return u_from_chl(params["chl"][best], model.e0), params["cdom"][best]
 
 
+def scaled_spectra(kd, valid, rel: float):
+    """N K_d spectra as a :class:`SpectrumProblem` takes them: each scaled to its largest value
+    1, and the weights 1 / (rel K_d)^2 (a relative sd ``rel`` per band; 0 where not ``valid``).
+
+    Parameters
+    ----------
+    kd : ndarray, (N, q)
+        K_d, m^-1 (NaN allowed where not ``valid``).
+    valid : ndarray of bool, (N, q)
+        The bands measured.
+    rel : float
+        The relative sd of each band, > 0.
+
+    Returns
+    -------
+    M, W2 : ndarray, (N, q)
+        The scaled spectra and their weights.
+    scale : ndarray, (N,)
+        Each spectrum's largest value, m^-1.
+    """
+    scale = np.nanmax(kd, axis=1)
+    M = np.where(valid, kd / scale[:, None], 0.0)
+    with np.errstate(divide="ignore"):
+        W2 = np.where(valid, 1.0 / (rel * M) ** 2, 0.0)
+    return M, W2, scale
+
+
 def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
                  model_error: float = KD_MODEL_ERROR, uncertain: dict | None = None,
                  water: Water | None = None, intervals: bool = True,
@@ -379,15 +407,11 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
         uncertain[k] = validate.scalar(f"uncertain['{k}']", v)
     model = KdModel(wl, water=water)
     N = kd.shape[0]
-    scale = np.nanmax(kd, axis=1)
-    M = np.where(valid, kd / scale[:, None], 0.0)
-    with np.errstate(divide="ignore"):
-        W2 = np.where(valid, 1.0 / (rel * M) ** 2, 0.0)
+    M, W2, scale = scaled_spectra(kd, valid, rel)
     nuis = tuple(k for k, v in uncertain.items() if v > 0)
     names = ("chl", "cdom") + nuis
     mean = {k: float(getattr(model.water, k)) for k in nuis}
-    prior_mean = np.tile([0.0, 0.0] + [mean[k] for k in nuis], (N, 1))
-    prior_weight = np.tile([0.0, 0.0] + [1.0 / uncertain[k] ** 2 for k in nuis], (N, 1))
+    prior_mean, prior_weight = prior_arrays({k: (mean[k], uncertain[k]) for k in nuis}, names, N)
     observations = [o for o in auxiliary_observations(auxiliary, model.water)
                     if binds(o, names)]
     prob = SpectrumProblem(model, M, W2, scale, names, prior_mean=prior_mean if nuis else None,
@@ -415,9 +439,7 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
                          for n in names])
         caps[0] = u_from_chl(caps[0], model.e0)
         e, c = profile_intervals(prob, theta, f, delta, H, caps, which=(0, 1))
-        ends, codes = e[:, :2], c[:, :2]
-        ends[:, 0] = chl_from_u(ends[:, 0], model.e0)
-        ends = np.where(codes == BOUND_OPEN, np.array([-np.inf, np.inf]), ends)
+        ends, codes = own_units(e[:, :2], c[:, :2], prob.powers[:2]), c[:, :2]
     chl_ok = np.all(np.isin(codes[:, 0], (BOUND_FOUND, BOUND_ZERO)), axis=1)
     reliable = (p_value >= RELIABLE_P) & (code <= 2) & chl_ok
     return KdFit(chl=np.asarray(values["chl"], float), cdom=np.asarray(values["cdom"], float),

@@ -20,12 +20,11 @@ import dataclasses
 from dataclasses import dataclass, field as dataclass_field
 
 import numpy as np
-from scipy import special
 
-from .assess import CONFIDENCE, estimate_flags, gain_wald, goodness, input_flags, is_reliable, \
+from .assess import estimate_flags, gain_wald, wald, goodness, input_flags, is_reliable, \
     profile_delta
-from .budget import variance_shares
-from .intervals import BOUND_OPEN, profile_intervals
+from .budget import prior_arrays, variance_shares
+from .intervals import own_units, profile_intervals
 from .batch import scale_test
 from .charts import ChartProblem
 from .consistency import nuisance_pulls, objectives_alone, tested
@@ -102,10 +101,7 @@ def _problem(est, st, priors: bool = True) -> ChartProblem:
         n for n in priors for _ in range(st.mdl.m if n in CAMERA else 1))
     mean = weight = None
     if priors:
-        mean, weight = np.zeros((1, len(names))), np.zeros((1, len(names)))
-        for j, n in enumerate(names):
-            if n in priors:
-                mean[0, j], weight[0, j] = priors[n][0][0], 1.0 / priors[n][1][0] ** 2
+        mean, weight = prior_arrays(priors, names)
     fixed = {"depth": np.array([est.depth]), "distance": np.array([est.distance])}
     for k in ("chl", "cdom"):
         if k in est.fixed:
@@ -316,16 +312,8 @@ def _profile(est, st, dof):
     if "chl" in names:
         caps[names.index("chl")] = u_from_chl(caps[names.index("chl")], st.mdl.e0)
     ends, codes = profile_intervals(prob, theta, f, delta, H, caps, which=range(len(names)))
-    out = {}
-    for j, n in enumerate(names):
-        lo, hi = ends[0, j]
-        if n == "chl":
-            lo, hi = (max(v, 0.0) ** (1.0 / st.mdl.e0) for v in (lo, hi))
-        if codes[0, j, 0] == BOUND_OPEN:
-            lo = -np.inf
-        if codes[0, j, 1] == BOUND_OPEN:
-            hi = np.inf
-        out[n] = (float(lo), float(hi))
+    own = own_units(ends, codes, prob.powers)
+    out = {n: (float(own[0, j, 0]), float(own[0, j, 1])) for j, n in enumerate(names)}
     ci_codes = []
     for n in ("chl", "cdom"):
         ci_codes += list(codes[0, names.index(n)]) if n in names else [0, 0]
@@ -428,9 +416,8 @@ def finish(settled: Settled, scale_test: bool = True) -> Estimate:
     elif mdl.z == 1:
         intervals, codes = _profile(est, st, dof)
     else:  # Wald intervals (z > 1)
-        z95 = special.ndtri(0.5 + CONFIDENCE / 2)
-        intervals = {n: (max(x[n] - z95 * se_of[n], 0.0) if n in ("chl", "cdom") else
-                         x[n] - z95 * se_of[n], x[n] + z95 * se_of[n]) for n in names}
+        intervals = {n: tuple(float(v) for v in wald(
+            x[n], se_of[n], 0.0 if n in ("chl", "cdom") else -np.inf)) for n in names}
         codes = None
     for n in ("chl", "cdom"):
         if n not in names:

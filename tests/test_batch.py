@@ -195,3 +195,19 @@ def test_profile_slopes_leave_nearly_collinear_columns_alone():
 
     H = np.array([[[2.0, 0.5, 0.5], [0.5, 1.0, 1.0 - 1e-14], [0.5, 1.0 - 1e-14, 1.0]]])
     np.testing.assert_array_equal(profile_slopes(H, np.array([0]))[0], [1.0, 0.0, 0.0])
+
+
+def test_interval_ends_in_own_units_keep_a_failed_end_nan():
+    """sca.intervals.own_units, the one place every estimator turns profile ends into what it
+    reports: C's ends undone from u = C^e0 (an end <= 0 gives 0), open ends infinite, a failed
+    end NaN for C as for a_CDOM (the batch reported a failed end of C as 0)."""
+    from sca.intervals import BOUND_FAILED, BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, own_units
+
+    e0 = 0.627
+    ends = np.array([[[-0.1, 2.0 ** e0], [np.nan, 3.0 ** e0], [np.nan, 0.4]]])
+    codes = np.array([[[BOUND_ZERO, BOUND_OPEN], [BOUND_FAILED, BOUND_FOUND],
+                       [BOUND_FAILED, BOUND_FOUND]]])
+    out = own_units(ends, codes, np.array([e0, e0, 0.0]))
+    assert out[0, 0, 0] == 0.0 and out[0, 0, 1] == np.inf
+    assert np.isnan(out[0, 1, 0]) and out[0, 1, 1] == pytest.approx(3.0, rel=1e-12)
+    assert np.isnan(out[0, 2, 0]) and out[0, 2, 1] == 0.4

@@ -217,3 +217,17 @@ def test_a_measured_prior_may_hold_one_centre_per_chart():
     with pytest.raises(InputError, match="one light"):
         _budget({"daylight": {"centre": centres, "sd": sds}}, PAPER_WATER, np.array([2.0, 5.0, 9.0]),
                 np.ones(3), None, None, 0.5)
+
+
+def test_prior_arrays_put_each_prior_on_every_column_of_its_name():
+    """sca.budget.prior_arrays, the one builder of a problem's prior arrays: a name of several
+    columns ('balance', one per channel) gets its prior on each, an (N,) prior row by row, a
+    name without a prior none (weight 0)."""
+    from sca.budget import prior_arrays
+
+    priors = {"balance": (0.0, 0.02), "depth": (np.array([4.0, 9.0]), np.array([0.2, 0.5]))}
+    mean, weight = prior_arrays(priors, ("chl", "balance", "balance", "depth"), 2)
+    assert mean.shape == weight.shape == (2, 4)
+    assert np.all(weight[:, 0] == 0) and np.all(mean[:, 0] == 0)
+    assert np.allclose(weight[:, 1:3], 1 / 0.02 ** 2) and np.all(mean[:, 1:3] == 0)
+    assert np.allclose(mean[:, 3], [4.0, 9.0]) and np.allclose(weight[:, 3], [25.0, 4.0])

@@ -32,11 +32,12 @@ import numpy as np
 from forward.spectra import read_spectral_table, wavelength_grid
 from forward.water import resolve_water
 from sca.assess import goodness, profile_delta
-from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, profile_intervals
+from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, own_units, profile_intervals
 from sca.lm import evaluate, levenberg_marquardt
 from sca.model import CHL_MAX
 from sca.problem import chl_from_u, u_from_chl
-from sca.spectral import KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CHL, TOL, SpectrumProblem
+from sca.spectral import (KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CHL, TOL, SpectrumProblem,
+                          scaled_spectra)
 
 __all__ = ["CHL_FLOOR", "MOREL_POWER", "MOREL_TABLE", "MorelFit", "MorelModel", "fit_morel",
            "morel_coefficients", "morel_problem", "score"]
@@ -113,13 +114,9 @@ class MorelModel:
 def morel_problem(wavelengths, kd, rel: float) -> SpectrumProblem:
     """N K_d spectra against Morel's law, C the one free parameter: the layout of
     :class:`sca.spectral.SpectrumProblem` with :class:`MorelModel` and the weights
-    1 / (rel K_d)^2 of :func:`sca.spectral.fit_spectrum` (NaN: a missing band, weight 0)."""
+    1 / (rel K_d)^2 of :func:`sca.spectral.scaled_spectra` (NaN: a missing band, weight 0)."""
     kd = np.atleast_2d(np.asarray(kd, float))
-    valid = np.isfinite(kd)
-    scale = np.nanmax(kd, axis=1)
-    M = np.where(valid, kd / scale[:, None], 0.0)
-    with np.errstate(divide="ignore"):
-        W2 = np.where(valid, 1.0 / (rel * M) ** 2, 0.0)
+    M, W2, scale = scaled_spectra(kd, np.isfinite(kd), rel)
     return SpectrumProblem(MorelModel(wavelengths), M, W2, scale, ("chl",))
 
 
@@ -184,8 +181,7 @@ def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     _, p_value = goodness(ev.f, dof, True)
     cap = np.array([u_from_chl(CHL_MAX, MOREL_POWER)])
     ends, codes = profile_intervals(prob, theta, ev.f, profile_delta(True, ev.f, dof), ev.H, cap)
-    ci = chl_from_u(ends[:, 0], MOREL_POWER)
-    ci = np.where(codes[:, 0] == BOUND_OPEN, np.array([-np.inf, np.inf]), ci)
+    ci = own_units(ends, codes, prob.powers)[:, 0]
     ci = np.where(np.isin(codes[:, 0], (BOUND_FOUND, BOUND_ZERO, BOUND_OPEN)), ci, np.nan)
     return MorelFit(chl=chl_from_u(theta[:, 0], MOREL_POWER), chl_ci=ci, chi2=ev.f,
                     p_value=p_value, code=code)
