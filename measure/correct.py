@@ -53,7 +53,7 @@ import forward
 from forward.water import COEFFICIENT_PARAMS
 from sca.compiled import KERNEL_LOCK
 
-from .correct_matrix import check_method, colour_matrices, model_response
+from .correct_matrix import TRAINING_SETS, check_method, colour_matrices, model_response
 from .correctcamera import check_photo_camera
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
@@ -602,14 +602,18 @@ def applied(table: CorrectionTable, water_file=None) -> dict:
     """What a correction applied, for correction.json: the water's file and its SHA-256
     (:func:`measure.camera.file_digest`; None for a water given in memory), the camera and
     calibration (:meth:`measure.correctcamera.CameraUse.to_dict`), the depths the water was
-    measured at and whether the photo's depth lies outside them (``extrapolated``)."""
+    measured at, whether the photo's depth lies outside them (``extrapolated``) and the
+    ``method`` ('matrix' with its ``training`` reflectances, or 'diagonal')."""
     from .camera import file_digest
 
     w = table.water
     return {"water_file": None if water_file is None else {
                 "path": str(water_file), "sha256": file_digest(water_file)},
             "camera": None if w.camera is None else w.camera.to_dict(),
-            "depth_span_m": list(w.span), "extrapolated": w.extrapolated}
+            "depth_span_m": list(w.span), "extrapolated": w.extrapolated,
+            "method": table.method, "training": (
+                [f"colour.quality.datasets.{db}[{name!r}]" for db, name in TRAINING_SETS]
+                if table.method == "matrix" else None)}
 
 
 def seathru_coefficients(table: CorrectionTable) -> dict:
