@@ -75,7 +75,7 @@ def add_parser(sub):
                    help="range (m) at which pixels without a range are corrected (default: "
                         "'reference', the chart's distance)")
     p.add_argument("--method", default="matrix", choices=["matrix", "diagonal"],
-                   help="matrix (default): the colour matrix per range, learned through the "
+                   help="matrix (default): a 3x3 matrix per range, learned through the "
                         "measured water on 29 CIE/CQS test colours; diagonal: each channel "
                         "divided by the white's transmittance alone (von Kries)")
     p.add_argument("--white", type=float, default=1.0,

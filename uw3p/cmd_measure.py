@@ -81,7 +81,7 @@ def add_parser(sub):
                    help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
                         "preview corrected.png is always written)")
     p.add_argument("--method", default="matrix", choices=["matrix", "diagonal"],
-                   help="corrected_srgb.tif and corrected.jpg: the colour matrix per range "
+                   help="corrected_srgb.tif and corrected.jpg: a 3x3 matrix per range "
                         "(default) or the per-channel (von Kries) correction alone")
     p.add_argument("--joint", action="store_true",
                    help="a folder: also fit all its photos as one water (joint.json) and "
