@@ -53,6 +53,7 @@ import forward
 from forward.water import COEFFICIENT_PARAMS
 from sca.compiled import KERNEL_LOCK
 
+from .correct_matrix import TRAINING_SETS, check_method, colour_matrices, model_response
 from .correctcamera import check_photo_camera
 from .correctwater import CorrectionWater, correction_water
 from .image import UINT16_MAX, Photo, read_image
@@ -112,6 +113,10 @@ class CorrectionTable:
         The chart's distance r0, m.
     water : CorrectionWater
         The water it was made from.
+    method : str
+        'matrix' (the colour matrix per range, :mod:`measure.correct_matrix`) or 'diagonal'.
+    matrices : numpy.ndarray, (n, 3, 3)
+        M(r), applied after the diagonal correction (the identity for 'diagonal').
     """
 
     ranges: np.ndarray
@@ -124,6 +129,8 @@ class CorrectionTable:
     unknown: float
     reference: float
     water: CorrectionWater = field(repr=False)
+    method: str = "diagonal"
+    matrices: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def step(self) -> float:
@@ -134,6 +141,14 @@ class CorrectionTable:
         """(A, B) of J = (raw - B) A per table row: A (n, 3) model units per raw unit, B (n, 3)
         raw units."""
         return 1.0 / (self.gain * self.transmission), self.veil
+
+    def kernel(self):
+        """(C, B) of J = C (raw - B) per table row: C (n, 3, 3) = M(r) diag(A), model units per
+        raw unit (diagonal for 'diagonal'), B (n, 3) raw units."""
+        A, B = self.factors()
+        if self.matrices is None:
+            return A[:, :, None] * np.eye(3), B
+        return self.matrices * A[:, None, :], B
 
     def apply(self, raw, ranges) -> np.ndarray:
         """The correction of raw values at given ranges (numpy; for a few values).
@@ -153,30 +168,17 @@ class CorrectionTable:
         r = np.asarray(ranges, float)
         r = np.where(np.isfinite(r) & (r > 0), r, self.unknown)
         r = np.clip(r, 0.0, self.cap)
-        A, B = self.factors()
-        a = np.stack([np.interp(r, self.ranges, A[:, c]) for c in range(3)], axis=-1)
-        b = np.stack([np.interp(r, self.ranges, B[:, c]) for c in range(3)], axis=-1)
-        return (np.asarray(raw, float) - b) * a
-
-
-def _white_setup(setup):
-    q = setup.wavelengths.size
-    return dataclasses.replace(setup, reflectances=np.ones((q, 1)))
+        C, B = self.kernel()
+        c = np.stack([np.interp(r, self.ranges, C[:, i, j]) for i in range(3) for j in range(3)],
+                     axis=-1).reshape(r.shape + (3, 3))
+        b = np.stack([np.interp(r, self.ranges, B[:, i]) for i in range(3)], axis=-1)
+        return np.einsum("...ij,...j->...i", c, np.asarray(raw, float) - b)
 
 
 def _white_response(cw: CorrectionWater, ranges) -> np.ndarray:
     """W_c(r) (n, 3): a white reflector at each range, unit gain, no veil (the model function
-    of every estimator)."""
-    from sca.model import ChartModel
-
-    r = np.atleast_1d(np.asarray(ranges, float))
-    n = r.size
-    model = ChartModel(_white_setup(cw.setup), water=cw.water)
-    params = {"chl": np.full(n, cw.chl), "cdom": np.full(n, cw.cdom),
-              "depth": np.full(n, cw.depth), "distance": r}
-    for k, v in cw.nuisance.items():
-        params[k] = np.broadcast_to(np.asarray(v, float), (n, 3)) if np.ndim(v) else float(v)
-    return model.predict(params, jacobian=False).signal.reshape(n, 3)
+    of every estimator, :func:`measure.correct_matrix.model_response`)."""
+    return model_response(cw, ranges, np.ones((cw.setup.wavelengths.size, 1)))[:, :, 0]
 
 
 def _veil_shape(cw: CorrectionWater, ranges) -> np.ndarray:
@@ -263,8 +265,8 @@ def correction(estimate, setup, white_value=None, full_scale=65535.0):
 
 
 def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | None = None,
-                     unknown="reference", size: int = TABLE_SIZE, **water_options
-                     ) -> CorrectionTable:
+                     unknown="reference", size: int = TABLE_SIZE, method: str = "matrix",
+                     **water_options) -> CorrectionTable:
     """The per-channel correction on a table of ranges.
 
     Parameters
@@ -281,6 +283,9 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
         in m.
     size : int, optional
         Rows of the table (default :data:`TABLE_SIZE`).
+    method : 'matrix' or 'diagonal', optional
+        'matrix' (default): the diagonal then the colour matrix M(r) per range
+        (:mod:`measure.correct_matrix`); 'diagonal': the von Kries division by t_c(r) alone.
     **water_options
         For :func:`correction_water` when ``water`` is not a :class:`CorrectionWater`.
 
@@ -291,8 +296,9 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
     Raises
     ------
     ValueError
-        Naming ``max_gain``, ``max_range``, ``unknown`` or ``size``.
+        Naming ``max_gain``, ``max_range``, ``unknown``, ``size`` or ``method``.
     """
+    check_method(method)
     cw = water if isinstance(water, CorrectionWater) else correction_water(water, **water_options)
     if not (max_gain > 1):
         raise InputError("max_gain", f"must be > 1 (or inf), got {max_gain!r}")
@@ -330,8 +336,9 @@ def correction_table(water, *, max_gain: float = MAX_GAIN, max_range: float | No
             unk = math.nan
         if not (math.isfinite(unk) and unk > 0):
             raise InputError("unknown", f"'reference' or a range > 0 m, got {unknown!r}")
+    mats = colour_matrices(cw, ranges, trans) if method == "matrix" else None
     return CorrectionTable(ranges, trans, veil, shape[-1] * scale, float(cw.gain), cap, why,
-                           min(unk, cap), r0, cw)
+                           min(unk, cap), r0, cw, method, mats)
 
 
 # --------------------------------------------------------------------------- pixels
@@ -422,7 +429,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                   max_range: float | None = None, unknown="reference", white: float = 1.0,
                   white_linear: float = WHITE_TARGET, linear: bool = True, srgb: bool = True,
                   float_output: bool = False, black_level=None, white_level=None,
-                  **water_options) -> Corrected:
+                  method: str = "matrix", **water_options) -> Corrected:
     """Correct a photo pixel by pixel along each pixel's range, from the measured water.
 
     Parameters
@@ -447,6 +454,10 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         Which images to make.
     black_level, white_level : optional
         For :func:`measure.read_image`.
+    method : 'matrix' or 'diagonal', optional
+        'matrix' (default): the colour matrix per range after the diagonal
+        (:mod:`measure.correct_matrix`, decision 0076-spectral-matrix-correction); 'diagonal':
+        the per-channel division alone (``table.method`` records which).
     **water_options
         For :func:`measure.correctwater.correction_water` (``setup``, ``depth``, ``photo``,
         ``exposure_ratio``, ``model``, ``camera``, ``quantal``, ``illuminant``, ``profile``).
@@ -462,7 +473,8 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     ------
     ValueError
         Naming the argument: ``image``, ``water``, ``range``, ``max_gain``, ``max_range``,
-        ``unknown``, ``white``, ``white_linear``, ``camera``, ``profile``, ``depth``.
+        ``unknown``, ``white``, ``white_linear``, ``method``, ``camera``, ``profile``,
+        ``depth``.
 
     References
     ----------
@@ -495,17 +507,18 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     for name, v in (("white", white), ("white_linear", white_linear)):
         if not (math.isfinite(v) and 0 < v <= 1):
             raise InputError(name, f"must be in (0, 1], got {v!r}")
+    check_method(method)
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
     rng, counts = range_and_census(range, photo.size)  # a refusal before the table
     table = correction_table(water, max_gain=max_gain, max_range=max_range, unknown=unknown,
-                             **water_options)
+                             method=method, **water_options)
     use = table.water.camera
     if use is not None:  # the photo's camera against the water's (EXIF Make and Model)
         check_photo_camera(photo.camera, use, other_curves=water_options.get("camera") is not None)
     has_map = not isinstance(rng, float)
     H, W = photo.data.shape[:2]
-    A, B = table.factors()
+    C, B = table.kernel()
     M = srgb_matrix(table.water.setup, white)
     lut = srgb_encoding_lut()
     empty16 = np.zeros((1, 1, 3), np.uint16)
@@ -519,7 +532,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     rmap = np.ascontiguousarray(rng, np.float32) if has_map else np.zeros((1, 1), np.float32)
     with KERNEL_LOCK:
         correct_pixels(mosaic, channel, rgb, raw, H, W, rmap, has_map, 0.0 if has_map else float(rng),
-                 float(table.unknown), float(table.cap), table.step, A, B, M, lut,
+                 float(table.unknown), float(table.cap), table.step, C, B, M, lut,
                  float(white_linear * UINT16_MAX), lin16, s16, flt,
                  np.array([linear, srgb, float_output]))
     summary, notes = _range_summary(rng, counts, table, () if use is None else use.notes)
@@ -589,14 +602,18 @@ def applied(table: CorrectionTable, water_file=None) -> dict:
     """What a correction applied, for correction.json: the water's file and its SHA-256
     (:func:`measure.camera.file_digest`; None for a water given in memory), the camera and
     calibration (:meth:`measure.correctcamera.CameraUse.to_dict`), the depths the water was
-    measured at and whether the photo's depth lies outside them (``extrapolated``)."""
+    measured at, whether the photo's depth lies outside them (``extrapolated``) and the
+    ``method`` ('matrix' with its ``training`` reflectances, or 'diagonal')."""
     from .camera import file_digest
 
     w = table.water
     return {"water_file": None if water_file is None else {
                 "path": str(water_file), "sha256": file_digest(water_file)},
             "camera": None if w.camera is None else w.camera.to_dict(),
-            "depth_span_m": list(w.span), "extrapolated": w.extrapolated}
+            "depth_span_m": list(w.span), "extrapolated": w.extrapolated,
+            "method": table.method, "training": (
+                [f"colour.quality.datasets.{db}[{name!r}]" for db, name in TRAINING_SETS]
+                if table.method == "matrix" else None)}
 
 
 def seathru_coefficients(table: CorrectionTable) -> dict:

@@ -85,7 +85,7 @@ def _partner(water: CorrectionWater, name: str, value: float, upper: float) -> f
 
 
 def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RANGES_M,
-                      max_gain: float = MAX_GAIN) -> dict:
+                      max_gain: float = MAX_GAIN, method: str = "matrix") -> dict:
     """The ΔE00 spread of the correction over the water's 95 % intervals.
 
     Parameters
@@ -99,6 +99,9 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
         Ranges (m) of the grey (default :data:`GREY_RANGES_M`).
     max_gain : float, optional
         The correction's cap (:func:`measure.correct.correction_table`).
+    method : 'matrix' or 'diagonal', optional
+        The correction's method (:func:`measure.correct.correction_table`): each end's
+        correction is redone whole, its colour matrices recomputed through that end's water.
 
     Returns
     -------
@@ -110,7 +113,8 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
     lo_a, hi_a = (float(v) for v in water.cdom_ci)
     out = {"method": "the correction redone at the ends of the 95 % intervals of C and "
                      "a_CDOM(440) (the other profiled on the chart's white), the gain refitted to "
-                     "the chart's white; CIEDE2000 (scikit-image) against the fitted water's",
+                     f"the chart's white, the {method} method; CIEDE2000 (scikit-image) against "
+                     "the fitted water's",
            "chart_de00": None, "grey_de00": [{"range_m": float(r), "de00": None} for r in ranges],
            "samples": [], "notes": []}
     if not all(math.isfinite(v) for v in (lo_c, hi_c, lo_a, hi_a)) or \
@@ -119,7 +123,7 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
                             "unbounded")
         return out
     setup = water.setup
-    nominal = correction_table(water, max_gain=max_gain)
+    nominal = correction_table(water, max_gain=max_gain, method=method)
     r = np.asarray(ranges, float)
     air = setup.white_response
     # the grey as the fitted water shows it (exact for a flat reflectance: gain rho W_c(r) + s_c)
@@ -140,7 +144,7 @@ def correction_spread(water: CorrectionWater, *, chart_rgb=None, ranges=GREY_RAN
     ends += [(_partner(water, "cdom", a, max(4 * hi_c, 10.0)), a) for a in (lo_a, hi_a)]
     for c, a in ends:
         out["samples"].append([c, a])
-        tab = correction_table(water.with_water(c, a), max_gain=max_gain)
+        tab = correction_table(water.with_water(c, a), max_gain=max_gain, method=method)
         # the gain refitted: the chart's white patch keeps its luminance (or, without the
         # chart, a white at the chart's distance keeps the reference channel)
         if chart is not None:

@@ -444,7 +444,8 @@ def _swap(tmp: Path, out: Path) -> None:
 
 def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
                   tiff: str = "compressed", overwrite: bool = False,
-                  marker: dict | None = None, range=None) -> dict:  # noqa: A002
+                  marker: dict | None = None, range=None,  # noqa: A002
+                  method: str = "matrix") -> dict:
     """Write the files of ``uw3p measure``, whole or not at all.
 
     The files are written into a temporary folder beside ``outdir``, :data:`MARKER` last, and
@@ -473,6 +474,9 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
         What corrected_srgb.tif and corrected.jpg are corrected along
         (:func:`measure.correct_image`: a distance in m, a range map or a plane); default the
         chart's distance.
+    method : 'matrix' or 'diagonal', optional
+        Their correction (:func:`measure.correct_image`; default the colour matrix per range),
+        recorded as ``correction_method`` in complete.json.
 
     Returns
     -------
@@ -491,8 +495,12 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     """
     if tiff not in TIFF_MODES:
         raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
+    from .correct_matrix import check_method
+
+    marker = (marker or {}) | {"correction_method": check_method(method)}
     return write_folder(outdir, meas.photo.path, overwrite,
-                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range))
+                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range,
+                                                 method))
 
 
 def write_folder(outdir, image, overwrite: bool, write) -> dict:
@@ -540,7 +548,8 @@ def write_folder(outdir, image, overwrite: bool, write) -> dict:
     return {k: str(out / k) for k in names}
 
 
-def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) -> list:
+def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None,
+                 method="matrix") -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
     import tifffile
 
@@ -554,7 +563,7 @@ def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None) ->
     img = corrected_image(meas)
     # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
     srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
-                         if rng is None else rng, linear=False).srgb
+                         if rng is None else rng, linear=False, method=method).srgb
     # corrected.tiff is compressed by imagecodecs outside the GIL while this thread draws the
     # previews and the report; its error, if any, is raised before the marker is written
     with ThreadPoolExecutor(max_workers=1) as pool:

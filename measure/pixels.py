@@ -81,14 +81,23 @@ def bilinear_all(data, channel, gains, offset, out, to_uint16):  # pragma: no co
                     out[y, x, c] = v
 
 
+@njit(cache=True, inline="always")
+def _row(C, i, w, k, d0, d1, d2):  # pragma: no cover - compiled
+    """Row k of C interpolated between table rows i and i + 1 (weight w), times (d0, d1, d2)."""
+    return ((C[i, k, 0] + w * (C[i + 1, k, 0] - C[i, k, 0])) * d0
+            + (C[i, k, 1] + w * (C[i + 1, k, 1] - C[i, k, 1])) * d1
+            + (C[i, k, 2] + w * (C[i + 1, k, 2] - C[i, k, 2])) * d2)
+
+
 @njit(parallel=True, cache=True)
 def correct_pixels(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, unknown, cap, step,
-             A, B, M, lut, lin_scale, lin16, srgb16, flt, modes):  # pragma: no cover - compiled
+             C, B, M, lut, lin_scale, lin16, srgb16, flt, modes):  # pragma: no cover - compiled
     """Per pixel: demosaic the RAW ``mosaic`` or read the RGB ``rgb`` (the other a dummy), the
-    range (map, or const_r), the table row interpolated, J = (v - B) A; then linear uint16
+    range (map, or const_r), the table row interpolated, J = C (v - B) (C (n, 3, 3): a diagonal
+    for the von Kries correction, the colour matrix times it for the spectral); then linear uint16
     (J lin_scale), sRGB uint16 (the table lut of clip(M J)) and float J, as ``modes`` (lin,
     srgb, float) ask."""
-    n = A.shape[0]
+    n = C.shape[0]
     top = lut.shape[0] - 1
     ones = np.ones(3, np.float32)
     zeros = np.zeros(3, np.float32)
@@ -110,9 +119,12 @@ def correct_pixels(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, un
                 w = 1.0
             else:
                 w = f - i
-            j0 = (v0 - (B[i, 0] + w * (B[i + 1, 0] - B[i, 0]))) * (A[i, 0] + w * (A[i + 1, 0] - A[i, 0]))
-            j1 = (v1 - (B[i, 1] + w * (B[i + 1, 1] - B[i, 1]))) * (A[i, 1] + w * (A[i + 1, 1] - A[i, 1]))
-            j2 = (v2 - (B[i, 2] + w * (B[i + 1, 2] - B[i, 2]))) * (A[i, 2] + w * (A[i + 1, 2] - A[i, 2]))
+            d0 = v0 - (B[i, 0] + w * (B[i + 1, 0] - B[i, 0]))
+            d1 = v1 - (B[i, 1] + w * (B[i + 1, 1] - B[i, 1]))
+            d2 = v2 - (B[i, 2] + w * (B[i + 1, 2] - B[i, 2]))
+            j0 = _row(C, i, w, 0, d0, d1, d2)
+            j1 = _row(C, i, w, 1, d0, d1, d2)
+            j2 = _row(C, i, w, 2, d0, d1, d2)
             if modes[0]:
                 lin16[y, x, 0] = int(min(max(j0 * lin_scale + 0.5, 0.0), 65535.0))
                 lin16[y, x, 1] = int(min(max(j1 * lin_scale + 0.5, 0.0), 65535.0))

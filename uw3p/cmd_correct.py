@@ -74,6 +74,10 @@ def add_parser(sub):
     p.add_argument("--unknown", default="reference",
                    help="range (m) at which pixels without a range are corrected (default: "
                         "'reference', the chart's distance)")
+    p.add_argument("--method", default="matrix", choices=["matrix", "diagonal"],
+                   help="matrix (default): a 3x3 matrix per range, learned through the "
+                        "measured water on 29 CIE/CQS test colours; diagonal: each channel "
+                        "divided by the white's transmittance alone (von Kries)")
     p.add_argument("--white", type=float, default=1.0,
                    help="Y of a perfect white reflector in the sRGB image, 0-1 (default 1)")
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
@@ -160,6 +164,7 @@ def run(args, out, err) -> int:
     photo = read_photo(args, src)
     corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
                          max_range=args.max_range, unknown=args.unknown, white=args.white,
+                         method=args.method,
                          linear=args.tiff != "none", depth=args.depth, photo=args.photo,
                          exposure_ratio=_exposure(args, photo, args.water), **_camera_options(args))
     record = {"image": str(src), "range": {"given": str(args.range)} | corr.ranges,
@@ -170,7 +175,7 @@ def run(args, out, err) -> int:
     if args.uncertainty:
         from measure.correct_uncertainty import correction_spread, extrapolation_spread
 
-        record["uncertainty"] = correction_spread(corr.table.water) | {
+        record["uncertainty"] = correction_spread(corr.table.water, method=args.method) | {
             "extrapolation": extrapolation_spread(corr.table.water)}
     written = write_corrected(corr, args.out, record=record, version=__version__,
                               tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite,

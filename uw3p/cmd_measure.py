@@ -84,6 +84,9 @@ def add_parser(sub):
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
                    help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
                         "preview corrected.png is always written)")
+    p.add_argument("--method", default="matrix", choices=["matrix", "diagonal"],
+                   help="corrected_srgb.tif and corrected.jpg: a 3x3 matrix per range "
+                        "(default) or the per-channel (von Kries) correction alone")
     p.add_argument("--joint", action="store_true",
                    help="a folder: also fit all its photos as one water (joint.json) and "
                         "correct the frames without a chart with it")
@@ -176,7 +179,7 @@ def _measure_one(args, image, outdir):
     aux = opts.get("auxiliary")
     meas.inputs["auxiliary"] = auxiliary_record(aux, option_sources(aux))
     written = measure.write_outputs(meas, outdir, version=__version__, tiff=args.tiff,
-                                    overwrite=args.overwrite)
+                                    overwrite=args.overwrite, method=args.method)
     e = meas.estimate
     row = {"chl": e.chl, "chl_lo": e.chl_ci[0], "chl_hi": e.chl_ci[1], "cdom": e.cdom,
            "cdom_lo": e.cdom_ci[0], "cdom_hi": e.cdom_ci[1], "gain": e.gain,
