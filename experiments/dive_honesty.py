@@ -50,7 +50,8 @@ import numpy as np
 from . import independent_world as iw
 from .dive_worlds import (DIVE_DEPTHS, DIVE_DISTANCES, MIXED_FACTOR, PHOTOS, draw_dive,
                           photo_options)
-from .honesty import (CLEAN_OPTIONS, CONSISTENCY_P, EXPOSURE_RANGE, NOMINAL_SINGLE, QUANTITIES,
+from .honesty import (CLEAN_OPTIONS, CONSISTENCY_P, EXPOSURE_RANGE, NOMINAL_SINGLE,
+                      JOINT_QUANTITIES as QUANTITIES,
                       TESTED, coverage_p, true_quantities)
 
 __all__ = [

@@ -92,6 +92,7 @@ __all__ = [
     "PIXELS_PER_PATCH",
     "QUANTITIES",
     "TESTED",
+    "JOINT_QUANTITIES",
     "TWO_SIDED_GROUPS",
     "SEED",
     "WRONG_CAMERA",
@@ -148,11 +149,16 @@ NOMINAL_JOINT = 0.90
 #: many misses; two-sided: too many or too few).
 CONSISTENCY_P = 0.01
 #: Every reported quantity (the key of ``BatchEstimate.quantities`` or 'chl', 'cdom') and its
-#: label: C, a_CDOM(440), the path's attenuation coefficient at the standard bands and the
-#: non-water absorption at 440 nm (:mod:`sca.derived`; K_d(490) is not published: decision
-#: 0067-kd-not-published).
+#: label: C, a_CDOM(440), the path's attenuation coefficient at the standard bands, the
+#: non-water absorption at 440 nm and the optical depth of the path at the standard bands
+#: (:mod:`sca.derived`; K_d(490) is not published: decision 0067-kd-not-published).
 QUANTITIES = (("chl", "C"), ("cdom", "a_CDOM"), ("c_443", "c(443)"), ("c_490", "c(490)"),
-              ("c_555", "c(555)"), ("c_670", "c(670)"), ("a_nw_440", "a_nw(440)"))
+              ("c_555", "c(555)"), ("c_670", "c(670)"), ("a_nw_440", "a_nw(440)"),
+              ("tau_443", "tau(443)"), ("tau_490", "tau(490)"), ("tau_555", "tau(555)"),
+              ("tau_670", "tau(670)"))
+#: The quantities of a dive's joint fit: every one but the optical depth, which belongs to
+#: each photo's own path (each photo's tau is its own fit's, the single chart's: tested here).
+JOINT_QUANTITIES = tuple((k, label) for k, label in QUANTITIES if not k.startswith("tau_"))
 #: The quantities whose coverage the acceptance tests: every one a user is shown.
 TESTED = tuple(k for k, _ in QUANTITIES)
 #: Groups whose worlds are drawn from the budget's own priors: their coverage is tested on

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from experiments import dive_honesty as d
-from experiments.honesty import CONSISTENCY_P, QUANTITIES
+from experiments.honesty import CONSISTENCY_P, JOINT_QUANTITIES as QUANTITIES
 
 
 def _pair(lo, hi, truth=1.0):
