@@ -17,6 +17,7 @@ import pytest
 import forward
 import measure
 from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.output import MARKER, TEMP_PREFIX, check_out
 from uw3p.cli import main
@@ -370,7 +371,6 @@ def test_a_dive_on_a_dask_local_cluster_without_fork_warnings(tmp_path, shots, c
 
 
 def test_joint_fit_of_a_dive(tmp_path, shots):
-    pytest.importorskip("measure.joint")
     d = _folder(tmp_path, shots, ["a.dng", "b.dng"], rows={"a.dng": 5, "b.dng": 4})
     res = _run(d, tmp_path / "out", shots, joint=True)
     assert res.joint is not None, res.joint_error
@@ -425,7 +425,6 @@ def test_a_rerun_with_other_options_is_refused_before_anything_is_written(tmp_pa
 
 
 def test_summary_survey_joint_and_figure_describe_one_run(tmp_path, shots):
-    pytest.importorskip("measure.joint")
     d = _folder(tmp_path, shots, ["a.dng", "b.dng"], rows={"a.dng": 5, "b.dng": 4})
     out = tmp_path / "out"
     res = _run(d, out, shots, figure=True, joint=True)
@@ -575,7 +574,6 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
     """README's dive.csv as written (file names: generated DNGs; the corners of the
     generated photo), a depth_sd_m on one row only, with --joint: the default budget and light
     field, as the README's command (25 s; the budget rule alone: test_joint.py)."""
-    pytest.importorskip("measure.joint")
     d = tmp_path / "DIVE"
     d.mkdir()
     for i, (n, depth, distance) in enumerate((("IMG_0101.dng", 4.8, 1.2),
