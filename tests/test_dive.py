@@ -377,6 +377,9 @@ def test_joint_fit_of_a_dive(tmp_path, shots):
     data = json.loads(res.joint.read_text())
     for key in ("chl", "chl_ci", "cdom", "cdom_ci", "reliable", "flags"):
         assert key in data
+    # the joint interval holds the water the photos were rendered in (C 2, a_CDOM 0.1)
+    assert data["chl_ci"][0] <= 2.0 <= data["chl_ci"][1], data
+    assert data["cdom_ci"][0] <= 0.1 <= data["cdom_ci"][1], data
 
 
 def test_a_frame_without_a_chart_is_not_bad_input(tmp_path, shots):
@@ -591,9 +594,12 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
                  "--corners", shots["corners"], "--scheduler", "synchronous", "--tiff",
                  "none"])
     text = capsys.readouterr().out
-    assert code in (0, 1) and (out / "joint.json").exists(), text
+    # exit 0: the README's photos are clean, told their geometry, of the profile's camera, so
+    # every one is reliable (README: "Exit status 0: reliable; 1: measured but not reliable")
+    assert code == 0 and (out / "joint.json").exists(), text
     assert "joint: C" in text and "what the dive measures: measured: c(443)" in text
     rows = {Path(r["image"]).name: r for r in _csv(out / "summary.csv")}
+    assert [r["reliable"] for r in rows.values()] == ["True"] * 3, rows
     assert float(rows["IMG_0101.dng"]["depth_sd"]) == 0.1
 
 
