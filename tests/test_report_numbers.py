@@ -4,9 +4,9 @@ Every top-level report is written by a generator; a number in its prose must be 
 generator computed. Two checks:
 
 - the *hand-written text* of each generator (the string literals of its source, format values
-  and docstrings excluded) holds no number but references (Fig 9, eq 19, issue 50, decision
-  0010-..., a year, a section number), code in backticks, quotations and the values of settings
-  held as numeric constants in the package's code;
+  and docstrings excluded) holds no number but references (Fig 9, eq 19, issue 50, a decision
+  record's name, a year, a section number), code in backticks, quotations and the values of
+  settings held as numeric constants in the package's code;
 - REPRODUCTION.md is generated between markers only; its hand-written sections that report
   results ("What the verdicts say", "What the search says ...") hold no number at all but
   references and quotations, and the sentence under the claims table that quotes the untuned
@@ -112,7 +112,7 @@ def test_a_number_typed_into_a_generator_is_found():
     """The check can fail: a result typed into a literal is found, a formatted one is not."""
     typed = typed_in_source('x = 3\nline = f"r² stays {x:.2f} at every depth, RRMSE 0.0173 %"\n')
     assert [bad for *_, bad in typed] == [["0.0173"]]
-    assert typed_numbers("Fig 9's k (eq 19, issue 50, decision 0010-budget) in 2017") == []
+    assert typed_numbers("Fig 9's k (eq 19, issue 50, decision 0010-uncertainty-budget) in 2017") == []
     assert typed_numbers('the issue\'s "1.14 %" against our 0.93 %') == ["0.93"]
 
 
