@@ -35,7 +35,8 @@ __all__ = ["markdown", "outcome", "write_report", "claims", "classify", "counted
            "setting_numbers", "appearance", "search_table", "search_summary", "rules_text",
            "fig7_explanation", "accuracy_table", "realcamera_numbers", "realcamera_rows",
            "realcamera_verdicts", "realcamera_sentence", "main", "BEGIN", "END", "OUTCOME_BEGIN",
-           "OUTCOME_END", "TUNED", "IMPLIED", "CRITERIA_LETTERS", "NOT_DISCRIMINATING"]
+           "OUTCOME_END", "TUNED", "IMPLIED", "CRITERIA_LETTERS", "NOT_DISCRIMINATING",
+           "ESTIMATION", "setting_sentence"]
 
 #: The markers around the generated text in REPRODUCTION.md: the tables, and the outcome
 #: paragraph at its top
@@ -47,6 +48,10 @@ TUNED = ("Fig 10 (level)", "Fig 10 (trend)", "Fig 12 (r²)", "Fig 12 (depth)", "
 #: Rows whose verdict follows from a tuned criterion: r > 0.7 from the lowest r² >= 0.6; Fig 9's
 #: RRMSE from the tuned level and reading of eq 19
 IMPLIED = ("Fig 9", "Fig 12 (r)", "Fig 13 (r)")
+#: The estimation claims whose numbers and verdicts :func:`setting_sentence` repeats under the
+#: table for each untuned setting (the prose of REPRODUCTION.md quotes none of its own)
+ESTIMATION = ("Fig 9", "Fig 10 (level)", "Fig 10 (trend)", "Fig 11", "Fig 12 (r²)",
+              "Fig 13 (r²)")
 #: The search's criteria in the table (experiments.paper_like.CRITERIA)
 CRITERIA_LETTERS = {"about_2_percent": "L", "rises_slightly": "S", "r2_from_1_to_0_7": "R",
                     "r2_falls_with_depth": "D"}
@@ -558,6 +563,9 @@ def markdown(figdir="figures", realcamera=None) -> str:
         flagged = [_flag(claim, n, verdicts[n]) for n in names]
         lines.append(f"| {claim} | {words} | " + " | ".join(texts[n] for n in names)
                      + f" | {' / '.join(flagged)} | {rule} |")
+    for n in [n for n in names if not (SETTINGS[n].get("machinery_check")
+                                       or SETTINGS[n].get("chosen_by_search"))]:
+        lines += ["", setting_sentence(rows, n)]
     lines += ["", "**The real camera** (the authors' 17 Canon G7X charts, "
               "`../shared/realdata/g7x`; `experiments/realwater/g7x.py`, figures and numbers in "
               "`figures/realcamera/`):", ""]
@@ -599,6 +607,29 @@ def markdown(figdir="figures", realcamera=None) -> str:
     lines += [""] + search_summary(figdir)
     lines += ["", *honest_widths()]
     return "\n".join(lines)
+
+
+def setting_sentence(rows, name, wanted=ESTIMATION) -> str:
+    """One sentence quoting the table: the number and verdict of each ``wanted`` claim at the
+    setting ``name``, so that no prose restates a number the table does not hold.
+
+    Parameters
+    ----------
+    rows : list
+        The rows of :func:`claims`.
+    name : str
+        A setting (a column of the table).
+    wanted : tuple of str
+        The claims quoted, in the table's order.
+
+    Returns
+    -------
+    str
+        Markdown (one paragraph).
+    """
+    parts = [f"{claim}: {texts[name]} — {verdicts[name]}"
+             for claim, _words, texts, verdicts, _rule in rows if claim in wanted]
+    return f"**Estimation at the {name} setting** (the table's column): " + "; ".join(parts) + "."
 
 
 def _names(claims_list) -> str:

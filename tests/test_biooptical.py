@@ -284,7 +284,7 @@ def test_empirical_comparison_on_a_few_stations(tmp_path):
     for half in ("even", "odd"):
         s = res["halves"][half]
         assert set(s) == {"median", "morel", "package", "real_water_budget", "case1"}
-        assert np.isnan(s["median"]["coverage"]) and 0 <= s["case1"]["coverage"] <= 1
+        assert np.isnan(s["median"]["coverage"]) and np.isnan(s["median"]["closed"])
         assert s["median"]["bias_log"] == pytest.approx(
             np.median(np.log(res["median_even"] / res["estimates"][half]["chl"])))
     assert res["median_even"] == pytest.approx(np.median(st.chl[st.station % 2 == 0]))
@@ -292,3 +292,21 @@ def test_empirical_comparison_on_a_few_stations(tmp_path):
     text = "\n".join(md)
     assert "The criterion" in text and (tmp_path / "nomad_empirical.csv").is_file()
     assert isinstance(numbers["criterion"]["met"], bool)
+
+
+@needs_data
+@pytest.mark.xfail(strict=True, reason="REALWATER.md: on real water the Case-1 intervals cover "
+                   "far less than 95 % (its criterion 'not met'); strict: passing means the "
+                   "intervals became honest and this mark must go")
+def test_case1_intervals_cover_real_stations_at_the_nominal_rate():
+    """The 95 % intervals of C with the Case-1 relation prior hold the in-situ C at the nominal
+    rate: a two-sided binomial test per half of the first 120 NOMAD stations."""
+    from scipy.stats import binomtest
+
+    from experiments.realwater import empirical, nomad
+
+    res = empirical.compare(nomad.load_nomad().subset(np.arange(120)), diagnostics=False)
+    for half in ("even", "odd"):
+        s = res["halves"][half]["case1"]
+        covered = int(round(s["coverage"] * s["n"]))
+        assert binomtest(covered, s["n"], 0.95).pvalue >= 1e-3, (half, covered, s["n"])

@@ -136,10 +136,26 @@ def test_ciede2000_is_colour_sciences():
     assert _de(a, b) == pytest.approx(colour.delta_E(a, b, method="CIE 2000"), rel=1e-9)
 
 
+def _uncorrected_de00(meas):
+    """Median CIEDE2000 of the chart as photographed against the chart corrected (the white's
+    luminance matched), both by measure.correct_uncertainty's colour conversion."""
+    from forward.spectra import WHITE_PATCH
+    from measure.correct_uncertainty import _de, _lab
+
+    w = correction_water(meas)
+    chart = np.asarray(meas.sample.rgb, float).T
+    corrected = correction_table(w).apply(chart, np.full(24, w.distance))
+    to_xyz = forward.camera_to_xyz_matrix(w.setup)
+    k = (to_xyz @ corrected[WHITE_PATCH])[1] / (to_xyz @ chart[WHITE_PATCH])[1]
+    return float(np.median(_de(_lab(w.setup, k * chart), _lab(w.setup, corrected))))
+
 def test_uncertainty_in_measurement_json_grows_with_range(shot):
     data = json.loads(shot["json"].read_text())
     u = data["correction"]["uncertainty"]
-    assert u["chart_de00"]["median"] >= 0
+    # the water's intervals have a width, so the correction moves (> 0), and by less than the
+    # correction itself moves the chart: the uncorrected chart (its white at the corrected
+    # white's luminance) against the corrected one
+    assert 0 < u["chart_de00"]["median"] < _uncorrected_de00(shot["meas"])
     de = [g["de00"] for g in u["grey_de00"]]
     assert all(np.isfinite(de)) and de[-1] >= de[0]
     assert len(u["samples"]) == 4

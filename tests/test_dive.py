@@ -17,6 +17,7 @@ import pytest
 import forward
 import measure
 from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.output import MARKER, TEMP_PREFIX, check_out
 from uw3p.cli import main
@@ -370,13 +371,15 @@ def test_a_dive_on_a_dask_local_cluster_without_fork_warnings(tmp_path, shots, c
 
 
 def test_joint_fit_of_a_dive(tmp_path, shots):
-    pytest.importorskip("measure.joint")
     d = _folder(tmp_path, shots, ["a.dng", "b.dng"], rows={"a.dng": 5, "b.dng": 4})
     res = _run(d, tmp_path / "out", shots, joint=True)
     assert res.joint is not None, res.joint_error
     data = json.loads(res.joint.read_text())
     for key in ("chl", "chl_ci", "cdom", "cdom_ci", "reliable", "flags"):
         assert key in data
+    # the joint interval holds the water the photos were rendered in (C 2, a_CDOM 0.1)
+    assert data["chl_ci"][0] <= 2.0 <= data["chl_ci"][1], data
+    assert data["cdom_ci"][0] <= 0.1 <= data["cdom_ci"][1], data
 
 
 def test_a_frame_without_a_chart_is_not_bad_input(tmp_path, shots):
@@ -425,7 +428,6 @@ def test_a_rerun_with_other_options_is_refused_before_anything_is_written(tmp_pa
 
 
 def test_summary_survey_joint_and_figure_describe_one_run(tmp_path, shots):
-    pytest.importorskip("measure.joint")
     d = _folder(tmp_path, shots, ["a.dng", "b.dng"], rows={"a.dng": 5, "b.dng": 4})
     out = tmp_path / "out"
     res = _run(d, out, shots, figure=True, joint=True)
@@ -575,7 +577,6 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
     """README's dive.csv as written (file names: generated DNGs; the corners of the
     generated photo), a depth_sd_m on one row only, with --joint: the default budget and light
     field, as the README's command (25 s; the budget rule alone: test_joint.py)."""
-    pytest.importorskip("measure.joint")
     d = tmp_path / "DIVE"
     d.mkdir()
     for i, (n, depth, distance) in enumerate((("IMG_0101.dng", 4.8, 1.2),
@@ -593,9 +594,12 @@ def test_the_readmes_dive_csv_gives_a_joint_estimate(tmp_path, shots, capsys):
                  "--corners", shots["corners"], "--scheduler", "synchronous", "--tiff",
                  "none"])
     text = capsys.readouterr().out
-    assert code in (0, 1) and (out / "joint.json").exists(), text
+    # exit 0: the README's photos are clean, told their geometry, of the profile's camera, so
+    # every one is reliable (README: "Exit status 0: reliable; 1: measured but not reliable")
+    assert code == 0 and (out / "joint.json").exists(), text
     assert "joint: C" in text and "what the dive measures: measured: c(443)" in text
     rows = {Path(r["image"]).name: r for r in _csv(out / "summary.csv")}
+    assert [r["reliable"] for r in rows.values()] == ["True"] * 3, rows
     assert float(rows["IMG_0101.dng"]["depth_sd"]) == 0.1
 
 

@@ -92,3 +92,18 @@ def _wheel_alone(dist, tmp_path):
     assert m["estimate"]["verdicts"]["c_490"] == "measured"
     lo, hi = m["estimate"]["quantity_intervals"]["c_490"]
     assert lo < 0.130 < hi  # the generated water's c(490), m^-1
+
+
+def test_ci_fails_when_the_real_data_are_missing(tmp_path):
+    """.ci/run stops with a message naming ../shared/realdata rather than letting the real-data
+    tests skip (issue 50); with the folder beside the clone it goes on to ``make test``."""
+    clone = tmp_path / "clone"
+    (clone / ".ci").mkdir(parents=True)
+    shutil.copy2(ROOT / ".ci" / "run", clone / ".ci" / "run")
+    (clone / "Makefile").write_text("test:\n\t@echo made-test; exit 3\n")
+    run = subprocess.run(["bash", str(clone / ".ci" / "run")], capture_output=True, text=True)
+    assert run.returncode == 1 and "../shared/realdata is missing" in run.stderr
+    assert "made-test" not in run.stdout
+    (tmp_path / "shared" / "realdata").mkdir(parents=True)
+    run = subprocess.run(["bash", str(clone / ".ci" / "run")], capture_output=True, text=True)
+    assert run.returncode != 0 and "made-test" in run.stdout and "realdata" not in run.stderr

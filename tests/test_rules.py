@@ -106,13 +106,31 @@ def test_estimation_grid_and_q_of_eq19():
     assert sweep.rrmse_on_grid(wl, 1.01 * k, wl, k) == pytest.approx(0.01 / np.sqrt(31))
 
 
-def test_cache_fingerprint_covers_what_a_fit_depends_on(monkeypatch):
-    import inspect
+def test_cache_fingerprint_covers_what_a_fit_depends_on(monkeypatch, tmp_path):
+    """The cached fits' key changes when the model's code, the sweep, the independent renderer,
+    a data table or a library's version changes, and not for a file no fit reads (a tree of
+    the same layout in tmp_path stands for the checkout)."""
+    from importlib import metadata
 
-    src = inspect.getsource(sweep._code_fingerprint)
-    for part in ('"forward", "sca"', "__file__", '"data"', "FINGERPRINT_PACKAGES"):
-        assert part in src
+    files = ["forward/model.py", "sca/fit.py", "experiments/sweep.py",
+             "experiments/independent_world.py", "data/table.csv", "docs/notes.md"]
+    for name in files:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text(name)
+    monkeypatch.setattr(sweep, "__file__", str(tmp_path / "experiments" / "sweep.py"))
+    versions = {}
+    monkeypatch.setattr(metadata, "version", lambda name: versions.get(name, "1.0"))
+    before = sweep._code_fingerprint()
+    for name in files:
+        (tmp_path / name).write_text(name + " changed")
+        assert (sweep._code_fingerprint() != before) == (name != "docs/notes.md"), name
+        (tmp_path / name).write_text(name)
+    assert sweep._code_fingerprint() == before
     assert {"numpy", "cvxpy", "clarabel", "colour-science"} <= set(sweep.FINGERPRINT_PACKAGES)
+    for package in sweep.FINGERPRINT_PACKAGES:
+        versions[package] = "2.0"
+        assert sweep._code_fingerprint() != before, package
+        del versions[package]
     # the estimator's grid is part of the condition, so of the key
     a = sweep.condition(1.0, 0.1, 5.0, 1.0, 0)
     b = sweep.condition(1.0, 0.1, 5.0, 1.0, 0, estimation_step_nm=20.0)

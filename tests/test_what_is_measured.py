@@ -21,6 +21,7 @@ import forward
 import measure
 import sca
 from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.auxiliary import combine_readings, dive_auxiliary, merge_auxiliary, parse_kd
 from measure.camera import read_chart_reflectance
@@ -71,6 +72,32 @@ def test_auxiliary_options_are_parsed_and_bad_ones_named(chart_csv):
         assert code == 2 and word in err, (bad, err)
     assert parse_kd("--kd", "490.5=0.12:0.01") == (490.5, (0.12, 0.01))
 
+
+
+def test_secchi_and_kd_readings_on_the_command_line_narrow_or_conflict(chart_csv):
+    """A right --secchi or --kd (the model's own value at chart_csv's truth) keeps the estimate
+    reliable and narrows C's interval, which still holds the truth; a wrong one (about three
+    times the truth's attenuation) is flagged ``reading-conflict`` and exits 1."""
+    from sca.auxiliary import planned
+
+    truth = planned({"secchi": (1.0, 1.0), "kd": {490.0: (1.0, 0.01)}}, forward.Water(),
+                    {"chl": np.array([1.5]), "cdom": np.array([0.1])})
+    z, kd = float(truth["secchi"][0][0]), float(truth["kd"][490.0][0][0])
+
+    def estimate(*extra):
+        code, out, _ = run(["estimate", chart_csv, "--depth", 3, "--distance", 1, "--json",
+                            *extra])
+        return code, json.loads(out)
+    code, bare = estimate()
+    assert code == 0 and bare["reliable"]
+    for option, right, wrong in (("--secchi", f"{z:.4g}:1", f"{z / 3:.4g}:0.5"),
+                                 ("--kd", f"490={kd:.4g}:0.01", f"490={3 * kd:.4g}:0.02")):
+        code, good = estimate(option, right)
+        assert code == 0 and good["reliable"] and "reading-conflict" not in good["flags"], option
+        assert good["chl_ci"][1] - good["chl_ci"][0] < bare["chl_ci"][1] - bare["chl_ci"][0]
+        assert good["chl_ci"][0] <= 1.5 <= good["chl_ci"][1], option
+        code, bad = estimate(option, wrong)
+        assert code == 1 and not bad["reliable"] and "reading-conflict" in bad["flags"], option
 
 def test_a_measurement_needs_the_patches_noise(tmp_path, chart_csv):
     rows = list(csv.reader(chart_csv.open()))
@@ -403,7 +430,6 @@ def test_a_measured_chart_replaces_the_nominal_in_calibrate_and_measure(tmp_path
 def test_a_dives_metadata_readings_reach_each_photo_and_the_joint_fit(tmp_path, shots):
     import xarray as xr
 
-    pytest.importorskip("measure.joint")
     d = tmp_path / "dive"
     d.mkdir()
     corners = " ".join(f"{x:.2f},{y:.2f}" for x, y in shots["corners"])
