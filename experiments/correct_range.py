@@ -294,6 +294,13 @@ def _table(s, key) -> list:
     return lines
 
 
+def _training_count() -> int:
+    """How many reflectances train the colour matrix (:mod:`measure.correct_matrix`)."""
+    from measure.correct_matrix import training_reflectances
+
+    return len(training_reflectances(np.arange(400.0, 701.0, 10.0))[0])
+
+
 def report(out, command: str, seconds: float, figure: str | None) -> str:
     """CORRECTION.md."""
     from measure.correct import MAX_GAIN
@@ -316,7 +323,8 @@ def report(out, command: str, seconds: float, figure: str | None) -> str:
         f"{seeds} seed(s) per scene (noise and floor). Each frame corrected by "
         "`measure.correct_image` with the range map (cap `max_gain` = "
         f"{MAX_GAIN:g}) with the colour matrix per range (**matrix**, the default; its "
-        "training set, the 29 CIE 1995 / NIST CQS 9.0 test colour samples, asserted disjoint "
+        f"training set, the {_training_count()} CIE 1995 / NIST CQS 9.0 test colour samples, "
+        "asserted disjoint "
         "from the scored chart) and per channel (**diagonal**), both also with the true water "
         "(controls: the measured veil and gain, the true C and a_CDOM); by the paper's "
         "single-distance correction (`measure.correction`); by **white patch** (each channel "
