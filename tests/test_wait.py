@@ -23,7 +23,7 @@ def _loaded(code: str) -> set:
     probe = (f"{code}\nimport sys\n"
              "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                         check=True).stdout.split()
+                         check=True).stdout.splitlines()[-1].split()  # not the code's own output
     return set(out) & set(HEAVY + ("numpy",))
 
 
