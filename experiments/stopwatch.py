@@ -73,20 +73,26 @@ def write_json(path, data) -> None:
 
 
 def record(path, name: str, rec: dict) -> None:
-    """Merge ``rec`` into the JSON file ``path`` under ``name`` (written whole or not at all)."""
+    """Merge ``rec`` into the JSON file ``path`` under ``name`` (written whole or not at all;
+    steps that finish at once, ``make -j2``, take turns by a lock beside the file)."""
+    import fcntl
+
     from .common import commit_of
 
     path = Path(path)
     try:
-        data = json.loads(path.read_text())
-    except (OSError, ValueError):
-        data = {}
-    try:
         rec = dict(rec, commit=commit_of("WORKTREE"))
     except (OSError, subprocess.CalledProcessError):
         rec = dict(rec, commit=None)
-    data[name] = rec
-    write_json(path, data)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path.with_name(path.name + ".lock"), "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, ValueError):
+            data = {}
+        data[name] = rec
+        write_json(path, data)
 
 
 def main(argv=None) -> int:
