@@ -54,9 +54,8 @@ from .model import (
     TINY,
     ChartModel,
     profiled_covariance,
-    u_from_chl,
-    upper_cap,
 )
+from .parameters import default, from_lm, lm_cap, to_lm
 from .pathmodels import candidates, combine_batch, supported
 from .projection import grid_best
 from .derived import derived_from_fit, quantity_names, verdicts_of
@@ -692,17 +691,10 @@ def start_values(prob: ChartProblem, geometry) -> np.ndarray:
     N = prob.size
     theta = np.empty((N, len(prob.names)))
     C0, A0 = start_grid(prob, geometry)
-    for j, name in enumerate(prob.names):
-        if name == "chl":
-            theta[:, j] = u_from_chl(C0, prob.model.e0)
-        elif name == "cdom":
-            theta[:, j] = A0
-        elif name in geometry:
-            theta[:, j] = geometry[name]
-        elif name in CAMERA:
-            theta[:, j] = 0.0
-        else:
-            theta[:, j] = prob.model.default(name)
+    given = {"chl": C0, "cdom": A0, **geometry}
+    water, e0 = prob.model.water, prob.model.e0
+    for j, name in enumerate(prob.names):  # the parameter table's defaults and coordinates
+        theta[:, j] = to_lm(name, given[name] if name in given else default(name, water), e0)
     return theta
 
 
@@ -917,9 +909,7 @@ def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
     codes = np.full((N, p, 2), BOUND_FAILED)
     if intervals and spec.names:
         delta = profile_delta(noise_known, f, dof, np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M))
-        caps = np.array([upper_cap(n, mdl.water) for n in prob.names])
-        if prob.chl_col >= 0:
-            caps[prob.chl_col] = u_from_chl(caps[prob.chl_col], mdl.e0)
+        caps = np.array([lm_cap(n, mdl.water, mdl.e0) for n in prob.names])
         # the intervals of the free names; the nuisances are profiled, not bounded
         ends, codes = profile_intervals(prob, theta, f, delta, H, caps,
                                         which=range(len(spec.names)))
@@ -927,9 +917,8 @@ def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
         # intervals hold their profile points where C or a_CDOM sits at its bound
         upper = {j: np.where(codes[:, j, 1] == BOUND_FOUND, ends[:, j, 1], np.nan)
                  for j, n in enumerate(spec.names) if n in ("chl", "cdom")}
-        if prob.chl_col >= 0:
-            ends[:, prob.chl_col] = np.where(ends[:, prob.chl_col] > 0,
-                                             ends[:, prob.chl_col], 0.0) ** (1.0 / mdl.e0)
+        for j, n in enumerate(spec.names):
+            ends[:, j] = from_lm(n, ends[:, j], mdl.e0)
         ends = np.where(codes == BOUND_OPEN, np.array([-np.inf, np.inf]), ends)
     res["values"] = {n: np.asarray(values[n], float) for n in prob.free}
     res["intervals"] = {n: ends[:, j] for j, n in enumerate(spec.names)}

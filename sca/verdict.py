@@ -31,7 +31,8 @@ from .charts import ChartProblem
 from .consistency import nuisance_pulls, objectives_alone, tested
 from .derived import derived_from_fit, verdict
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
-from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
+from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl
+from .parameters import from_lm, lm_cap
 from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
 from forward.errors import InputError
@@ -312,15 +313,11 @@ def _profile(est, st, dof):
     f, H = ev.f, ev.H
     Mw = st.wt * st.Mv
     delta = profile_delta(st.noise_known, f, np.array([dof]), np.array([Mw @ Mw]))
-    caps = np.array([upper_cap(n, est.water) for n in prob.names])
-    if "chl" in names:
-        caps[names.index("chl")] = u_from_chl(caps[names.index("chl")], st.mdl.e0)
+    caps = np.array([lm_cap(n, est.water, st.mdl.e0) for n in prob.names])
     ends, codes = profile_intervals(prob, theta, f, delta, H, caps, which=range(len(names)))
     out = {}
     for j, n in enumerate(names):
-        lo, hi = ends[0, j]
-        if n == "chl":
-            lo, hi = (max(v, 0.0) ** (1.0 / st.mdl.e0) for v in (lo, hi))
+        lo, hi = from_lm(n, ends[0, j], st.mdl.e0)
         if codes[0, j, 0] == BOUND_OPEN:
             lo = -np.inf
         if codes[0, j, 1] == BOUND_OPEN:
