@@ -30,6 +30,7 @@ import numpy as np
 from forward.water import Water
 
 from .model import CAMERA, TINY, lower_bound
+from .parameters import PARAMETERS
 from .problem import Evaluation, Problem
 from .projection import project
 
@@ -114,7 +115,7 @@ class DiveProblem(Problem):
         return -np.inf if name == PATCH else lower_bound(name, self.water)
 
     def power(self, name: str) -> float:
-        return self.models[0].e0 if name == "chl" else 0.0
+        return self.models[0].e0 if name != PATCH and PARAMETERS[name].power else 0.0
 
     @property
     def size(self) -> int:
