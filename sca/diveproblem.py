@@ -57,7 +57,9 @@ class DiveProblem(Problem):
     groups : array_like of int, (N,)
         Each photo's (C, a_CDOM) group, 0 .. G - 1.
     shared : sequence of str
-        The shared nuisance names with priors (Water constants, 'balance', 'camera_shift').
+        The names shared by every photo besides C and a_CDOM: the budget's nuisances (Water
+        constants, 'balance', 'camera_shift') and the Water constants estimated freely (a 0
+        weight in ``prior_weight``).
     depth, distance : ndarray, (N,)
         Each photo's geometry, m (the priors' centres).
     free_depth, free_distance : ndarray of bool, (N,)

@@ -7,7 +7,9 @@ rho = ``patch_correlation``; the independent remainder sqrt(1 - rho) x ``patch``
 value's own noise). Each photo keeps its own exposure gain, veiling light, geometry (depth and
 distance with their priors) and light field. The problem is the inference layer's dive layout
 (:class:`sca.diveproblem.DiveProblem`): fitted by the one Levenberg-Marquardt (:mod:`sca.lm`;
-C in u = C^e0), its 95 % profile-likelihood intervals of C and a_CDOM by :mod:`sca.intervals`,
+C in u = C^e0), its 95 % profile-likelihood intervals of C and a_CDOM by :mod:`sca.intervals`
+(and of the Water constants named in ``free=``: unknowns shared by the photos, without a prior;
+each parameter's coordinate, cap and default from :mod:`sca.parameters`),
 its covariance and Cramér-Rao bound by :func:`sca.model.covariance`, as every estimator's; path
 models are compared as in :mod:`sca.pathmodels`.
 
@@ -101,8 +103,8 @@ class JointEstimate:
         No blocking flag (:data:`JOINT_BLOCKING`).
     flags : tuple of str
         'misfit', 'not-converged', 'unbounded-chl', 'unbounded-cdom', 'heterogeneous',
-        'reading-conflict', 'nuisance-pulled' (:mod:`sca.consistency`), 'path-model-span'
-        (information).
+        'reading-conflict', 'nuisance-pulled' (:mod:`sca.consistency`), 'path-model-span' and
+        'unbounded-NAME' of a constant of ``free=`` (information).
     chi2, dof, chi2_p : float, int, float
         Goodness of fit of the joint model (priors' terms included in chi2).
     heterogeneity : dict
@@ -113,7 +115,8 @@ class JointEstimate:
     photos : dict
         Per photo (keyed by name): 'gain', 'backscatter', 'depth', 'distance' at the fit.
     nuisance : dict
-        The shared nuisances at the fit.
+        The shared nuisances (with a prior) at the fit; a constant of ``free=`` is in
+        ``values``.
     uncertain : dict
         The budget used (name -> sd).
     notes : list of str
@@ -259,15 +262,9 @@ def _dof(prob: DiveProblem, theta) -> int:
     (``free=``), gains and active veiling lights (a prior adds one term and one parameter)."""
     s = evaluate(prob, np.zeros(1, np.int64), theta[None], False).extras["s"][0]
     n_groups = int(prob.groups.max()) + 1
-    n_free = int(np.count_nonzero(prob.prior_weight[0, _shared_cols(prob)] == 0))
+    n_free = len(_estimated(prob)) - 2
     return int(np.count_nonzero(prob.W2)) - 2 * n_groups - n_free - prob.M.shape[0] - int(
         np.count_nonzero(s > 0))
-
-
-def _shared_cols(prob: DiveProblem):
-    """The columns of the shared nuisances and unknowns (every name of ``prob.shared``)."""
-    return np.concatenate([prob.layout[k] for k in prob.shared]).astype(int) if prob.shared \
-        else np.zeros(0, int)
 
 
 def _estimated(prob: DiveProblem) -> tuple:
