@@ -22,6 +22,7 @@ _HOME = {
     "PATH_MODEL_DELTA": "pathmodels",
     "FIXABLE": "fitspec", "FREEABLE": "fitspec",
     "MODES": "loop", "Estimator": "loop", "estimate": "loop",
+    "JointEstimate": "joint", "estimate_joint": "joint",
     "estimate_least_squares": "lsq",
     "RRMSE_BANDS_NM": "metrics", "rrmse": "metrics", "rrmse_bands": "metrics",
     "CHL_DERIVATIVE_FLOOR": "model", "PARAMS": "model", "ChartModel": "model",

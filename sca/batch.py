@@ -55,9 +55,8 @@ from .model import (
     TINY,
     ChartModel,
     profiled_covariance,
-    u_from_chl,
-    upper_cap,
 )
+from .parameters import default, lm_cap, to_lm
 from .pathmodels import candidates, combine_batch, supported
 from .projection import grid_best
 from .derived import derived_from_fit, quantity_names, verdicts_of
@@ -688,19 +687,13 @@ def start_values(prob: ChartProblem, geometry) -> np.ndarray:
     N = prob.size
     theta = np.empty((N, len(prob.names)))
     C0, A0 = start_grid(prob, geometry)
-    for j, name in enumerate(prob.names):
-        if name == "chl":
-            theta[:, j] = u_from_chl(C0, prob.model.e0)
-        elif name == "cdom":
-            theta[:, j] = A0
-        elif name in geometry:
-            theta[:, j] = geometry[name]
-        elif prob.prior_mean is not None and np.any(prob.prior_weight[:, j] > 0):
+    given = {"chl": C0, "cdom": A0, **geometry}
+    water, e0 = prob.model.water, prob.model.e0
+    for j, name in enumerate(prob.names):  # the parameter table's defaults and coordinates
+        if name not in given and prob.prior_mean is not None and np.any(prob.prior_weight[:, j] > 0):
             theta[:, j] = prob.prior_mean[:, j]  # a nuisance at its prior's centre
-        elif name in CAMERA:
-            theta[:, j] = 0.0
         else:
-            theta[:, j] = prob.model.default(name)
+            theta[:, j] = to_lm(name, given[name] if name in given else default(name, water), e0)
     return theta
 
 
@@ -915,9 +908,7 @@ def _assess_chunk(prob, spec, mdl, geometry, theta, f, it, code, intervals, sig,
     codes = np.full((N, p, 2), BOUND_FAILED)
     if intervals and spec.names:
         delta = profile_delta(noise_known, f, dof, np.einsum("ij,ij->i", prob.W2 * prob.M, prob.M))
-        caps = np.array([upper_cap(n, mdl.water) for n in prob.names])
-        if prob.chl_col >= 0:
-            caps[prob.chl_col] = u_from_chl(caps[prob.chl_col], mdl.e0)
+        caps = np.array([lm_cap(n, mdl.water, mdl.e0) for n in prob.names])
         # the intervals of the free names; the nuisances are profiled, not bounded
         ends, codes = profile_intervals(prob, theta, f, delta, H, caps,
                                         which=range(len(spec.names)))

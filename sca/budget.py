@@ -37,10 +37,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from forward.water import COEFFICIENT_PARAMS, Water
+from forward.water import Water
 
 from .budget_defaults import BUDGET_SOURCES, DEFAULT_UNCERTAIN, REAL_WATER_UNCERTAIN
 from .model import covariance
+from .parameters import PARAMETERS
 from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
@@ -50,8 +51,9 @@ __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTR
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
 # plain data in sca.budget_defaults, re-exported here.
 
-#: Names that are nuisance parameters with a Gaussian prior.
-NUISANCE = ("depth", "distance", "balance", "camera_shift", "daylight") + COEFFICIENT_PARAMS
+#: Names that are nuisance parameters with a Gaussian prior (the parameter table's rows with a
+#: budget entry: the geometry, the camera, the light and every Water constant).
+NUISANCE = tuple(p.prior for p in PARAMETERS.values() if p.prior)
 #: Names that enter the noise of every patch (relative sd).
 SYSTEMATIC = ("patch",)
 

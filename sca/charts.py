@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .model import TINY, ChartModel, lower_bound
+from .parameters import PARAMETERS
 from .problem import Evaluation, Problem
 from .projection import project
 
@@ -82,7 +83,7 @@ class ChartProblem(Problem):
         return lower_bound(name, self.model.water)
 
     def power(self, name: str) -> float:
-        return self.model.e0 if name == "chl" else 0.0
+        return self.model.e0 if PARAMETERS[name].power else 0.0
 
     @property
     def size(self) -> int:

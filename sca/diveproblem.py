@@ -30,6 +30,7 @@ import numpy as np
 from forward.water import Water
 
 from .model import CAMERA, TINY, lower_bound
+from .parameters import PARAMETERS
 from .problem import Evaluation, Problem
 from .projection import project
 
@@ -56,7 +57,9 @@ class DiveProblem(Problem):
     groups : array_like of int, (N,)
         Each photo's (C, a_CDOM) group, 0 .. G - 1.
     shared : sequence of str
-        The shared nuisance names with priors (Water constants, 'balance', 'camera_shift').
+        The names shared by every photo besides C and a_CDOM: the budget's nuisances (Water
+        constants, 'balance', 'camera_shift') and the Water constants estimated freely (a 0
+        weight in ``prior_weight``).
     depth, distance : ndarray, (N,)
         Each photo's geometry, m (the priors' centres).
     free_depth, free_distance : ndarray of bool, (N,)
@@ -114,7 +117,7 @@ class DiveProblem(Problem):
         return -np.inf if name == PATCH else lower_bound(name, self.water)
 
     def power(self, name: str) -> float:
-        return self.models[0].e0 if name == "chl" else 0.0
+        return self.models[0].e0 if name != PATCH and PARAMETERS[name].power else 0.0
 
     @property
     def size(self) -> int:

@@ -7,7 +7,9 @@ rho = ``patch_correlation``; the independent remainder sqrt(1 - rho) x ``patch``
 value's own noise). Each photo keeps its own exposure gain, veiling light, geometry (depth and
 distance with their priors) and light field. The problem is the inference layer's dive layout
 (:class:`sca.diveproblem.DiveProblem`): fitted by the one Levenberg-Marquardt (:mod:`sca.lm`;
-C in u = C^e0), its 95 % profile-likelihood intervals of C and a_CDOM by :mod:`sca.intervals`,
+C in u = C^e0), its 95 % profile-likelihood intervals of C and a_CDOM by :mod:`sca.intervals`
+(and of the Water constants named in ``free=``: unknowns shared by the photos, without a prior;
+each parameter's coordinate, cap and default from :mod:`sca.parameters`),
 its covariance and Cramér-Rao bound by :func:`sca.model.covariance`, as every estimator's; path
 models are compared as in :mod:`sca.pathmodels`.
 
@@ -46,9 +48,10 @@ from .derived import derived_from_fit, is_optical_depth, quantity_sd, verdict
 from .diveproblem import PATCH, DiveProblem
 from .intervals import BOUND_FAILED, own_units, profile_intervals
 from .lm import LM_TOL, evaluate, levenberg_marquardt
-from .model import CAMERA, ChartModel, covariance_from_information, upper_cap
+from .model import CAMERA, ChartModel, check_names, covariance_from_information
+from .parameters import PARAMETERS, SHARED_FREEABLE, default, from_lm, lm_cap, to_lm
 from .pathmodels import PATH_MODEL_DELTA, SPAN_FLAG, candidates, supported
-from .problem import chl_from_u, du_chain, u_from_chl
+from .problem import du_chain
 from .quadrature import CERTIFY_SIGMA, reduction_error
 from forward.errors import InputError
 
@@ -100,8 +103,8 @@ class JointEstimate:
         No blocking flag (:data:`JOINT_BLOCKING`).
     flags : tuple of str
         'misfit', 'not-converged', 'unbounded-chl', 'unbounded-cdom', 'heterogeneous',
-        'reading-conflict', 'nuisance-pulled' (:mod:`sca.consistency`), 'path-model-span'
-        (information).
+        'reading-conflict', 'nuisance-pulled' (:mod:`sca.consistency`), 'path-model-span' and
+        'unbounded-NAME' of a constant of ``free=`` (information).
     chi2, dof, chi2_p : float, int, float
         Goodness of fit of the joint model (priors' terms included in chi2).
     heterogeneity : dict
@@ -112,7 +115,8 @@ class JointEstimate:
     photos : dict
         Per photo (keyed by name): 'gain', 'backscatter', 'depth', 'distance' at the fit.
     nuisance : dict
-        The shared nuisances at the fit.
+        The shared nuisances (with a prior) at the fit; a constant of ``free=`` is in
+        ``values``.
     uncertain : dict
         The budget used (name -> sd).
     notes : list of str
@@ -157,16 +161,22 @@ class JointEstimate:
     #: {'readings': {name: {'delta_chi2', 'p', 'conflict'}}, 'pulls': {nuisance: pull in its
     #: prior's sds}, 'pull_max', 'conflict_p'}
     consistency: dict = field(default_factory=dict)
+    #: every estimated name ('chl', 'cdom' and the shared unknowns of ``free=``) -> its value
+    #: at the fit, in its units (:data:`sca.parameters.PARAMETERS`)
+    values: dict = field(default_factory=dict)
+    #: name -> (lo, hi) 95 % profile-likelihood interval of each of ``values`` (``inf``: open),
+    #: the union over supported path models (``intervals['chl']`` is ``chl_ci``)
+    intervals: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """joint.json's content (plain numbers; ``inf`` for open interval ends)."""
         d = dataclasses.asdict(self)
         d["chl_ci"], d["cdom_ci"] = list(self.chl_ci), list(self.cdom_ci)
+        d["intervals"] = {k: list(v) for k, v in self.intervals.items()}
         d["flags"] = list(self.flags)
         d["n_photos"] = len(self.photos)
-        d["units"] = {"chl": "mg m^-3", "cdom": "m^-1 at 440 nm", "depth": "m",
-                      "distance": "m", "gain": "data units per model unit",
-                      "backscatter": "data units"}
+        d["units"] = {k: PARAMETERS[k].units for k in ("chl", "cdom", "depth", "distance", "gain",
+                                                       "backscatter", *self.values)}
         return d
 
 
@@ -186,6 +196,7 @@ class _Dive:
     geo_sd: dict  # 'depth', 'distance' -> (N,) sd (0: held)
     patch_shared: float  # sd of the chart's per-patch error shared by the photos (relative)
     auxiliary: dict | None = None  # the user's auxiliary measurements (sca.auxiliary)
+    free: tuple = ()  # Water constants estimated as shared unknowns without a prior
 
 
 def _problem(d: _Dive, groups) -> DiveProblem:
@@ -193,10 +204,12 @@ def _problem(d: _Dive, groups) -> DiveProblem:
     and auxiliary measurements."""
     N = d.M.shape[0]
     free_geo = {g: d.geo_sd[g] > 0 for g in ("depth", "distance")}
-    prob = DiveProblem(d.models, d.M, d.W2, d.scale, groups, tuple(d.priors), d.depth,
+    prob = DiveProblem(d.models, d.M, d.W2, d.scale, groups, tuple(d.priors) + d.free, d.depth,
                        d.distance, free_geo["depth"], free_geo["distance"], d.patch_shared > 0,
                        None, None, auxiliary_observations(d.auxiliary, d.models[0].water))
     mean, weight = prior_arrays(d.priors, prob.names)
+    for name in d.free:  # no prior (weight 0); the mean is the start (sca.parameters.default)
+        mean[0, prob.layout[name]] = default(name, prob.water)
     for name in ("depth", "distance"):
         cols = prob.layout[name]
         for i in range(N):
@@ -242,28 +255,37 @@ def _certified(prob: DiveProblem, theta, M, sigma, f) -> bool:
 
 
 def _dof(prob: DiveProblem, theta) -> int:
-    """Values measured minus the photos' (C, a_CDOM), gains and active veiling lights (a prior
-    adds one term and one parameter)."""
+    """Values measured minus the photos' (C, a_CDOM), the shared unknowns without a prior
+    (``free=``), gains and active veiling lights (a prior adds one term and one parameter)."""
     s = evaluate(prob, np.zeros(1, np.int64), theta[None], False).extras["s"][0]
     n_groups = int(prob.groups.max()) + 1
-    return int(np.count_nonzero(prob.W2)) - 2 * n_groups - prob.M.shape[0] - int(
+    n_free = len(_estimated(prob)) - 2
+    return int(np.count_nonzero(prob.W2)) - 2 * n_groups - n_free - prob.M.shape[0] - int(
         np.count_nonzero(s > 0))
 
 
+def _estimated(prob: DiveProblem) -> tuple:
+    """The names the dive estimates: 'chl', 'cdom' and the shared unknowns without a prior."""
+    return ("chl", "cdom") + tuple(k for k in prob.shared
+                                   if not np.any(prob.prior_weight[0, prob.layout[k]]))
+
+
 def _intervals(prob: DiveProblem, theta, f_min):
-    """95 % profile-likelihood intervals of C and a_CDOM (group 0) by the one profile method
-    (:func:`sca.intervals.profile_intervals`), and the flags of open or failed ends."""
+    """95 % profile-likelihood intervals of every estimated name (:func:`_estimated`: C and
+    a_CDOM of group 0, the shared unknowns of ``free=``) by the one profile method
+    (:func:`sca.intervals.profile_intervals`), each capped and converted by the parameter
+    table (:mod:`sca.parameters`), and the flags of open or failed ends."""
     e0 = prob.models[0].e0
-    cols = [int(prob.layout["chl"][0]), int(prob.layout["cdom"][0])]
+    names = _estimated(prob)
+    cols = [int(prob.layout[k][0]) for k in names]
     H = evaluate(prob, np.zeros(1, np.int64), theta[None], True).H
     caps = np.full(len(prob.names), np.inf)
-    caps[cols[0]] = u_from_chl(upper_cap("chl", prob.water), e0)
-    caps[cols[1]] = upper_cap("cdom", prob.water)
+    caps[cols] = [lm_cap(k, prob.water, e0) for k in names]
     ends, codes = profile_intervals(prob, theta[None], np.array([f_min]),
                                     np.array([PATH_MODEL_DELTA]), H, caps, which=cols)
     own = own_units(ends, codes, prob.powers)
     out, flags = {}, []
-    for name, j in (("chl", cols[0]), ("cdom", cols[1])):
+    for name, j in zip(names, cols):
         lo, hi = own[0, j]
         if np.any(codes[0, j] == BOUND_FAILED):
             flags.append("not-converged")
@@ -287,7 +309,7 @@ def _derived(prob: DiveProblem, theta, depth, distance, intervals) -> dict:
         hi = intervals[name][1]
         if np.isfinite(hi):
             ends[int(prob.layout[name][0])] = np.array(
-                [u_from_chl(hi, prob.models[0].e0) if name == "chl" else hi])
+                [to_lm(name, hi, prob.models[0].e0)])
     out = derived_from_fit(prob, theta[None], H, prob.water, full.wavelengths,
                            geometry={"depth": np.array([depth]),
                                      "distance": np.array([distance])}, ends=ends)
@@ -295,8 +317,10 @@ def _derived(prob: DiveProblem, theta, depth, distance, intervals) -> dict:
     return out
 
 
-def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_correlation):
-    """(shared priors, geometry sds, shared patch sd, independent patch sd, budget dict)."""
+def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_correlation,
+            free=()):
+    """(shared priors, geometry sds, shared patch sd, independent patch sd, budget dict); the
+    names ``free`` get no prior (estimated), as :func:`sca.budget.resolve_budget`'s."""
     if uncertain is None:
         uncertain = DEFAULT_UNCERTAIN
     if not isinstance(uncertain, dict):
@@ -313,6 +337,8 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
         if np.ndim(centre) or np.ndim(sd):
             raise InputError(f"uncertain[{name!r}]", "a dive has one light: one centre and sd, "
                              "not one per chart")
+        if name in free:
+            continue
         if sd > 0:
             priors[name] = (centre, sd)
     geo = {}
@@ -336,7 +362,7 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
 
 
 def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, patch_indep,
-          reduce: bool = True, auxiliary=None):
+          reduce: bool = True, auxiliary=None, free=()):
     """The photos in scaled units with their weights: each value's own noise and the
     independent per-patch term in the weights (0 where a value is left out); each photo's
     model on the certified quadrature (``reduce``) or its full grid."""
@@ -355,7 +381,7 @@ def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, p
     total = np.sqrt((np.where(ok, sig, 1.0) / scale[:, None]) ** 2 + (patch_indep * Ms) ** 2)
     W2 = np.where(ok, 1.0 / total ** 2, 0.0)
     return _Dive(models, Ms, W2, scale, depth, distance, priors, geo, float(patch_shared),
-                 auxiliary)
+                 auxiliary, tuple(free))
 
 
 def _starts(d: _Dive, prob: DiveProblem, start) -> np.ndarray:
@@ -365,7 +391,7 @@ def _starts(d: _Dive, prob: DiveProblem, start) -> np.ndarray:
     e0 = prob.models[0].e0
     for g in range(int(prob.groups.max()) + 1):
         members = prob.groups == g
-        theta[prob.layout["chl"][g]] = u_from_chl(np.median(start["chl"][members]), e0)
+        theta[prob.layout["chl"][g]] = to_lm("chl", np.median(start["chl"][members]), e0)
         theta[prob.layout["cdom"][g]] = np.median(start["cdom"][members])
     return theta
 
@@ -412,7 +438,7 @@ def _check(M, sigma, depth, distance, setups):
 def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = None,
                    uncertain=None, depth_sd=None, distance_sd=None, names=None,
                    path_models=None, patch_correlation: float = PATCH_CORRELATION,
-                   start=None, auxiliary=None) -> JointEstimate:
+                   start=None, auxiliary=None, free=()) -> JointEstimate:
     """Estimate one water (C, a_CDOM(440)) from N photographs of the chart.
 
     Parameters
@@ -449,6 +475,11 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     auxiliary : dict, optional
         What was measured of this water besides the photos (:func:`sca.auxiliary.
         auxiliary_observations`: 'cdom', 'secchi', 'kd'), fused in the fit.
+    free : sequence of str, optional
+        Water constants (:data:`sca.parameters.SHARED_FREEABLE`, e.g. ``('nap_slope',)``)
+        estimated as unknowns of the dive: one value shared by every photo, started at the
+        water's constant, without the budget's prior (dropped where it has one), reported with
+        its 95 % profile-likelihood interval in ``values`` and ``intervals``. Default none.
 
     Returns
     -------
@@ -460,13 +491,15 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         Naming the argument for bad shapes, lengths, budgets or path models.
     """
     M, sigma, depth, distance, setups = _check(rgb, sigma, depth, distance, setup)
+    free = check_names("free", free, SHARED_FREEABLE)
     N, m, n = M.shape
     water = resolve_water(water)
     names = [f"photo {i + 1}" for i in range(N)] if names is None else [str(x) for x in names]
     if len(names) != N:
         raise InputError("names", f"expected {N} names, got {len(names)}")
     priors, geo, p_shared, p_indep, budget = _budget(uncertain, water, depth, distance,
-                                                     depth_sd, distance_sd, patch_correlation)
+                                                     depth_sd, distance_sd, patch_correlation,
+                                                     free)
     exact = not priors and not np.any(geo["depth"]) and not np.any(geo["distance"]) \
         and p_shared == 0 and p_indep == 0
     models = candidates(path_models, water, not exact)
@@ -478,12 +511,12 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         w = dataclasses.replace(water, path_model=pm)
         groups = np.zeros(N, int) if groups is None else groups
         d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
-                  auxiliary=auxiliary)
+                  auxiliary=auxiliary, free=free)
         prob = _problem(d, groups)
         theta, f, ok = _solve(prob, _starts(d, prob, start) if theta0 is None else theta0)
         if not _certified(prob, theta, M, sigma, f):  # the full grid, from this optimum
             d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
-                      reduce=False, auxiliary=auxiliary)
+                      reduce=False, auxiliary=auxiliary, free=free)
             prob = _problem(d, groups)
             theta, f, ok = _solve(prob, theta)
         return prob, theta, f, ok
@@ -498,7 +531,7 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     best = models[int(best_i[0])]
     prob, theta, f, converged = fits[best]
     flags, notes = [], []
-    cis = {"chl": [np.inf, -np.inf], "cdom": [np.inf, -np.inf]}
+    cis = {k: [np.inf, -np.inf] for k in ("chl", "cdom") + free}
     derived = {}
     for j, pm in enumerate(models):
         if not ok_mask[0, j]:
@@ -556,22 +589,23 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
                       "backscatter": (extras["s"][0, i] * prob.scale[i]).tolist(),
                       "depth": float(p_i["depth"][0]), "distance": float(p_i["distance"][0])}
     nuisance = {k: (theta[prob.layout[k]].tolist() if k in CAMERA
-                    else float(theta[prob.layout[k][0]])) for k in prob.shared}
+                    else float(theta[prob.layout[k][0]])) for k in prob.shared if k not in free}
+    values = {k: float(from_lm(k, theta[prob.layout[k][0]], e0)) for k in cis}
     best_d = derived[best]
     qi = {k: (min(d["quantities"][k][1][0, 0] for d in derived.values()),
               max(d["quantities"][k][1][0, 1] for d in derived.values()))
           for k in best_d["quantities"]}
     c_ci = np.stack([np.min([d["c_ci"][0, :, 0] for d in derived.values()], axis=0),
                      np.max([d["c_ci"][0, :, 1] for d in derived.values()], axis=0)], axis=-1)
-    verdicts = {"chl": verdict(*cis["chl"]), "cdom": verdict(*cis["cdom"]),
+    verdicts = {**{k: verdict(*cis[k], k) for k in ("chl", "cdom")},
                 **{k: verdict(*v, k) for k, v in qi.items()}}
     return JointEstimate(
         quantities={k: float(v[0][0]) for k, v in best_d["quantities"].items()},
         quantity_intervals={k: (float(a), float(b)) for k, (a, b) in qi.items()},
         beam_attenuation=best_d["c"][0].tolist(), beam_attenuation_ci=c_ci.tolist(),
         wavelengths=best_d["wavelengths"].tolist(), verdicts=verdicts,
-        chl=float(chl_from_u(theta[prob.layout["chl"][0]], e0)),
-        cdom=float(theta[prob.layout["cdom"][0]]),
+        chl=values["chl"], cdom=values["cdom"], values=values,
+        intervals={k: tuple(float(v) for v in ci) for k, ci in cis.items()},
         chl_ci=tuple(float(v) for v in cis["chl"]), cdom_ci=tuple(float(v) for v in cis["cdom"]),
         reliable=not any(fl in JOINT_BLOCKING for fl in flags), flags=flags, chi2=float(f),
         dof=int(dof), chi2_p=float(p), heterogeneity=het, path_model=best,
@@ -755,7 +789,7 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     # the covariance of C itself (not u): dC/du on C's row and column
     k, c = int(prob.layout["chl"][0]), int(prob.layout["cdom"][0])
     e0 = prob.models[0].e0
-    at = {"chl": float(chl_from_u(theta[k], e0)), "cdom": float(theta[c])}
+    at = {"chl": float(from_lm("chl", theta[k], e0)), "cdom": float(theta[c])}
     cov = covariance_from_information(H)
     scale = np.ones(H.shape[0])
     scale[k] = float(du_chain(at["chl"], e0))

@@ -29,6 +29,8 @@ import numpy as np
 from forward.imaging import ChartSetup, camera_response
 from forward.water import COEFFICIENT_PARAMS, PATH_LEGS, Water, resolve_water
 
+from .parameters import (BALANCE_MIN, CDOM_MAX, CHL_MAX, CONSTANT_SPAN,  # noqa: F401 - re-exported
+                         LENGTH_MAX, PARAMETERS, default, lower_bound, upper_cap)
 from .problem import TINY, chl_from_u, du_chain, u_from_chl, with_priors  # noqa: F401 - re-exported
 from .projection import linear_part_stats
 from forward.errors import InputError
@@ -69,8 +71,8 @@ LINEAR = ("gain", "backscatter")
 #: (m values each; M = gain diag(1 + beta) (B + sum_c delta_c dB/dlambda_c) k + s 1^T, the
 #: shift to first order): nuisance parameters of the uncertainty budget.
 CAMERA = ("balance", "camera_shift")
-#: Names with one value per camera channel.
-PER_CHANNEL = ("backscatter", "balance", "camera_shift")
+#: Names with one value per camera channel (the parameter table's per-channel rows).
+PER_CHANNEL = tuple(n for n, p in PARAMETERS.items() if p.per_channel)
 #: The surface light's colour: 'daylight', its temperature's change from the given
 #: illuminant's, mired (:class:`forward.daylight.DaylightTilt`): the light at the chart is
 #: i (lambda) r(lambda) k(lambda), r = S_D(T) / S_D(T_ref), normalised so that a white
@@ -85,11 +87,6 @@ PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA + LIGHT
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
 #: cvxpy loop: both are infinite at C = 0 (decision 0024-sca-loop).
 CHL_DERIVATIVE_FLOOR = 1e-6
-#: Profile upper ends beyond these are open (``inf``): C in mg m^-3, a_CDOM(440) in m^-1 (far
-#: beyond natural waters: Mobley 1994 lists C up to ~100, a_CDOM(440) up to ~10), lengths in m.
-CHL_MAX, CDOM_MAX, LENGTH_MAX = 1e4, 1e3, 1e4
-#: A free Water constant's interval is open beyond this many times its default magnitude.
-CONSTANT_SPAN = 1e3
 #: Values (charts x wavelengths) per block of :meth:`ChartModel.predict`: its temporaries
 #: then fit in the cache; at least PREDICT_BLOCK_MIN charts per block.
 PREDICT_BLOCK_VALUES, PREDICT_BLOCK_MIN = 300_000, 256
@@ -97,10 +94,6 @@ PREDICT_BLOCK_VALUES, PREDICT_BLOCK_MIN = 300_000, 256
 PREDICT_THREADS = 8
 #: Largest condition number of the (unit-diagonal) information matrix that is inverted.
 COND_MAX = 1e14
-#: Lower bound of a channel-balance error beta (the channel's sensitivity 1 + beta stays
-#: positive).
-BALANCE_MIN = -0.99
-
 
 def check_names(name: str, names, allowed=PARAMS) -> tuple:
     """``names`` as a tuple of parameter names, or ``ValueError`` naming the argument.
@@ -136,65 +129,6 @@ def check_names(name: str, names, allowed=PARAMS) -> tuple:
     if len(set(names)) != len(names):
         raise InputError(name, f"a parameter is named twice: {names}")
     return names
-
-
-def lower_bound(name: str, water: Water) -> float:
-    """The lower bound of parameter ``name`` in the estimators.
-
-    0 for C, a_CDOM, w (eq 16), s (eq 18), the gain, lengths and the nonnegative (and the
-    positive) Water constants; -inf for the constants of any sign (``Water._ANY_SIGN``: the
-    slopes and spectral exponents).
-
-    Parameters
-    ----------
-    name : str
-        A parameter name (:data:`PARAMS`).
-    water : forward.Water
-        The water model (unused by the rule above; kept for a uniform signature with
-        :func:`upper_cap`).
-
-    Returns
-    -------
-    float
-        0.0 or -inf, in the parameter's own units.
-    """
-    if name in Water._ANY_SIGN or name in ("camera_shift",) + LIGHT:
-        return -np.inf
-    if name == "balance":
-        return BALANCE_MIN
-    return 0.0
-
-
-def upper_cap(name: str, water: Water) -> float:
-    """Where a profile-likelihood interval of ``name`` is called open (its upper end ``inf``).
-
-    For constants of any sign, minus the cap is where the lower end is open.
-
-    Parameters
-    ----------
-    name : str
-        A parameter name (:data:`PARAMS`).
-    water : forward.Water
-        The water model: a Water constant's cap is :data:`CONSTANT_SPAN` times its value
-        there (at least 1e-3 in magnitude).
-
-    Returns
-    -------
-    float
-        :data:`CHL_MAX` (mg m^-3) for 'chl', :data:`CDOM_MAX` (m^-1) for 'cdom',
-        :data:`LENGTH_MAX` (m) for 'depth' and 'distance', ``CONSTANT_SPAN * max(|value|, 1e-3)``
-        for a :data:`forward.water.COEFFICIENT_PARAMS` field (its own units), ``inf`` otherwise
-        ('w', 'gain', 'backscatter').
-    """
-    if name == "chl":
-        return CHL_MAX
-    if name == "cdom":
-        return CDOM_MAX
-    if name in GEOMETRY:
-        return LENGTH_MAX
-    if name in COEFFICIENT_PARAMS:
-        return CONSTANT_SPAN * max(abs(float(getattr(water, name))), 1e-3)
-    return np.inf
 
 
 def _in_pool() -> bool:
@@ -421,15 +355,8 @@ class ChartModel:
     def default(self, name: str):
         """The value a parameter takes when it is not given: the water's constant, gain 1,
         no backscatter."""
-        if name in COEFFICIENT_PARAMS:
-            return float(getattr(self.water, name))
-        if name == "gain":
-            return 1.0
-        if name in PER_CHANNEL:
-            return np.zeros(self.m)
-        if name == "cdom" or name in LIGHT:
-            return 0.0
-        raise InputError("params", f"'{name}' has no default; give its value")
+        value = default(name, self.water)  # the parameter table's (sca.parameters)
+        return np.full(self.m, value) if PARAMETERS[name].per_channel else value
 
     # ------------------------------------------------------------------ the model function
     def predict(self, params: dict, free=(), *, chl_floor: float = 0.0,

@@ -30,7 +30,8 @@ from .charts import ChartProblem
 from .consistency import nuisance_pulls, objectives_alone, tested
 from .derived import derived_from_fit, verdict
 from .lm import LM_TOL, STATUS, evaluate, levenberg_marquardt
-from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl, upper_cap
+from .model import CAMERA, CHL_DERIVATIVE_FLOOR, profiled_covariance, u_from_chl
+from .parameters import lm_cap
 from .quadrature import CERTIFY_SIGMA, reduction_error
 from .results import Estimate
 from forward.errors import InputError
@@ -308,9 +309,7 @@ def _profile(est, st, dof):
     f, H = ev.f, ev.H
     Mw = st.wt * st.Mv
     delta = profile_delta(st.noise_known, f, np.array([dof]), np.array([Mw @ Mw]))
-    caps = np.array([upper_cap(n, est.water) for n in prob.names])
-    if "chl" in names:
-        caps[names.index("chl")] = u_from_chl(caps[names.index("chl")], st.mdl.e0)
+    caps = np.array([lm_cap(n, est.water, st.mdl.e0) for n in prob.names])
     ends, codes = profile_intervals(prob, theta, f, delta, H, caps, which=range(len(names)))
     own = own_units(ends, codes, prob.powers)
     out = {n: (float(own[0, j, 0]), float(own[0, j, 1])) for j, n in enumerate(names)}
