@@ -313,3 +313,28 @@ def test_cli_measures_a_folder(files, corners, tmp_path):
     assert rows[3]["status"] == "not an image"
     assert rows[0]["reliable"] == "True" and rows[2]["error"].startswith("image:")
     assert code == 2 and (tmp_path / "out" / "a_dng" / "measurement.json").exists()
+
+
+def test_calibrate_says_why_a_large_chi2_is_reliable():
+    """`uw3p calibrate` prints the per-patch systematic it measured and the chi^2 with it in
+    the noise (1 pooled, by its definition) beside the photon-noise chi^2 (issue 48)."""
+    from measure.camera import PATCH_SD_MAX
+    from measure.chart import PatchSample
+    from uw3p.cmd_calibrate import profile_text
+
+    setup = forward.chart_setup(channel_gains=TRUE_BALANCE)
+    model = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)
+    rng = np.random.default_rng(4)
+    rgb = 20000 * model / model.max() * (1 + 0.012 * rng.standard_normal(model.shape))
+    sample = PatchSample(rgb=rgb, sigma=np.sqrt(rgb) / 30, n_pixels=np.full((3, 24), 900),
+                         clipped=np.zeros((3, 24)), boxes=np.zeros((24, 4, 2)))
+    prof = measure.calibrate(sample)
+    assert prof.reliable and 0.006 < prof.patch_sd < PATCH_SD_MAX
+    assert min(prof.chi2_dof) > 10  # photon noise alone: far above 1
+    pooled = np.sum(np.multiply(prof.chi2_dof_patch, 23)) / 69
+    assert pooled == pytest.approx(1.0, rel=1e-3)
+    text = profile_text(prof)
+    assert f"per-patch systematic: {100 * prof.patch_sd:.2g} %" in text
+    assert ", ".join(f"{v:.3g}" for v in prof.chi2_dof_patch) + " with that term" in text
+    assert ", ".join(f"{v:.3g}" for v in prof.chi2_dof) + " with photon noise alone" in text
+    assert text.splitlines()[-1].startswith("reliable: True (the per-patch systematic is within")
