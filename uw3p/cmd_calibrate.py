@@ -128,12 +128,12 @@ def profile_text(prof) -> str:
     lines = ["channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains),
              f"per-patch systematic: {100 * prof.patch_sd:.2g} % of each patch beyond photon "
              f"noise (limit {100 * PATCH_SD_MAX:.0f} %: a chart's tolerance and the curves' "
-             "error stay below it); it is in the gains' errors and sets the measurements' per-patch "
-             "term (never below the budget's floor)"]
+             "error stay below it); it is in the gains' errors and sets the measurements' "
+             "per-patch term (never below the budget's floor)"]
     if prof.chi2_dof_patch is not None:
         lines.append(f"chi2/dof per channel: {per_channel(prof.chi2_dof_patch)} with that term "
-                     "in the noise (over the three channels 1 by its definition, below 1 where photon "
-                     "noise explains the residuals); "
+                     "in the noise (over the three channels 1 by its definition, below 1 where "
+                     "photon noise explains the residuals); "
                      f"{per_channel(prof.chi2_dof)} with photon noise alone (large with "
                      "thousands of pixels per patch: it does not decide)")
     lines.append("fit_rms per channel: " + per_channel(prof.fit_rms))
