@@ -2,6 +2,7 @@
 scenes the independent renderer made: ``CORRECTION.md``.
 
     python -m experiments.correct_range [--out CORRECTION.md] [--figure docs/...jpg] [--seeds N]
+    python -m experiments.correct_range --figure-only   # the README's picture alone
 
 Each scene (:func:`experiments.independent_world.render_range_scene`, no code shared with
 ``forward``): a seafloor receding from 0.8 to 9 m at the camera's depth, open water above it,
@@ -49,7 +50,8 @@ from . import independent_world as iw
 from .scene import write_tiff
 
 __all__ = ["BASELINES", "CHARTS", "CAPS", "N_SEEDS", "SCENES", "camera_white", "check_held_out",
-           "evaluate_scene", "grey_world", "main", "report", "run", "white_patch"]
+           "evaluate_scene", "figure_only", "grey_world", "main", "report", "run",
+           "white_patch"]
 
 #: The scenes: (name, C mg m^-3, a_CDOM(440) m^-1, depth m, renderer options)
 SCENES = (
@@ -79,6 +81,14 @@ def _lab(setup, J):
 
     xyz = np.asarray(J, float) @ forward.camera_to_xyz_matrix(setup).T
     return xyz2lab(np.atleast_2d(xyz), illuminant="D65", observer="2", channel_axis=-1)
+
+
+def _exposure(img, setup, near) -> float:
+    """The one number that gives the measured chart's white patch its luminance in air."""
+    import forward
+
+    y_row = forward.camera_to_xyz_matrix(setup)[1]
+    return float(y_row @ near["air"][:, WHITE]) / float(y_row @ _patches(img, near["boxes"])[WHITE])
 
 
 def _patches(img, boxes):
@@ -159,7 +169,6 @@ def _corrections(photo, meas, scene, chl, cdom, caps) -> tuple:
 def evaluate_scene(name, chl, cdom, depth, options, folder: Path, seed: int,
                    figure: Path | None = None, caps=CAPS) -> dict:
     """Render, measure, correct every way, compare; the numbers of one scene and seed."""
-    import forward
     import measure
 
     scene = iw.render_range_scene(chl, cdom, depth, size=SIZE, charts=CHARTS, rng=seed,
@@ -174,12 +183,10 @@ def evaluate_scene(name, chl, cdom, depth, options, folder: Path, seed: int,
     setup = meas.setup
     check_held_out(setup)
     methods, per_cap = _corrections(photo, meas, scene, chl, cdom, caps)
-    y_row = forward.camera_to_xyz_matrix(setup)[1]
-    truth_near = near["air"][:, WHITE]
 
     def scores(img):
         """Per held-out chart: median ΔE00, and with each patch's L* set to the truth's."""
-        k = float(y_row @ truth_near) / float(y_row @ _patches(img, near["boxes"])[WHITE])
+        k = _exposure(img, setup, near)
         de, de_l = [], []
         for ch in scene["charts"][1:]:
             got = _lab(setup, k * _patches(img, ch["boxes"]))
@@ -188,8 +195,11 @@ def evaluate_scene(name, chl, cdom, depth, options, folder: Path, seed: int,
             de_l.append(_median_de(np.column_stack([want[:, 0], got[:, 1:]]), want))
         return de, de_l
     scored = {m: scores(img) for m, img in methods.items()}
-    if figure is not None:
-        _figure(figure, photo, meas, scene, name)
+    if figure is not None:  # as shot (the camera's daylight balance) and the default correction
+        shown = {"as shot, daylight white balance": photo.data,
+                 "uw3p correct": methods["matrix"]}
+        _figure(figure, setup, near, shown, {k: scores(v)[0] for k, v in shown.items()},
+                [c["range"] for c in scene["charts"][1:]])
     e = meas.estimate
     return {"name": name, "chl": chl, "cdom": cdom, "depth": depth, "ranges":
             [c["range"] for c in scene["charts"][1:]],
@@ -208,21 +218,41 @@ def _median_de(a, b) -> float:
     return float(np.median(deltaE_ciede2000(a, b, channel_axis=-1)))
 
 
-def _figure(path: Path, photo, meas, scene, name):
-    """Before / after: the frame as the camera saw it (white-balanced on the near chart's
-    white, as a photographer would) and corrected per pixel, both sRGB."""
-    from PIL import Image
+def _figure(path: Path, setup, near, images: dict, de: dict, ranges) -> None:
+    """Before / after, side by side, and under each its held-out charts' median ΔE00: the
+    frame as the camera saw it, in the calibrated camera's colours (white-balanced for
+    daylight in air), and corrected per pixel (:func:`measure.correct_image`, the default
+    matrix, as ``uw3p correct``), both scaled by one number so that the measured chart's white
+    patch has its luminance in air (as the scores are), sRGB."""
+    from matplotlib import font_manager
+    from PIL import Image, ImageDraw, ImageFont
 
-    import measure
-    from measure.imagefiles import to_8bit
     from measure.output import srgb_preview
 
-    wb = photo.data / _patches(photo.data, scene["charts"][0]["boxes"])[18]
-    before = srgb_preview(wb, meas.setup, white=np.ones(3) * 1.05)
-    after = measure.correct_image(photo, meas, scene["range"], linear=False).srgb
-    after8 = to_8bit(after)
-    gap = np.full((before.shape[0], 8, 3), 255, np.uint8)
-    Image.fromarray(np.hstack([before, gap, after8])).save(path, quality=90)
+    white = camera_white(setup) * 1.05
+    tiles = [srgb_preview(_exposure(img, setup, near) * np.asarray(img, float), setup,
+                          white=white) for img in images.values()]
+    gap = np.full((tiles[0].shape[0], 8, 3), 255, np.uint8)
+    picture = Image.fromarray(np.hstack([tiles[0], gap, tiles[1]]))
+    canvas = Image.new("RGB", (picture.width, picture.height + 44), "white")
+    canvas.paste(picture)
+    font = ImageFont.truetype(font_manager.findfont("DejaVu Sans"), 13)  # it has the Δ
+    draw = ImageDraw.Draw(canvas)
+    at = f"{min(ranges):g}-{max(ranges):g} m"
+    for i, (label, values) in enumerate(de.items()):
+        x = i * (tiles[0].shape[1] + gap.shape[1]) + 6
+        draw.text((x, picture.height + 4), label, fill="black", font=font)
+        draw.text((x, picture.height + 23), f"median ΔE00 per chart at {at}: "
+                  + "  ".join(f"{v:.1f}" for v in values), fill="black", font=font)
+    canvas.save(path, quality=90)
+
+
+def figure_only(path: Path, seed: int = SEED) -> None:
+    """The README's picture alone: the coastal scene of the report's first seed
+    (:func:`run`'s figure), without the report."""
+    name, c, a, d, opt = SCENES[1]
+    with tempfile.TemporaryDirectory(prefix="uw3p-correct-") as tmp:
+        evaluate_scene(name, c, a, d, opt, Path(tmp), seed + 1, path, ())
 
 
 def run(seeds: int = N_SEEDS, seed: int = SEED, figure: Path | None = None) -> list:
@@ -375,10 +405,12 @@ def report(out, command: str, seconds: float, figure: str | None) -> str:
     if figure:
         lines += ["", "## Before and after", "",
                   f"![before / after]({figure})", "",
-                  "The coastal scene: left, the frame white-balanced on the near chart's white "
-                  "(what a photographer's white balance does); right, corrected per pixel "
-                  "(`corrected_srgb.tif`, the matrix method). The open water above the floor has "
-                  "no range and is corrected at the chart's distance."]
+                  "The coastal scene: left, the frame as the camera saw it, in the calibrated "
+                  "camera's colours (white-balanced for daylight in air); right, corrected per "
+                  "pixel (`uw3p correct`, the matrix method); under each, the median ΔE00 of "
+                  "each held-out chart (both scaled so that the measured chart's white has its "
+                  "luminance in air). The open water above the floor has no range and is "
+                  "corrected at the chart's distance."]
     lines.append("")
     return "\n".join(lines)
 
@@ -394,7 +426,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=N_SEEDS,
                     help=f"noise and floor draws per scene (default {N_SEEDS})")
     ap.add_argument("--strict", action="store_true", help="exit 1 when the criterion fails")
+    ap.add_argument("--figure-only", action="store_true",
+                    help="write the before/after picture (--figure) alone, not the report")
     args = ap.parse_args(argv)
+    if args.figure_only:
+        figure_only(Path(args.figure), args.seed)
+        return 0
     t0 = time.perf_counter()
     fig = Path(args.figure) if args.figure else None
     if fig is not None:

@@ -173,7 +173,8 @@ class Profile:
     gains_raw : list of float, (3,)
         The gains in raw units (DN) per model unit of the calibration photo.
     chi2_dof : list of float, (3,)
-        Reduced chi^2 of each channel's fit, dimensionless.
+        Reduced chi^2 of each channel's fit with photon noise alone, dimensionless (thousands
+        of pixels per patch make it large on any real chart; it does not decide).
     fit_rms : list of float, (3,)
         Relative RMS residual of each channel, ||M - g G|| / ||M||.
     reliable : bool
@@ -188,6 +189,9 @@ class Profile:
     patch_sd : float or None
         The per-patch systematic error beyond photon noise, relative (the uncertainty budget's
         ``patch``, :func:`patch_systematic`); None in profiles written before it was estimated.
+    chi2_dof_patch : list of float or None
+        Reduced chi^2 of each channel's fit with ``patch_sd`` in the noise (their pooled value
+        is 1 by the definition of ``patch_sd``); None in profiles written before it.
     chart : str
         The chart the calibration used: '' for the nominal chart, else the SHA-256 of the
         measured chart's file (:func:`read_chart_reflectance`, :func:`chart_digest`).
@@ -206,6 +210,7 @@ class Profile:
     image: str = ""
     version: str = ""
     patch_sd: float | None = None
+    chi2_dof_patch: list | None = None
     chart: str = ""
 
     def to_json(self) -> str:
@@ -457,7 +462,8 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
         exceeds :data:`PATCH_SD_MAX` (the curves or the illuminant do not describe the photo)
         or fewer than :data:`MIN_CALIBRATION_PATCHES` patches remain in a channel. The
         reduced chi^2 of each channel (photon noise only) is recorded; with thousands of
-        pixels per patch it is above 1 for any real chart, and it no longer decides.
+        pixels per patch it is above 1 for any real chart, and it no longer decides; with
+        ``patch_sd`` in the noise it is ``chi2_dof_patch`` (pooled over the channels, 1).
     """
     refl = None if chart_reflectance is None else read_chart_reflectance(chart_reflectance)
     setup = camera_setup(camera, quantal=quantal, illuminant=illuminant, reflectances=refl)
@@ -490,11 +496,14 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
                                 np.concatenate(val_all), dof_all) if resid else float("nan")
     if not patch_sd <= PATCH_SD_MAX:
         flags.append("systematic")
-    for c in range(3):  # the gains' standard errors with the systematic term in the noise
+    chi2_patch = np.full(3, np.nan)
+    for c in range(3):  # the gains' standard errors and chi^2 with the systematic term
         u = use[c]
         if np.isfinite(gains[c]):
             w = 1.0 / (sig[c, u] ** 2 + (patch_sd * M[c, u]) ** 2)
             se[c] = 1.0 / np.sqrt(np.sum(w * G[c, u] ** 2))
+            chi2_patch[c] = float(np.sum(w * (M[c, u] - gains[c] * G[c, u]) ** 2)) / (
+                int(u.sum()) - 1)
     top = np.nanmax(gains)
     name = camera if isinstance(camera, str) else "custom"
     illum = illuminant if isinstance(illuminant, str) else ("D65" if illuminant is None else "custom")
@@ -502,7 +511,7 @@ def calibrate(sample, *, camera=forward.DEFAULT_CAMERA, quantal: bool = False, i
                    gains=(gains / top).tolist(), gains_se=(se / top).tolist(),
                    gains_raw=gains.tolist(), chi2_dof=chi2.tolist(), fit_rms=rms.tolist(),
                    reliable=not flags, flags=flags, image=str(image), version=_version(),
-                   patch_sd=float(patch_sd),
+                   patch_sd=float(patch_sd), chi2_dof_patch=chi2_patch.tolist(),
                    chart="" if chart_reflectance is None else chart_digest(chart_reflectance))
 
 

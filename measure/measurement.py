@@ -25,6 +25,7 @@ from sca.assess import BLOCKING
 from sca.auxiliary import auxiliary_observations
 from sca.budget import parse_sd
 from sca.budget_defaults import MEASURED_CHART_PATCH
+from sca.pathmodels import span_note
 
 from .auxiliary import auxiliary_record
 from .camera import Profile, camera_record, camera_setup, chart_digest, load_profile, read_chart_reflectance
@@ -552,6 +553,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
                      f"with {used}: calibrate with the same --chart-reflectance for a "
                      "consistent balance")
     all_flags = tuple(dict.fromkeys(list(est.flags) + flags))
+    notes += [n for n in (span_note(all_flags, est.path_models),) if n]
     reliable = not any(f in BLOCKING or f in MEASURE_BLOCKING for f in all_flags)
     fitted = _fitted(est, fit_setup, water, depth, distance)
     gains, offset = correction(est, setup, sample.rgb[:, WHITE_PATCH])

@@ -25,13 +25,42 @@ from .derived import verdict, verdicts_of
 from forward.errors import InputError
 
 __all__ = ["PATH_MODEL_DELTA", "SPAN_FLAG", "candidates", "supported", "combine_batch",
-           "combine_single"]
+           "combine_single", "span_note"]
 
 #: Candidates whose objective (chi^2 with the budget's priors) is within this of the best
 #: are supported by the data: chi^2_1(0.95), the rise that bounds the profile intervals.
 PATH_MODEL_DELTA = 3.841458820694124
 #: The flag of an interval that spans several supported path models (information only).
 SPAN_FLAG = "path-model-span"
+
+
+def span_note(flags, path_models) -> str:
+    """What the flag :data:`SPAN_FLAG` means, in words, where ``flags`` hold it ('' where
+    not): the sentence ``uw3p measure`` prints and measurement.json's notes hold (decision
+    0078-path-model-span-explained).
+
+    Parameters
+    ----------
+    flags : iterable of str
+    path_models : iterable of str or dict
+        The supported path models (an estimate's ``path_models``), or every candidate's
+        objective (a joint estimate's ``path_models``: name -> chi^2), of which the supported.
+
+    Returns
+    -------
+    str
+    """
+    if SPAN_FLAG not in tuple(flags):
+        return ""
+    if isinstance(path_models, dict):
+        ok = supported(np.array([list(path_models.values())], float))[1][0]
+        path_models = [m for m, k in zip(path_models, ok) if k]
+    return (f"{SPAN_FLAG}: the path models {' and '.join(path_models)} fit the chart equally "
+            "well, so every 95 % interval spans them (their union); information, not a fault: "
+            "what the photos measure, the path's attenuation c and optical depth tau, is the "
+            "same under each")
+
+
 #: The interval flags a supported model passes on to the combined result.
 _INTERVAL_FLAGS = ("unbounded-chl", "unbounded-cdom", "interval-failed")
 

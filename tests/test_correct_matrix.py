@@ -84,3 +84,27 @@ def test_a_bad_method_is_refused_naming_it(water):
         correction_table(water, method="vonkries")
     with pytest.raises(InputError, match="method"):
         correct_image("missing.dng", water, 2.0, method="matrices")
+
+
+def test_readme_picture_shows_the_frame_as_shot_with_the_daylight_balance(tmp_path):
+    """The README's before/after (experiments.correct_range._figure): 'before' is the camera's
+    own colours (white-balanced for daylight in air), not balanced on the chart underwater, so
+    a blue-green frame stays blue-green while the corrected one shows its own colours."""
+    from PIL import Image
+
+    from experiments.correct_range import _figure
+
+    setup = forward.chart_setup()
+    white = camera_white(setup)
+    tint = white * np.array([0.15, 0.6, 0.5])  # the water took the red
+    shot = np.broadcast_to(tint, (40, 60, 3)).astype(np.float32)
+    near = {"air": np.tile(0.9 * white[:, None], (1, 24)),
+            "boxes": np.tile([0.0, 0.0, 60.0, 40.0], (24, 1))}
+    path = tmp_path / "ba.jpg"
+    _figure(path, setup, near, {"as shot": shot, "corrected": shot / tint * white},
+            {"as shot": [20.0], "corrected": [2.0]}, [1.5])
+    img = np.asarray(Image.open(path).convert("RGB"), float)
+    before, after = img[5:35, 5:55].mean(axis=(0, 1)), img[5:35, 73:123].mean(axis=(0, 1))
+    assert before[1] > before[0] + 60 and before[2] > before[0] + 40  # blue-green as shot
+    assert np.ptp(after) < 15  # the corrected grey is grey
+    assert img.shape[0] == 40 + 44  # the numbers' two lines under the pictures

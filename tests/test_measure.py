@@ -259,7 +259,7 @@ def test_bad_input_is_refused_with_the_argument_named(tmp_path, files, corners):
         measure.load_profile(junk)
 
 
-def test_cli_calibrate_then_measure(files, corners, tmp_path):
+def test_cli_calibrate_then_measure(files, corners, tmp_path, capsys):
     tmp, f = files
     ct = _corner_text(corners)
     prof = tmp_path / "profile.json"
@@ -269,6 +269,11 @@ def test_cli_calibrate_then_measure(files, corners, tmp_path):
                  "--distance", "1.5", "--out", str(out)])
     assert code == 0
     data = json.loads((out / "measurement.json").read_text())
+    printed = capsys.readouterr().out
+    # the flag path-model-span explained under the reliable line and in the notes (issue 48)
+    assert "path-model-span" in data["estimate"]["flags"]
+    assert "\n  path-model-span: the path models " in printed
+    assert any(n.startswith("path-model-span: the path models ") for n in data["notes"])
     for key in ("chl", "cdom", "chl_ci", "cdom_ci", "gain", "transmittance", "wavelengths",
                 "backscatter", "reliable", "flags", "fit_rms", "chi2_dof", "beam_attenuation",
                 "beam_attenuation_ci", "quantities", "quantity_intervals", "verdicts",
@@ -315,3 +320,44 @@ def test_cli_measures_a_folder(files, corners, tmp_path):
     assert rows[3]["status"] == "not an image"
     assert rows[0]["reliable"] == "True" and rows[2]["error"].startswith("image:")
     assert code == 2 and (tmp_path / "out" / "a_dng" / "measurement.json").exists()
+
+
+def test_calibrate_says_why_a_large_chi2_is_reliable():
+    """`uw3p calibrate` prints the per-patch systematic it measured and the chi^2 with it in
+    the noise (1 pooled, by its definition) beside the photon-noise chi^2 (issue 48)."""
+    from measure.camera import PATCH_SD_MAX
+    from measure.chart import PatchSample
+    from uw3p.cmd_calibrate import profile_text
+
+    setup = forward.chart_setup(channel_gains=TRUE_BALANCE)
+    model = setup.sensitivities.T @ (setup.illuminant[:, None] * setup.reflectances)
+    rng = np.random.default_rng(4)
+    rgb = 20000 * model / model.max() * (1 + 0.012 * rng.standard_normal(model.shape))
+    sample = PatchSample(rgb=rgb, sigma=np.sqrt(rgb) / 30, n_pixels=np.full((3, 24), 900),
+                         clipped=np.zeros((3, 24)), boxes=np.zeros((24, 4, 2)))
+    prof = measure.calibrate(sample)
+    assert prof.reliable and 0.006 < prof.patch_sd < PATCH_SD_MAX
+    assert min(prof.chi2_dof) > 10  # photon noise alone: far above 1
+    pooled = np.sum(np.multiply(prof.chi2_dof_patch, 23)) / 69
+    assert pooled == pytest.approx(1.0, rel=1e-3)
+    text = profile_text(prof)
+    assert f"per-patch systematic: {100 * prof.patch_sd:.2g} %" in text
+    assert ", ".join(f"{v:.3g}" for v in prof.chi2_dof_patch) + " with that term" in text
+    assert ", ".join(f"{v:.3g}" for v in prof.chi2_dof) + " with photon noise alone" in text
+    assert text.splitlines()[-1].startswith("reliable: True (the per-patch systematic is within")
+
+
+def test_path_model_span_is_explained_where_it_appears(uw_measured):
+    """The informational flag path-model-span comes with its sentence in the notes, naming the
+    supported path models (decision 0078-path-model-span-explained)."""
+    from sca.assess import BLOCKING
+    from sca.pathmodels import SPAN_FLAG, span_note
+
+    m = uw_measured
+    assert SPAN_FLAG in m.flags and SPAN_FLAG not in BLOCKING and m.reliable
+    note = span_note(m.flags, m.estimate.path_models)
+    assert note in m.notes and " and ".join(m.estimate.path_models) in note
+    assert span_note(("misfit",), ("beam",)) == ""
+    # a joint estimate's candidates with their objectives: the supported ones only
+    joint = span_note([SPAN_FLAG], {"beam": 10.0, "absorption": 12.0, "split": 30.0})
+    assert "beam and absorption fit" in joint and "split" not in joint

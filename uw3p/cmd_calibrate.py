@@ -17,7 +17,7 @@ from forward.errors import InputError
 from .common import (EXIT_NOT_RELIABLE, EXIT_OK, add_chart_option, add_photo_options, camera_note,
                      chart_from_args, check_spectra_args, read_photo, write_file)
 
-__all__ = ["NAME", "BUFFERED", "add_parser", "run"]
+__all__ = ["NAME", "BUFFERED", "add_parser", "profile_text", "run"]
 
 #: The subcommand's name.
 NAME = "calibrate"
@@ -113,9 +113,31 @@ def run(args, out, err) -> int:
                              illuminant=args.illuminant, image=photo.path,
                              chart_reflectance=chart)
     write_file(args.out, prof.to_json(), err)
-    out.write("channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains)
-              + "\nchi2/dof per channel: " + ", ".join(f"{v:.3g}" for v in prof.chi2_dof)
-              + "\nfit_rms per channel: " + ", ".join(f"{v:.3g}" for v in prof.fit_rms)
-              + f"\nreliable: {prof.reliable}" + (f" (flags: {', '.join(prof.flags)})"
-                                                  if prof.flags else "") + "\n")
+    out.write(profile_text(prof))
     return EXIT_OK if prof.reliable else EXIT_NOT_RELIABLE
+
+
+def profile_text(prof) -> str:
+    """What ``uw3p calibrate`` prints of a profile (:class:`measure.Profile`): the gains, the
+    per-patch systematic it measured and the limit that decides ``reliable``, the chi^2 per
+    channel with that term in the noise and with photon noise alone, fit_rms."""
+    from measure.camera import MIN_CALIBRATION_PATCHES, PATCH_SD_MAX
+
+    def per_channel(values):
+        return ", ".join(f"{v:.3g}" for v in values)
+    lines = ["channel gains (largest 1): " + ", ".join(f"{g:.4g}" for g in prof.gains),
+             f"per-patch systematic: {100 * prof.patch_sd:.2g} % of each patch beyond photon "
+             f"noise (limit {100 * PATCH_SD_MAX:.0f} %: a chart's tolerance and the curves' "
+             "error stay below it); it is in the gains' errors and sets the measurements' "
+             "per-patch term (never below the budget's floor)"]
+    if prof.chi2_dof_patch is not None:
+        lines.append(f"chi2/dof per channel: {per_channel(prof.chi2_dof_patch)} with that term "
+                     "in the noise (over the three channels 1 by its definition, below 1 where "
+                     "photon noise explains the residuals); "
+                     f"{per_channel(prof.chi2_dof)} with photon noise alone (large with "
+                     "thousands of pixels per patch: it does not decide)")
+    lines.append("fit_rms per channel: " + per_channel(prof.fit_rms))
+    why = (f"flags: {', '.join(prof.flags)}" if prof.flags else
+           f"the per-patch systematic is within {100 * PATCH_SD_MAX:.0f} % and every channel "
+           f"has {MIN_CALIBRATION_PATCHES} patches or more")
+    return "\n".join(lines) + f"\nreliable: {prof.reliable} ({why})\n"

@@ -169,6 +169,7 @@ def _measure_one(args, image, outdir):
     from measure.auxiliary import auxiliary_record, option_sources
     from measure.output import check_out
     from measure.statements import statements
+    from sca.pathmodels import span_note
 
     check_out(outdir, image, args.overwrite)  # a refusal before the work
     opts = _options(args)
@@ -186,7 +187,8 @@ def _measure_one(args, image, outdir):
            "fit_rms": e.fit_rms, "chi2_dof": e.chi2_dof, "orientation": meas.orientation,
            "reliable": meas.reliable, "flags": " ".join(meas.flags), "written": written,
            "statements": statements(e, "photo", meas.auxiliary_kinds),
-           "daylight": daylight_line(e.uncertain or {})}
+           "daylight": daylight_line(e.uncertain or {}),
+           "span": span_note(meas.flags, e.path_models)}
     return (EXIT_OK if meas.reliable else EXIT_NOT_RELIABLE), row
 
 
@@ -266,6 +268,7 @@ def run(args, out, err) -> int:
               f"orientation      {e['orientation']}\n"
               f"light            {e['daylight']}\n"
               f"reliable         {e['reliable']}" + (f" (flags: {e['flags']})" if e["flags"] else "")
+              + (f"\n  {e['span']}" if e["span"] else "")
               + "\nwhat this photo measures (95 % intervals):\n"
               + "".join(f"  {x}\n" for x in e["statements"])
               + "wrote            " + ", ".join(
@@ -317,6 +320,7 @@ def _measure_folder(args, src, out, err):
 def _joint_line(j) -> str:
     """The joint estimate (:class:`sca.joint.JointEstimate`) on one line."""
     from measure.statements import one_line
+    from sca.pathmodels import span_note
 
     def end(v):  # inf, -inf and nan as Python writes them
         return f"{float(v):.4g}"
@@ -327,4 +331,5 @@ def _joint_line(j) -> str:
             f"what the dive measures: {one_line(j, j.quantities or ())}; reliable {j.reliable}"
             + (f" (flags: {' '.join(j.flags)})" if j.flags else "")
             + ("" if j.heterogeneity["one_water"] else
-               "; not one water: " + (", ".join(j.heterogeneity["disagree"]) or "?")) + "\n")
+               "; not one water: " + (", ".join(j.heterogeneity["disagree"]) or "?")) + "\n"
+            + "".join(f"  {n}\n" for n in (span_note(j.flags, j.path_models),) if n))
