@@ -43,9 +43,10 @@ BEYOND_SD = (3.0, 4.0)
 #: tau = c (depth + distance) at most 0.10 (issue 47).
 DTAU_BANDS = ("443", "490", "555")
 DTAU_TARGET = 0.10
-#: The fits of the reference worlds (row labels).
-WITH_REF, DEFAULT = "with the reference", "default budget"
-REFERENCE_LABELS = (WITH_REF, DEFAULT)
+#: The fits of the reference worlds (row labels): the light and the chart's response measured
+#: in air, the light alone (decision 0069-reference-shot) and the default budget.
+WITH_REF, LIGHT_ONLY, DEFAULT = "with the reference", "the light only", "default budget"
+REFERENCE_LABELS = (WITH_REF, LIGHT_ONLY, DEFAULT)
 #: The renderer's per-chart draws the reference shot shares with the photo underwater.
 SHARED_DRAWS = ("camera_shift_nm", "camera_gains", "reflectance_factors")
 
@@ -140,8 +141,10 @@ def _render(world, cond, rng):
     return h.render_set(world, cond, rng, keep=SHARED_DRAWS)
 
 
-def _water_set(water, n, rng, log, beyond=True):
-    """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
+def _draw_set(water, n, rng):
+    """One water type's charts: (world, conditions, the photos underwater, the reference
+    shots' lights (with the chart's response), seconds spent in air, the seeds of sky-beyond
+    and of the photos)."""
     world = _world()
     cond_seq, air_seq, sky_seq, beyond_seq, uw_seq = rng.bit_generator.seed_seq.spawn(5)
     cond = h._water_conditions(np.random.default_rng(cond_seq), n, water)
@@ -151,12 +154,23 @@ def _water_set(water, n, rng, log, beyond=True):
     rendered = _render(world, cond, _fresh(uw_seq))
     t0 = time.perf_counter()
     lights = _air_shots(world, cond, rendered["drawn"], np.random.default_rng(air_seq))
-    air_s = time.perf_counter() - t0
+    return world, cond, rendered, lights, time.perf_counter() - t0, (beyond_seq, uw_seq)
+
+
+def _light_only(lights) -> list:
+    """The lights without the chart's response (the plain-light reference, decision
+    0069-reference-shot)."""
+    return [dataclasses.replace(lt, factors=None, factors_sd=None) for lt in lights]
+
+
+def _water_set(water, n, rng, log, beyond=True):
+    """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
+    world, cond, rendered, lights, air_s, (beyond_seq, uw_seq) = _draw_set(water, n, rng)
     budgets = with_reference(None, lights, REFERENCE_MINUTES)
-    out = {"reference": {WITH_REF: _summary(h.fit_set(rendered, budgets), cond, rendered,
-                                            "two-sided"),
-                         DEFAULT: _summary(h.fit_set(rendered, None), cond, rendered,
-                                           "two-sided")}}
+    out = {"reference": {
+        label: _summary(h.fit_set(rendered, budget), cond, rendered, "two-sided")
+        for label, budget in ((WITH_REF, budgets), (LIGHT_ONLY, with_reference(
+            None, _light_only(lights), REFERENCE_MINUTES)), (DEFAULT, None))}}
     stated = budgets["daylight"]["sd"]
     out["lights"] = {"sd_fit_median": float(np.median([lt.sd for lt in lights])),
                      "error_median_abs": float(np.median(np.abs(
