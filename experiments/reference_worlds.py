@@ -368,3 +368,40 @@ def holds(ref) -> dict:
     s = ref["pooled"]["reference"][WITH_REF]
     return {f"reference: {dict(h.reported_quantities()).get(k, k)}":
             bool(v["p"] is None or v["p"] >= h.CONSISTENCY_P) for k, v in s["coverage"].items()}
+
+
+# --------------------------------------------------------------------------- the residual term
+#: The per-patch terms tried by :func:`residual_patch` (relative).
+RESIDUAL_GRID = (0.0015, 0.003, 0.006, 0.01, 0.015)
+
+
+def residual_patch(n: int = 10, seed: int = h.SEED, grid=RESIDUAL_GRID) -> dict:
+    """The per-patch term the chart's response measured in air leaves (decision
+    0077-reference-patch-response): the reference world's charts (clear and coastal) fitted
+    with their lights and responses at each per-patch term of ``grid``, the pooled chi^2/dof
+    of each, and the term at which it is 1 (method of moments, interpolated in log-log:
+    chi^2 falls as the term grows), with the light alone for comparison.
+
+    Returns
+    -------
+    dict
+        'grid', 'chi2_dof' {label: [pooled chi^2/dof per term]}, 'patch' {label: the term at
+        chi^2/dof = 1 (NaN outside the grid)}, 'n', 'seed'.
+    """
+    streams = np.random.default_rng([seed, 47, 2]).spawn(len(h.C_WATERS))
+    sets = [_draw_set(w, n, rng) for w, rng in zip(h.C_WATERS, streams)]
+    chi2 = {}
+    for label, strip in ((WITH_REF, False), (LIGHT_ONLY, True)):
+        chi2[label] = []
+        for p in grid:
+            num = den = 0.0
+            for _, _, rendered, lights, _, _ in sets:
+                budget = with_reference(None, _light_only(lights) if strip else lights)
+                est = h.fit_set(rendered, budget | {"patch": p})
+                num += float(np.nansum(est.chi2_dof * est.dof))
+                den += float(np.sum(est.dof))
+            chi2[label].append(num / den)
+    x = np.log(np.asarray(grid, float))
+    patch = {k: float(np.exp(np.interp(0.0, -np.log(v), x, left=np.nan, right=np.nan)))
+             for k, v in chi2.items()}
+    return {"grid": list(grid), "chi2_dof": chi2, "patch": patch, "n": n, "seed": seed}

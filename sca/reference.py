@@ -60,7 +60,7 @@ CAMERA_PRIORS = ("balance", "camera_shift")
 #: filtering changes (measured on the independent renderer: decision
 #: 0077-reference-patch-response). The shot's own photon noise adds to it
 #: (:meth:`Light.patch_sd`).
-REFERENCE_PATCH = 0.003
+REFERENCE_PATCH = 0.002
 
 
 def sky_sd(minutes) -> float:
