@@ -284,7 +284,7 @@ def _response_entries(base, lights) -> dict:
         return {}
     f = np.array([lt.factors for lt in lights])
     patch = max(lt.patch_sd() for lt in lights)
-    return {"response": f[0] if len(lights) == 1 else f,
+    return {"response": (f[0] if len(lights) == 1 else f).tolist(),  # plain numbers: recorded
             "patch": min(patch, float(parse_sd("patch", base.get("patch", patch))))}
 
 
