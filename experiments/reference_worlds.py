@@ -43,9 +43,10 @@ BEYOND_SD = (3.0, 4.0)
 #: tau = c (depth + distance) at most 0.10 (issue 47).
 DTAU_BANDS = ("443", "490", "555")
 DTAU_TARGET = 0.10
-#: The fits of the reference worlds (row labels).
-WITH_REF, DEFAULT = "with the reference", "default budget"
-REFERENCE_LABELS = (WITH_REF, DEFAULT)
+#: The fits of the reference worlds (row labels): the light and the chart's response measured
+#: in air, the light alone (decision 0069-reference-shot) and the default budget.
+WITH_REF, LIGHT_ONLY, DEFAULT = "with the reference", "the light only", "default budget"
+REFERENCE_LABELS = (WITH_REF, LIGHT_ONLY, DEFAULT)
 #: The renderer's per-chart draws the reference shot shares with the photo underwater.
 SHARED_DRAWS = ("camera_shift_nm", "camera_gains", "reflectance_factors")
 
@@ -140,8 +141,10 @@ def _render(world, cond, rng):
     return h.render_set(world, cond, rng, keep=SHARED_DRAWS)
 
 
-def _water_set(water, n, rng, log, beyond=True):
-    """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
+def _draw_set(water, n, rng):
+    """One water type's charts: (world, conditions, the photos underwater, the reference
+    shots' lights (with the chart's response), seconds spent in air, the seeds of sky-beyond
+    and of the photos)."""
     world = _world()
     cond_seq, air_seq, sky_seq, beyond_seq, uw_seq = rng.bit_generator.seed_seq.spawn(5)
     cond = h._water_conditions(np.random.default_rng(cond_seq), n, water)
@@ -151,12 +154,23 @@ def _water_set(water, n, rng, log, beyond=True):
     rendered = _render(world, cond, _fresh(uw_seq))
     t0 = time.perf_counter()
     lights = _air_shots(world, cond, rendered["drawn"], np.random.default_rng(air_seq))
-    air_s = time.perf_counter() - t0
+    return world, cond, rendered, lights, time.perf_counter() - t0, (beyond_seq, uw_seq)
+
+
+def _light_only(lights) -> list:
+    """The lights without the chart's response (the plain-light reference, decision
+    0069-reference-shot)."""
+    return [dataclasses.replace(lt, factors=None, factors_sd=None) for lt in lights]
+
+
+def _water_set(water, n, rng, log, beyond=True):
+    """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
+    world, cond, rendered, lights, air_s, (beyond_seq, uw_seq) = _draw_set(water, n, rng)
     budgets = with_reference(None, lights, REFERENCE_MINUTES)
-    out = {"reference": {WITH_REF: _summary(h.fit_set(rendered, budgets), cond, rendered,
-                                            "two-sided"),
-                         DEFAULT: _summary(h.fit_set(rendered, None), cond, rendered,
-                                           "two-sided")}}
+    out = {"reference": {
+        label: _summary(h.fit_set(rendered, budget), cond, rendered, "two-sided")
+        for label, budget in ((WITH_REF, budgets), (LIGHT_ONLY, with_reference(
+            None, _light_only(lights), REFERENCE_MINUTES)), (DEFAULT, None))}}
     stated = budgets["daylight"]["sd"]
     out["lights"] = {"sd_fit_median": float(np.median([lt.sd for lt in lights])),
                      "error_median_abs": float(np.median(np.abs(
@@ -354,3 +368,40 @@ def holds(ref) -> dict:
     s = ref["pooled"]["reference"][WITH_REF]
     return {f"reference: {dict(h.reported_quantities()).get(k, k)}":
             bool(v["p"] is None or v["p"] >= h.CONSISTENCY_P) for k, v in s["coverage"].items()}
+
+
+# --------------------------------------------------------------------------- the residual term
+#: The per-patch terms tried by :func:`residual_patch` (relative).
+RESIDUAL_GRID = (0.0015, 0.003, 0.006, 0.01, 0.015)
+
+
+def residual_patch(n: int = 10, seed: int = h.SEED, grid=RESIDUAL_GRID) -> dict:
+    """The per-patch term the chart's response measured in air leaves (decision
+    0079-reference-patch-response): the reference world's charts (clear and coastal) fitted
+    with their lights and responses at each per-patch term of ``grid``, the pooled chi^2/dof
+    of each, and the term at which it is 1 (method of moments, interpolated in log-log:
+    chi^2 falls as the term grows), with the light alone for comparison.
+
+    Returns
+    -------
+    dict
+        'grid', 'chi2_dof' {label: [pooled chi^2/dof per term]}, 'patch' {label: the term at
+        chi^2/dof = 1 (NaN outside the grid)}, 'n', 'seed'.
+    """
+    streams = np.random.default_rng([seed, 47, 2]).spawn(len(h.C_WATERS))
+    sets = [_draw_set(w, n, rng) for w, rng in zip(h.C_WATERS, streams)]
+    chi2 = {}
+    for label, strip in ((WITH_REF, False), (LIGHT_ONLY, True)):
+        chi2[label] = []
+        for p in grid:
+            num = den = 0.0
+            for _, _, rendered, lights, _, _ in sets:
+                budget = with_reference(None, _light_only(lights) if strip else lights)
+                est = h.fit_set(rendered, budget | {"patch": p})
+                num += float(np.nansum(est.chi2_dof * est.dof))
+                den += float(np.sum(est.dof))
+            chi2[label].append(num / den)
+    x = np.log(np.asarray(grid, float))
+    patch = {k: float(np.exp(np.interp(0.0, -np.log(v), x, left=np.nan, right=np.nan)))
+             for k, v in chi2.items()}
+    return {"grid": list(grid), "chi2_dof": chi2, "patch": patch, "n": n, "seed": seed}

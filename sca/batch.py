@@ -494,8 +494,6 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
     if sig is None or budget.exact:
         budget = None  # the paper's exact model (or no noise to weigh a budget against)
 
-    def rows(a, i):
-        return None if a is None else a[i:i + CHUNK]
     obs = [o.rows(np.arange(N)) for o in auxiliary_observations(auxiliary, spec.water)]
     for o in obs:
         o.value, o.sd = np.broadcast_to(o.value, (N,)), np.broadcast_to(o.sd, (N,))
@@ -507,14 +505,21 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         geometry = {k: v[subset] for k, v in geometry.items()}
         budget = None if budget is None else budget.rows(subset)
         obs = [o.rows(subset) for o in obs]
-    parts = [_solve_certified(mdl, spec, M[i:i + CHUNK], rows(sig, i),
-                              {k: v[i:i + CHUNK] for k, v in geometry.items()},
-                              scale[i:i + CHUNK], int(max_iter), tol, bool(intervals),
-                              None if budget is None else budget.rows(slice(i, i + CHUNK)),
-                              quadrature == "reduced",
-                              [o.rows(slice(i, i + CHUNK)) for o in obs],
-                              None if plan is None else plan.rows(slice(i, i + CHUNK)))
-             for i in range(0, N, CHUNK)] or [_empty(mdl, spec)]
+    # charts with their own measured response (a reference shot each) are fitted one by one,
+    # each with its own model (sca.budget.Budget.model)
+    step = 1 if budget is not None and budget.per_chart else CHUNK
+
+    def rows(a, i):
+        return None if a is None else a[i:i + step]
+
+    def part(i):
+        sub = None if budget is None else budget.rows(slice(i, i + step))
+        return _solve_certified(mdl if sub is None else sub.model(mdl), spec, M[i:i + step],
+                                rows(sig, i), {k: v[i:i + step] for k, v in geometry.items()},
+                                scale[i:i + step], int(max_iter), tol, bool(intervals), sub,
+                                quadrature == "reduced", [o.rows(slice(i, i + step)) for o in obs],
+                                None if plan is None else plan.rows(slice(i, i + step)))
+    parts = [part(i) for i in range(0, N, step)] or [_empty(mdl, spec)]
     if plan is not None and plan.fit_only:
         return _first_pass(parts, 1.0 if sig is not None else scale ** 2)
     out = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]

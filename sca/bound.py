@@ -287,6 +287,7 @@ def precision(chl, cdom, *, depth, distance, camera=DEFAULT_CAMERA, illuminant=N
         names.insert(0, "chl")
     budget = resolve_budget(uncertain, depth=depth, distance=distance, water=spec.water,
                             free=names, fixed=tuple(fix))
+    mdl = budget.model(mdl)  # a reference shot's measured response
     extra = [nm for nm in budget.priors if nm not in names]
     params = {"chl": chl, "cdom": cdom, "depth": depth, "distance": distance}
     pred = mdl.predict(params, names + extra, chl_floor=CHL_DERIVATIVE_FLOOR)

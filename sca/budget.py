@@ -18,7 +18,13 @@ estimator, :func:`sca.precision` and ``measure``) is a dict name -> standard dev
   (:func:`sca.reference.reference_prior`) enters every estimator this way (:func:`prior_of`);
 * **per-patch systematic terms** (``patch``, relative): chart reflectance tolerance and
   ageing, camera-curve error and the illuminant, independent from patch to patch. They enter the
-  noise: sigma_total^2 = sigma^2 + (patch x M)^2.
+  noise: sigma_total^2 = sigma^2 + (patch x M)^2;
+* **the chart's response measured in air** (``response``, :data:`MEASURED`): one factor per
+  (channel, patch), (m, n), or one set per chart of a batch, (N, m, n), measured by a reference
+  shot (:func:`sca.reference.patch_response`); every estimator's model multiplies the direct
+  signal's rows by it (:meth:`sca.ChartModel.with_response`, :meth:`Budget.model`), not the
+  data (the veiling light is additive), and the reference lowers ``patch`` to what the shot
+  cannot see (decision 0079-reference-patch-response).
 
 ``uncertain={}`` is the paper's exact model (the replication figures use it); the default
 (:data:`DEFAULT_UNCERTAIN`) applies wherever real data enter. A budget needs the noise
@@ -45,8 +51,8 @@ from .parameters import PARAMETERS
 from forward.errors import InputError
 
 __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTRED", "NUISANCE",
-           "SYSTEMATIC", "Budget", "prior_arrays", "prior_centre", "prior_of", "resolve_budget",
-           "parse_sd", "variance_shares", "limiting_source"]
+           "SYSTEMATIC", "MEASURED", "Budget", "prior_arrays", "prior_centre", "prior_of",
+           "resolve_budget", "response_rows", "parse_sd", "variance_shares", "limiting_source"]
 
 # DEFAULT_UNCERTAIN (the default budget) and BUDGET_SOURCES (where each entry comes from) are
 # plain data in sca.budget_defaults, re-exported here.
@@ -56,6 +62,8 @@ __all__ = ["DEFAULT_UNCERTAIN", "REAL_WATER_UNCERTAIN", "BUDGET_SOURCES", "CENTR
 NUISANCE = tuple(p.prior for p in PARAMETERS.values() if p.prior)
 #: Names that enter the noise of every patch (relative sd).
 SYSTEMATIC = ("patch",)
+#: Names of measured factors of the model (:meth:`Budget.model`).
+MEASURED = ("response",)
 
 
 @dataclass(frozen=True)
@@ -71,16 +79,36 @@ class Budget:
         'balance': mean 0).
     patch : float
         Relative per-patch systematic sd (0: none).
+    response : ndarray, (1 or N, m n), or None
+        The chart's response measured in air (``uncertain['response']``): one factor per
+        (channel, patch) row of the model, for every chart or one set per chart.
     """
 
     sd: dict
     priors: dict
     patch: float
+    response: np.ndarray | None = None
 
     @property
     def exact(self) -> bool:
         """True for the paper's exact model (nothing uncertain)."""
-        return not self.priors and self.patch == 0.0
+        return not self.priors and self.patch == 0.0 and self.response is None
+
+    @property
+    def per_chart(self) -> bool:
+        """True where the charts have their own measured responses (a model per chart)."""
+        return self.response is not None and len(self.response) > 1
+
+    def model(self, mdl):
+        """``mdl`` (:class:`sca.ChartModel`) with the measured response
+        (:meth:`sca.ChartModel.with_response`); ``mdl`` itself without one. One chart's (or
+        every chart's) response: :meth:`rows` of one chart first where each has its own."""
+        if self.response is None:
+            return mdl
+        if self.per_chart:
+            raise InputError("uncertain['response']", "one response per chart: a model is "
+                             "built for one chart at a time")
+        return mdl.with_response(self.response[0])
 
     def noise_sd(self, M, sigma):
         """sqrt(sigma^2 + (patch M)^2): the noise with the per-patch systematic term (data
@@ -90,13 +118,15 @@ class Budget:
     def rows(self, sl) -> "Budget":
         """The budget of the charts ``sl`` (a slice or index array)."""
         return Budget(self.sd, {k: (mu[sl], sd[sl]) for k, (mu, sd) in self.priors.items()},
-                      self.patch)
+                      self.patch, self.response if not self.per_chart else self.response[sl])
 
     def to_dict(self) -> dict:
         """The budget as plain numbers: the sd given for every name and its source (a measured
         prior's own record: its centre, sd and source)."""
         return {k: {a: np.asarray(b).tolist() if isinstance(b, np.ndarray) else b
                     for a, b in v.items()} if isinstance(v, dict) else
+                {"factors": np.asarray(v).tolist(), "source": "measured by a reference shot"}
+                if k in MEASURED else
                 {"sd": v, "source": BUDGET_SOURCES.get(k, "given")} for k, v in self.sd.items()}
 
 
@@ -277,10 +307,10 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
         raise InputError("uncertain", "expected a dict name -> standard deviation, e.g. "
                          f"{{'depth': 0.2}}, or {{}} for the paper's exact model; got "
                          f"{type(uncertain).__name__}")
-    unknown = set(uncertain) - set(NUISANCE) - set(SYSTEMATIC)
+    unknown = set(uncertain) - set(NUISANCE) - set(SYSTEMATIC) - set(MEASURED)
     if unknown:
         raise InputError("uncertain", f"unknown name(s) {sorted(unknown)}; choose from "
-                         f"{tuple(NUISANCE + SYSTEMATIC)}")
+                         f"{tuple(NUISANCE + SYSTEMATIC + MEASURED)}")
     lengths = {"depth": np.atleast_1d(np.asarray(depth, float)),
                "distance": np.atleast_1d(np.asarray(distance, float))}
     measured = [np.size(v[k]) for v in uncertain.values() if isinstance(v, dict)
@@ -293,7 +323,7 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
                              f"({N}), got {sorted(sizes)}")
     priors = {}
     for name, value in uncertain.items():
-        if name in SYSTEMATIC:
+        if name in SYSTEMATIC or name in MEASURED:
             continue
         if name in lengths:
             mean = np.broadcast_to(lengths[name], (N,)).astype(float)
@@ -305,7 +335,26 @@ def resolve_budget(uncertain, *, depth, distance, water: Water, free=(), fixed=(
             continue
         priors[name] = (mean, sd)
     patch = float(parse_sd("patch", uncertain.get("patch", 0.0)))
-    return Budget(dict(uncertain), priors, patch)
+    return Budget(dict(uncertain), priors, patch, response_rows(uncertain.get("response"), N))
+
+
+def response_rows(response, n: int):
+    """``uncertain['response']`` as (1 or ``n``, m n) positive factors; None without one.
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming "uncertain['response']" for values not (m, n) or (``n``, m, n), or not positive.
+    """
+    if response is None:
+        return None
+    f = np.asarray(response, float)
+    if f.ndim == 2:
+        f = f[None]
+    if f.ndim != 3 or f.shape[0] not in (1, n) or not np.all(np.isfinite(f) & (f > 0)):
+        raise InputError("uncertain['response']", f"expected positive factors (m, n), or one "
+                         f"set per chart ({n}, m, n), got shape {f.shape}")
+    return f.reshape(f.shape[0], -1)
 
 
 def variance_shares(J, names, w2_total, w2_photon, active, prior_weight, of=("chl", "cdom")):

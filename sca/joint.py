@@ -40,7 +40,7 @@ from forward.imaging import ChartSetup
 from forward.water import Water, resolve_water
 
 from .assess import BLOCKING, MISFIT_P, goodness
-from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_arrays, prior_of
+from .budget import DEFAULT_UNCERTAIN, NUISANCE, parse_sd, prior_arrays, prior_of, response_rows
 from .budget_defaults import CHART_PATCH
 from .auxiliary import auxiliary_observations, planned
 from .consistency import combined, consistency_records, nuisance_pulls, objectives_alone
@@ -326,12 +326,12 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     if not isinstance(uncertain, dict):
         raise InputError("uncertain", "expected a dict name -> standard deviation, or {} for the "
                          "paper's exact model")
-    bad = set(uncertain) - set(NUISANCE) - {"patch"}
+    bad = set(uncertain) - set(NUISANCE) - {"patch", "response"}
     if bad:
         raise InputError("uncertain", f"unknown name(s) {sorted(bad)}")
     priors = {}
     for name, value in uncertain.items():
-        if name in ("depth", "distance", "patch"):
+        if name in ("depth", "distance", "patch", "response"):
             continue
         centre, sd = prior_of(name, value, water)
         if np.ndim(centre) or np.ndim(sd):
@@ -361,14 +361,23 @@ def _budget(uncertain, water, depth, distance, depth_sd, distance_sd, patch_corr
     return priors, geo, np.sqrt(rho) * patch, np.sqrt(1.0 - rho) * patch, dict(uncertain)
 
 
+def _response(uncertain):
+    """The dive's one chart response measured in air (``uncertain['response']``, (m, n)), or
+    None: one chart and one light for the dive (:func:`sca.budget.response_rows`)."""
+    rows = response_rows((uncertain or {}).get("response"), 1)
+    return None if rows is None else rows[0]
+
+
 def _dive(M, sigma, setups, water, depth, distance, priors, geo, patch_shared, patch_indep,
-          reduce: bool = True, auxiliary=None, free=()):
+          reduce: bool = True, auxiliary=None, free=(), response=None):
     """The photos in scaled units with their weights: each value's own noise and the
     independent per-patch term in the weights (0 where a value is left out); each photo's
-    model on the certified quadrature (``reduce``) or its full grid."""
+    model (times the chart's ``response`` measured in air, where given) on the certified
+    quadrature (``reduce``) or its full grid."""
     N = M.shape[0]
     built = {}
-    models = [built.setdefault(id(s), ChartModel(s, water=water)) for s in setups]
+    models = [built.setdefault(id(s), ChartModel(s, water=water).with_response(response))
+              for s in setups]
     if reduce:
         models = [m.reduced() for m in models]
     Mv = M.reshape(N, -1)
@@ -500,8 +509,9 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
     priors, geo, p_shared, p_indep, budget = _budget(uncertain, water, depth, distance,
                                                      depth_sd, distance_sd, patch_correlation,
                                                      free)
+    response = _response(uncertain)
     exact = not priors and not np.any(geo["depth"]) and not np.any(geo["distance"]) \
-        and p_shared == 0 and p_indep == 0
+        and p_shared == 0 and p_indep == 0 and response is None
     models = candidates(path_models, water, not exact)
     if start is None:
         start = _single_starts(M, sigma, setups, water, depth, distance)
@@ -511,12 +521,12 @@ def estimate_joint(rgb, *, depth, distance, sigma, setup, water: Water | None = 
         w = dataclasses.replace(water, path_model=pm)
         groups = np.zeros(N, int) if groups is None else groups
         d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
-                  auxiliary=auxiliary, free=free)
+                  auxiliary=auxiliary, free=free, response=response)
         prob = _problem(d, groups)
         theta, f, ok = _solve(prob, _starts(d, prob, start) if theta0 is None else theta0)
         if not _certified(prob, theta, M, sigma, f):  # the full grid, from this optimum
             d = _dive(M, sigma, setups, w, depth, distance, priors, geo, p_shared, indep,
-                      reduce=False, auxiliary=auxiliary, free=free)
+                      reduce=False, auxiliary=auxiliary, free=free, response=response)
             prob = _problem(d, groups)
             theta, f, ok = _solve(prob, theta)
         return prob, theta, f, ok
@@ -777,7 +787,7 @@ def dive_precision(chl, cdom, *, depth, distance, sigma, setup, water: Water | N
     fitted = water if path_model in (None, water.path_model) else dataclasses.replace(
         water, path_model=path_model)
     d = _dive(M0, sigma, setups, fitted, depth, distance, priors, geo, p_shared, p_indep,
-              reduce=False, auxiliary=planned(auxiliary, water, {"chl": np.array([chl]),
+              reduce=False, response=_response(uncertain), auxiliary=planned(auxiliary, water, {"chl": np.array([chl]),
                                                                  "cdom": np.array([cdom])}))
     prob = _problem(d, np.zeros(N, int))
     theta = _starts(d, prob, {"chl": np.full(N, float(chl)), "cdom": np.full(N, float(cdom))})

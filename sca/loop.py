@@ -187,6 +187,7 @@ class Estimator:
         #: the uncertainty budget (:mod:`sca.budget`), applied to fits with a known noise
         self.budget = resolve_budget(uncertain, depth=self.depth, distance=self.distance,
                                      water=spec.water, free=spec.names, fixed=tuple(fix or {}))
+        self.model = mdl = self.budget.model(mdl)  # a reference shot's measured response
         self.extras = tuple(n for n in spec.names if n not in ("chl", "cdom"))
         #: the user's auxiliary measurements (:mod:`sca.auxiliary`), fused from the budget's
         #: refinement on (the convex loops fit the photo alone)

@@ -131,6 +131,11 @@ def check_names(name: str, names, allowed=PARAMS) -> tuple:
     return names
 
 
+def _as_rows(factor) -> np.ndarray:
+    """A number, or one factor per (channel, patch) row, as a column (rows, 1) that divides B."""
+    return np.reshape(np.asarray(factor, float), (-1, 1))
+
+
 def _in_pool() -> bool:
     """True in a thread of :func:`_pool` (a block is never split again there)."""
     return threading.current_thread().name.startswith("uw3p-predict")
@@ -269,19 +274,34 @@ class ChartModel:
         #: the factor this model's signals are divided by (:meth:`scaled`)
         self._factor = 1.0
 
-    def scaled(self, factor: float) -> "ChartModel":
-        """A copy whose signals are divided by ``factor`` (the data's scale); shares the rest
-        and keeps a reference to this model (its Dt, when needed, is this model's / factor).
-        It is its own full-grid model: its :meth:`reduced` is this model's, scaled."""
+    def scaled(self, factor) -> "ChartModel":
+        """A copy whose signals are divided by ``factor`` (the data's scale: a number; or one
+        per (channel, patch) row, (m n,)); shares the rest and keeps a reference to this model
+        (its Dt, when needed, is this model's / factor). It is its own full-grid model: its
+        :meth:`reduced` is this model's, scaled."""
         new = copy.copy(self)
-        new.B = self.B / factor
+        new.B = self.B / _as_rows(factor)
         new.Bt = np.ascontiguousarray(new.B.T)
         for name in ("Dt", "BDt", "_reduced"):  # computed for the copy when needed
             new.__dict__.pop(name, None)
         new._dt_source = (self, factor)
         new.full, new.rule = new, None
-        new._factor = self._factor * factor
+        new._factor = self._factor * np.asarray(factor, float)
         return new
+
+    def with_response(self, factors) -> "ChartModel":
+        """A copy whose every (channel, patch) row of the direct signal (B, and the curves'
+        shift D) is times ``factors`` (m, n) or (m n,): the chart's response measured in air by
+        a reference shot (:func:`sca.reference.patch_response`), applied the way a per-patch
+        factor of the quadrature is (decision 0068-quadrature-per-chart-shape); the veiling
+        light is not scaled. ``None``: this model."""
+        if factors is None:
+            return self
+        f = np.asarray(factors, float).reshape(-1)
+        if f.size != self.m * self.n or not np.all(np.isfinite(f) & (f > 0)):
+            raise InputError("uncertain['response']", f"expected {self.m * self.n} positive "
+                             f"factors, one per channel and patch, got {np.shape(factors)}")
+        return self.scaled(1.0 / f)
 
     @functools.cached_property
     def _reduced(self) -> "ChartModel":
@@ -296,9 +316,9 @@ class ChartModel:
         new.wavelengths = self.wavelengths[rule.index]
         new.terms = self.terms.subset(rule.index)
         new.T, new.t440 = new.terms.T, new.terms.t440
-        new.B = rule.B / self._factor
+        new.B = rule.B / _as_rows(self._factor)
         new.Bt = np.ascontiguousarray(new.B.T)
-        new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T / self._factor)
+        new.__dict__["Dt"] = np.ascontiguousarray(rule.D.T / _as_rows(self._factor).T)
         new.__dict__.pop("daylight_tilt", None)
         new.white = rule.white
         new._dt_source = None
@@ -342,7 +362,7 @@ class ChartModel:
         delta) ~ P - delta dP/dlambda. Built on first use (only a camera shift needs it)."""
         if self._dt_source is not None:
             model, factor = self._dt_source
-            return model.Dt / factor
+            return model.Dt / _as_rows(factor).T
         P, i, R = self.setup.sensitivities, self.setup.illuminant, self.setup.reflectances
         return response_matrix(curve_shift_derivative(P, self.wavelengths), i, R)
 

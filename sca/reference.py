@@ -23,6 +23,7 @@ CCT: the default prior). Decision 0069-reference-shot (the sky's change, its num
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,11 +31,12 @@ import numpy as np
 from forward.errors import InputError
 from forward.imaging import ChartSetup
 
+from .budget import parse_sd
 from .budget_defaults import DEFAULT_UNCERTAIN
 
 __all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "CONFLICT_FLAG", "Light", "Bracket",
            "bracket", "conflict_of", "measure_light", "planned", "sky_sd", "with_reference",
-           "PLANNED_FIT_SD", "PER_CHART"]
+           "PLANNED_FIT_SD", "PER_CHART", "REFERENCE_PATCH", "patch_response"]
 
 #: The sky's change reaches the default prior's spread (mired) ...
 SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
@@ -53,6 +55,12 @@ PLANNED_FIT_SD = 2.0
 CONFLICT_FLAG = "reference-conflict"
 #: The nuisances of the camera held to their priors in the fit in air.
 CAMERA_PRIORS = ("balance", "camera_shift")
+#: The per-patch term (relative) that the chart's response measured in air leaves: what the
+#: shot cannot see, the part of the curves' and the spectra's errors that the water's spectral
+#: filtering changes (measured on the independent renderer: decision
+#: 0079-reference-patch-response). The shot's own photon noise adds to it
+#: (:meth:`Light.patch_sd`).
+REFERENCE_PATCH = 0.002
 
 
 def sky_sd(minutes) -> float:
@@ -90,12 +98,20 @@ class Light:
         The illuminant's temperature the shift refers to, K.
     chi2_dof : float
         Reduced chi^2 of the fit (with the per-patch term in the noise).
+    factors : ndarray, (m, n), or None
+        The chart's response measured in air (:func:`patch_response`): each (channel, patch)
+        value over the model's at the measured light, the gain fitted; None where the shot
+        measured the light only (a value clipped or left out).
+    factors_sd : ndarray, (m, n), or None
+        Their relative sds (the shot's photon noise).
     """
 
     centre: float
     sd: float
     reference_cct: float
     chi2_dof: float
+    factors: np.ndarray | None = None
+    factors_sd: np.ndarray | None = None
 
     @property
     def cct(self) -> float:
@@ -104,14 +120,28 @@ class Light:
 
     def to_dict(self) -> dict:
         """Plain numbers (what a profile records)."""
-        return {"centre_mired": self.centre, "sd_mired": self.sd, "cct_K": self.cct,
-                "reference_cct_K": self.reference_cct, "chi2_dof": self.chi2_dof}
+        out = {"centre_mired": self.centre, "sd_mired": self.sd, "cct_K": self.cct,
+               "reference_cct_K": self.reference_cct, "chi2_dof": self.chi2_dof}
+        if self.factors is not None:
+            out |= {"factors": np.asarray(self.factors).tolist(),
+                    "factors_sd": np.asarray(self.factors_sd).tolist()}
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> "Light":
         """The inverse of :meth:`to_dict`."""
+        f, fsd = (None if d.get(k) is None else np.asarray(d[k], float)
+                  for k in ("factors", "factors_sd"))
         return cls(float(d["centre_mired"]), float(d["sd_mired"]), float(d["reference_cct_K"]),
-                   float(d.get("chi2_dof", float("nan"))))
+                   float(d.get("chi2_dof", float("nan"))), f, fsd)
+
+    def patch_sd(self) -> float:
+        """The per-patch term left with this shot's response: :data:`REFERENCE_PATCH` and the
+        rms of the factors' relative sds in quadrature (decision
+        0079-reference-patch-response); NaN without factors."""
+        if self.factors is None:
+            return float("nan")
+        return float(np.hypot(REFERENCE_PATCH, np.sqrt(np.mean(np.square(self.factors_sd)))))
 
     def prior(self, minutes=REFERENCE_MINUTES, source: str = "") -> dict:
         """The budget's measured 'daylight' prior: centre, sd = sqrt(sd_fit^2 + sky_sd^2)
@@ -216,17 +246,46 @@ def with_reference(uncertain, light, minutes=REFERENCE_MINUTES,
     reference's: a :class:`Light`'s (:meth:`Light.prior` at ``minutes``), a
     :class:`Bracket`'s (:meth:`Bracket.prior`, its own times), or a sequence of lights, one per
     chart of a batch (each chart its own prior, one fit of them all); ``uncertain`` as given
-    without a reference or for the paper's exact model ``{}``."""
+    without a reference or for the paper's exact model ``{}``.
+
+    Where the shots measured the chart's response (:attr:`Light.factors`) the budget carries it
+    too: ``'response'`` the factors ((m, n); a bracket's two inverse-variance averaged; one set
+    per chart of a sequence) that every estimator's model applies to the direct signal
+    (:meth:`sca.budget.Budget.model`), and ``'patch'`` lowered to what the shot cannot see
+    (:meth:`Light.patch_sd`; the largest of the charts'; never above the budget's own)."""
     if light is None or uncertain == {}:
         return uncertain
     base = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
     if isinstance(light, Bracket):
-        return base | {"daylight": light.prior(source)}
+        return base | {"daylight": light.prior(source)} | _response_entries(
+            base, [_averaged(light.lights)])
     if isinstance(light, Light):
-        return base | {"daylight": light.prior(minutes, source)}
+        return base | {"daylight": light.prior(minutes, source)} | _response_entries(
+            base, [light])
     each = [lt.prior(minutes, source) for lt in light]
     return base | {"daylight": {k: np.array([e[k] for e in each]) if k in PER_CHART else each[0][k]
-                                for k in each[0]}}
+                                for k in each[0]}} | _response_entries(base, list(light))
+
+
+def _averaged(lights) -> Light:
+    """The shots' factors averaged with inverse-variance weights (their light: the first's;
+    the bracket's prior is :meth:`Bracket.prior`); no factors unless every shot has them."""
+    if any(lt.factors is None for lt in lights):
+        return dataclasses.replace(lights[0], factors=None, factors_sd=None)
+    w = np.array([1.0 / np.square(lt.factors_sd) for lt in lights])
+    f = np.sum(w * np.array([lt.factors for lt in lights]), axis=0) / w.sum(axis=0)
+    return dataclasses.replace(lights[0], factors=f, factors_sd=1.0 / np.sqrt(w.sum(axis=0)))
+
+
+def _response_entries(base, lights) -> dict:
+    """{'response', 'patch'} of the lights' factors (one per chart where there are several);
+    {} unless every light has them."""
+    if not lights or any(lt.factors is None for lt in lights):
+        return {}
+    f = np.array([lt.factors for lt in lights])
+    patch = max(lt.patch_sd() for lt in lights)
+    return {"response": (f[0] if len(lights) == 1 else f).tolist(),  # plain numbers: recorded
+            "patch": min(patch, float(parse_sd("patch", base.get("patch", patch))))}
 
 
 def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None) -> Light:
@@ -309,5 +368,44 @@ def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None
     cov = covariance(J, prior_weight=pw)
     dof = max(1, int(use.sum()) - 2)
     chi2 = float(np.sum((w * (Mv - mdl.predict(params(fit.x), jacobian=False).values[use])) ** 2))
-    return Light(float(fit.x[0]), float(np.sqrt(cov[0, 0])), float(setup.daylight_cct),
-                 chi2 / dof)
+    light = Light(float(fit.x[0]), float(np.sqrt(cov[0, 0])), float(setup.daylight_cct),
+                  chi2 / dof)
+    if not (use.all() and np.all(M > 0)):  # a value clipped or left out: the light only
+        return light
+    f, f_sd = patch_response(M, sig, light, mdl)
+    return dataclasses.replace(light, factors=f, factors_sd=f_sd)
+
+
+def patch_response(rgb, sigma, light: Light, model) -> tuple:
+    """The chart's response measured in air: each value over the model's at the measured
+    light, f = M / (gain G_air) (decision 0079-reference-patch-response).
+
+    G_air is the one model function (:meth:`sca.ChartModel.predict`) at depth = distance = 0,
+    the daylight at ``light.centre`` and the camera as assumed (no balance error nor curve
+    shift); the gain is the weighted least-squares one (weights 1 / sigma^2). f carries what
+    the in-air shot sees of the chart's reflectance error, the camera curves' error at that
+    light and the light's spectrum beyond its colour, all of which multiply the direct signal
+    underwater too.
+
+    Parameters
+    ----------
+    rgb, sigma : array_like, (m, n)
+        The shot's patch values and their standard errors (positive, finite).
+    light : Light
+        The light fitted to them (:func:`measure_light`).
+    model : sca.ChartModel
+        The chart model of the underwater fits' setup.
+
+    Returns
+    -------
+    factors, factors_sd : ndarray, (m, n)
+        f and its relative sd sigma / M (the shot's photon noise; the gain's is negligible).
+    """
+    M = np.asarray(rgb, float).reshape(-1)
+    sig = np.asarray(sigma, float).reshape(-1)
+    G = model.predict({"chl": 0.0, "depth": 0.0, "distance": 0.0, "daylight": light.centre},
+                      jacobian=False).values
+    w2 = 1.0 / sig ** 2
+    gain = float(np.sum(w2 * M * G) / np.sum(w2 * G * G))
+    shape = (model.m, model.n)
+    return (M / (gain * G)).reshape(shape), (sig / np.abs(M)).reshape(shape)
