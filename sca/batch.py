@@ -505,9 +505,7 @@ def _estimate_batch(rgb_stack, *, depth, distance, sigma, saturation, camera, il
         geometry = {k: v[subset] for k, v in geometry.items()}
         budget = None if budget is None else budget.rows(subset)
         obs = [o.rows(subset) for o in obs]
-    # charts with their own measured response (a reference shot each) are fitted one by one,
-    # each with its own model (sca.budget.Budget.model)
-    step = 1 if budget is not None and budget.per_chart else CHUNK
+    step = CHUNK
 
     def rows(a, i):
         return None if a is None else a[i:i + step]
@@ -675,7 +673,7 @@ def make_problem(mdl, spec, M, sig, geometry, scale, budget=None,
         extra = [n for n in budget.priors for _ in range(mdl.m if n in CAMERA else 1)]
         names = names + tuple(extra)
         mean, weight = prior_arrays(budget.priors, names, N)
-    fixed = dict(geometry)
+    fixed = dict(geometry, **({} if budget is None else budget.fixed_params()))
     for k in ("chl", "cdom"):
         if k in spec.fixed:
             fixed[k] = np.full(N, spec.fixed[k])
@@ -740,9 +738,11 @@ def start_grid(prob: ChartProblem, geometry):
         rows = np.flatnonzero(inv == u_idx)
         G = mdl.predict({"chl": C, "cdom": A, "depth": Lu, "distance": 0.0},
                         jacobian=False).signal.reshape(P, m, n)
-        for lo in range(0, rows.size, block):
-            r = rows[lo:lo + block]
-            best[r] = grid_best(M3[r], wc[r], prob.scale[r], G,
+        own = prob.fixed.get("response")  # each chart's measured response: its own grid
+        for lo in range(0, rows.size, 1 if own is not None else block):
+            r = rows[lo:lo + (1 if own is not None else block)]
+            best[r] = grid_best(M3[r], wc[r], prob.scale[r],
+                                G if own is None else G * own[r[0]].reshape(m, n),
                                 None if prob.fixed_s is None else prob.fixed_s[r],
                                 prob.free_gain)
     return C[best].copy(), A[best].copy()
@@ -760,7 +760,7 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
     res = _solve_chunk(small, spec, M, sig, geometry, scale, max_iter, tol, intervals, budget,
                        observations, plan)
     N = M.shape[0]
-    params = _solution_params(res, geometry, spec, scale)
+    params = _solution_params(res, geometry, spec, scale, budget)
     res["quadrature"] = np.zeros(N)
     res["full"] = np.zeros(N, bool)
     if plan is not None and plan.full is not None:  # the second pass: the first's grids
@@ -772,7 +772,7 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
                                 tol, intervals, None if budget is None else budget.rows(bad),
                                 [o.rows(bad) for o in observations], plan.rows(bad))
             _replace_rows(res, redo, bad)
-            params = _solution_params(res, geometry, spec, scale)
+            params = _solution_params(res, geometry, spec, scale, budget)
         res["full"] = plan.full.copy()
         res["k"] = mdl.predict(params, jacobian=False).attenuation
         return res
@@ -793,15 +793,16 @@ def _solve_certified(mdl, spec, M, sig, geometry, scale, max_iter, tol, interval
             _replace_rows(res, redo, bad)
             res["quadrature"][bad] = 0.0
             res["full"][bad] = True
-            params = _solution_params(res, geometry, spec, scale)
+            params = _solution_params(res, geometry, spec, scale, budget)
         if plan is None or not plan.fit_only:
             res["k"] = mdl.predict(params, jacobian=False).attenuation
     return res
 
 
-def _solution_params(res, geometry, spec, scale) -> dict:
-    """The model's parameters at each chart's solution (data units)."""
-    params = dict(geometry)
+def _solution_params(res, geometry, spec, scale, budget=None) -> dict:
+    """The model's parameters at each chart's solution (data units; the charts' own measured
+    responses from ``budget``)."""
+    params = dict(geometry, **({} if budget is None else budget.fixed_params()))
     params.update({k: v for k, v in res["values"].items()})
     for k in ("chl", "cdom"):
         if k in spec.fixed:

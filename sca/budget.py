@@ -96,19 +96,21 @@ class Budget:
 
     @property
     def per_chart(self) -> bool:
-        """True where the charts have their own measured responses (a model per chart)."""
+        """True where the charts have their own measured responses (one per chart)."""
         return self.response is not None and len(self.response) > 1
 
     def model(self, mdl):
         """``mdl`` (:class:`sca.ChartModel`) with the measured response
-        (:meth:`sca.ChartModel.with_response`); ``mdl`` itself without one. One chart's (or
-        every chart's) response: :meth:`rows` of one chart first where each has its own."""
-        if self.response is None:
+        (:meth:`sca.ChartModel.with_response`); ``mdl`` itself without one, or where each
+        chart has its own (they enter the model function as :meth:`fixed_params`)."""
+        if self.response is None or self.per_chart:
             return mdl
-        if self.per_chart:
-            raise InputError("uncertain['response']", "one response per chart: a model is "
-                             "built for one chart at a time")
         return mdl.with_response(self.response[0])
+
+    def fixed_params(self) -> dict:
+        """The model function's inputs the budget fixes chart by chart: 'response' (N, m n)
+        where each chart has its own measured response; {} otherwise."""
+        return {"response": self.response} if self.per_chart else {}
 
     def noise_sd(self, M, sigma):
         """sqrt(sigma^2 + (patch M)^2): the noise with the per-patch systematic term (data

@@ -83,6 +83,9 @@ LIGHT = ("daylight",)
 SPECTRAL = ("chl", "cdom", "w") + COEFFICIENT_PARAMS
 #: Every name the model differentiates by.
 PARAMS = SPECTRAL + GEOMETRY + LINEAR + CAMERA + LIGHT
+#: Inputs of the model function that are never free: the chart's response measured in air,
+#: one factor per (channel, patch) row (:meth:`ChartModel.with_response`).
+PER_ROW = ("response",)
 
 #: Floor of C (mg m^-3) at which the derivatives of C^0.627 and C^0.724 are evaluated by the
 #: cvxpy loop: both are infinite at C = 0 (decision 0024-sca-loop).
@@ -129,6 +132,24 @@ def check_names(name: str, names, allowed=PARAMS) -> tuple:
     if len(set(names)) != len(names):
         raise InputError(name, f"a parameter is named twice: {names}")
     return names
+
+
+def response_factors(factors, rows: int) -> np.ndarray:
+    """The chart's response measured in air as positive factors, one per (channel, patch) row
+    (shape ``... + (rows,)``).
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming "uncertain['response']" for another shape or a factor not finite and positive.
+    """
+    f = np.asarray(factors, float)
+    f = f.reshape(f.shape[:-2] + (-1,)) if f.ndim >= 2 and f.shape[-1] * f.shape[-2] == rows \
+        and f.shape[-1] != rows else f
+    if f.shape[-1:] != (rows,) or not np.all(np.isfinite(f) & (f > 0)):
+        raise InputError("uncertain['response']", f"expected {rows} positive factors, one per "
+                         f"channel and patch, got shape {np.shape(factors)}")
+    return f
 
 
 def _as_rows(factor) -> np.ndarray:
@@ -273,6 +294,7 @@ class ChartModel:
         self.rule = None
         #: the factor this model's signals are divided by (:meth:`scaled`)
         self._factor = 1.0
+        self.response = None  # the chart's response measured in air, (m n,) (with_response)
 
     def scaled(self, factor) -> "ChartModel":
         """A copy whose signals are divided by ``factor`` (the data's scale: a number; or one
@@ -290,18 +312,19 @@ class ChartModel:
         return new
 
     def with_response(self, factors) -> "ChartModel":
-        """A copy whose every (channel, patch) row of the direct signal (B, and the curves'
-        shift D) is times ``factors`` (m, n) or (m n,): the chart's response measured in air by
-        a reference shot (:func:`sca.reference.patch_response`), applied the way a per-patch
-        factor of the quadrature is (decision 0068-quadrature-per-chart-shape); the veiling
-        light is not scaled. ``None``: this model."""
+        """A copy whose every (channel, patch) row of the direct signal (and of the curves'
+        shift) is times ``factors`` (m, n) or (m n,): the chart's response measured in air by
+        a reference shot (:func:`sca.reference.patch_response`); the veiling light is not
+        scaled. The factor is the model function's ``response`` where ``params`` gives none
+        (one per chart of a batch: ``params['response']``). ``None``: this model."""
         if factors is None:
             return self
-        f = np.asarray(factors, float).reshape(-1)
-        if f.size != self.m * self.n or not np.all(np.isfinite(f) & (f > 0)):
-            raise InputError("uncertain['response']", f"expected {self.m * self.n} positive "
-                             f"factors, one per channel and patch, got {np.shape(factors)}")
-        return self.scaled(1.0 / f)
+        new = copy.copy(self)
+        new.response = response_factors(factors, self.m * self.n)
+        new.__dict__.pop("_reduced", None)
+        # its own full-grid model (and so its own certified quadrature)
+        new.full = new if self.full is self else self.full.with_response(new.response)
+        return new
 
     @functools.cached_property
     def _reduced(self) -> "ChartModel":
@@ -416,7 +439,7 @@ class ChartModel:
 
     def _predict(self, params, free, chl_floor, jacobian) -> Prediction:
         """:meth:`predict` of one block of charts (``free`` checked)."""
-        unknown = set(params) - set(PARAMS)
+        unknown = set(params) - set(PARAMS) - set(PER_ROW)
         if unknown:
             raise InputError("params", f"unknown parameter(s) {sorted(unknown)}")
         for need in ("chl", "depth", "distance"):
@@ -435,6 +458,9 @@ class ChartModel:
             shift = np.asarray(shift, float)
         if "w" in free and w is None:
             raise InputError("free", "'w' needs the weights in params['w']")
+        response = params.get("response", self.response)  # the chart's response in air
+        if response is not None:
+            response = response_factors(response, self.m * self.n)
         consts = {k: v for k, v in params.items() if k in COEFFICIENT_PARAMS}
         spectral = tuple(n for n in free if n in SPECTRAL)
         legs = len(PATH_LEGS[self.water.path_model]) > 1
@@ -464,6 +490,8 @@ class ChartModel:
                 G = both[..., :mn] + np.repeat(shift, self.n, axis=-1) * both[..., mn:]
             else:
                 G = kl @ self.Bt
+            if response is not None:
+                G = G * response
             if with_day:
                 G = G / norm[..., None]
             if balance is not None:
@@ -503,6 +531,9 @@ class ChartModel:
                 proj = proj + np.repeat(shift, self.n, axis=-1)[..., None, :] * projD
         else:
             proj = (stack.reshape(-1, q) @ self.Bt).reshape(lead + (stack.shape[-2], mn))
+        if response is not None:  # every row of the direct signal, and of the curves' shift
+            proj = proj * response[..., None, :]
+            GD = None if GD is None else GD * response
         if with_day:  # the normalisation of model units: a white in air stays 1
             proj = proj / norm[..., None, None]
             if GD is not None:
@@ -551,7 +582,7 @@ class ChartModel:
                 v = np.asarray(v)
             if not isinstance(v, np.ndarray):
                 continue
-            nd = v.ndim - (1 if name in PER_CHANNEL + ("w",) else 0)
+            nd = v.ndim - (1 if name in PER_CHANNEL + ("w",) + PER_ROW else 0)
             if nd > 1:
                 return 0
             if nd == 1:
@@ -565,7 +596,7 @@ class ChartModel:
     def _rows_of(params, n, sl) -> dict:
         out = {}
         for name, v in params.items():
-            nd = np.ndim(v) - (1 if name in PER_CHANNEL + ("w",) else 0)
+            nd = np.ndim(v) - (1 if name in PER_CHANNEL + ("w",) + PER_ROW else 0)
             out[name] = np.asarray(v)[sl] if nd == 1 else v
         return out
 

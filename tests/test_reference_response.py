@@ -120,3 +120,24 @@ def test_a_dive_takes_one_response(chart):
     with pytest.raises(InputError, match="response"):
         estimate_joint(np.stack([s.rgb for s in sims[:3]]),
                        uncertain=ref | {"response": np.ones((3, 3, 24))}, **kw)
+
+
+def test_one_response_per_chart_fits_in_one_batch_as_each_alone(chart):
+    """A batch whose charts each carry their own measured response (and light) gives, chart
+    by chart, what the chart fitted alone with its response gives: the factors enter the one
+    model function per chart (sca.budget.Budget.fixed_params), not a model per chart."""
+    light, sims, _ = chart
+    sims = sims[:3]
+    scale = np.array([1.0, 1.02, 0.97])
+    lights = [dataclasses.replace(light, factors=light.factors * k) for k in scale]
+    both = sca.estimate_batch(np.stack([s.rgb for s in sims]), depth=np.array(DEPTHS[:3]),
+                              distance=DISTANCE, sigma=np.stack([s.rgb_sigma for s in sims]),
+                              gain="free", uncertain=with_reference(None, lights))
+    for i, (s, lt) in enumerate(zip(sims, lights)):
+        alone = sca.estimate_batch(s.rgb[None], depth=DEPTHS[i], distance=DISTANCE,
+                                   sigma=s.rgb_sigma[None], gain="free",
+                                   uncertain=with_reference(None, lt))
+        np.testing.assert_allclose([both.chl[i], both.cdom[i]], [alone.chl[0], alone.cdom[0]],
+                                   rtol=1e-6)
+        np.testing.assert_allclose(both.chl_ci[i], alone.chl_ci[0], rtol=1e-4)
+    assert not np.allclose(both.chl[0], both.chl[1], rtol=1e-6)  # the factors do act
