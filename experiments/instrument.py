@@ -490,9 +490,9 @@ def _patch_sensitivity(brows) -> list:
         f"c, {100 * v:g} %" for v in levels)
     L = ["### Sensitivity to the per-patch term", "",
          "Every number with the budget above, and the depth table, the cost table and the "
-         "designs, assume 1 % per patch (the budget's); the real G7X charts leave 12-43 % per "
-         "patch beyond photon noise on patches the fit did not see (REPRODUCTION.md, the real "
-         "camera). The same bound with the per-patch term at "
+         "designs, assume the budget's per-patch term; the real G7X charts leave ten times more or "
+         "beyond photon noise on patches the fit did not see (REPRODUCTION.md, the real "
+         "camera's held-out error per patch). The same bound with the per-patch term at "
          + ", ".join(f"{100 * v:g} %" for v in levels) + " (the rest of the budget as it is):",
          "", f"| water | depth | {head} |", "|" + "---|" * (2 + 2 * len(levels))]
     for b in brows:
