@@ -177,7 +177,11 @@ BUDGET_DEPTHS_M = (1.0, 5.0, 10.0, 20.0)
 def budget_table() -> list:
     """C's 95 % half-width with the camera's photon and read noise alone (``uncertain={}``)
     against the default uncertainty budget (:data:`sca.budget.DEFAULT_UNCERTAIN`), with the
-    source that limits it: the default camera, 20 000 lx, distance 1 m, exposure unknown."""
+    source that limits it: the default camera, 20 000 lx, distance 1 m, exposure unknown; and
+    C's and c's with the budget's per-patch term at each of :data:`PATCH_LEVELS` (the real G7X
+    charts leave 12-43 % per patch beyond photon noise: REPRODUCTION.md)."""
+    from sca.budget import DEFAULT_UNCERTAIN
+
     out = []
     for water, (c, a) in WATERS.items():
         for d in BUDGET_DEPTHS_M:
@@ -185,7 +189,11 @@ def budget_table() -> list:
             cam = sca.precision(c, a, uncertain={}, **kw)
             hon = sca.precision(c, a, **kw)
             shares = hon.budget.get("chl", {}).get("shares", {})
+            levels = {v: sca.precision(c, a, uncertain={**DEFAULT_UNCERTAIN, "patch": v}, **kw)
+                      for v in PATCH_LEVELS}
             out.append(dict(water=water, depth=d, chl_rel95_camera=float(cam.chl_rel95),
+                            chl_rel95_patch={v: float(p.chl_rel95) for v, p in levels.items()},
+                            c_rel95_patch={v: float(_c_rel95(p)) for v, p in levels.items()},
                             chl_rel95_budget=float(hon.chl_rel95),
                             cdom_rel95_camera=float(cam.cdom_rel95),
                             cdom_rel95_budget=float(hon.cdom_rel95),
@@ -472,7 +480,26 @@ def _budget_section(brows) -> list:
                  f"({100 * b['limiting_share']:.0f} %) |")
     L += ["", "A calibration photo measures the per-patch term of its camera and chart "
           "(`uw3p calibrate`: the profile's `patch_sd`), which replaces the budget's 1 %.", ""]
-    return L
+    return L + _patch_sensitivity(brows)
+
+
+def _patch_sensitivity(brows) -> list:
+    """The budget's numbers at each per-patch term of :data:`PATCH_LEVELS`."""
+    levels = list(brows[0]["chl_rel95_patch"])
+    head = " | ".join(f"C, {100 * v:g} %" for v in levels) + " | " + " | ".join(
+        f"c, {100 * v:g} %" for v in levels)
+    L = ["### Sensitivity to the per-patch term", "",
+         "Every number with the budget above, and the depth table, the cost table and the "
+         "designs, assume the budget's per-patch term; the real G7X charts leave ten times more or "
+         "beyond photon noise on patches the fit did not see (REPRODUCTION.md, the real "
+         "camera's held-out error per patch). The same bound with the per-patch term at "
+         + ", ".join(f"{100 * v:g} %" for v in levels) + " (the rest of the budget as it is):",
+         "", f"| water | depth | {head} |", "|" + "---|" * (2 + 2 * len(levels))]
+    for b in brows:
+        L.append(f"| {b['water']} | {b['depth']:g} m | "
+                 + " | ".join(_pct(b["chl_rel95_patch"][v]) for v in levels) + " | "
+                 + " | ".join(_pct(b["c_rel95_patch"][v]) for v in levels) + " |")
+    return L + [""]
 
 
 def _pct(v) -> str:
@@ -602,7 +629,11 @@ def doc(rows, val, conn, brows=(), drows=(), rrows=(), prior=None) -> str:
           "that reaches a precision.", ""]
     if drows:
         L += _design_section(drows)
-    L += ["## Validation: the camera-only bound against the estimator", "",
+    L += ["## Validation (same code): the camera-only bound against the estimator", "",
+          "**Same code**: the charts are simulated by `forward` and fitted by `sca`, which share "
+          "the model, so this checks the machinery (the bound's algebra against the fits' "
+          "scatter), not the model; HONESTY.md tests the intervals on charts an independent "
+          "renderer made. "
           f"Spread of `sca.estimate_batch` (weighted fits with the sensor's sigma, exposure known, "
           f"the paper's exact model) over {DRAWS} noise draws, divided by the camera-only bound "
           "(distance 1 m): noise draws test the noise's part of the bound; the budget's part "
@@ -622,7 +653,9 @@ def doc(rows, val, conn, brows=(), drows=(), rrows=(), prior=None) -> str:
         L += [""] + _reference_section(rrows, prior)[:-1]
     if conn:
         s = _paper_like_setting()
-        L += ["", "## Does the bound explain why r falls with depth in Fig 12?", "",
+        L += ["", "## Does the bound explain why r falls with depth in Fig 12? (same code)", "",
+              "**Same code**: the figure's charts and the fresh draws are simulated by `forward` "
+              "at the paper-like setting and fitted by `sca`, which share the model. "
               f"Fig 12 (true vs estimated C over its grid, distance 1 m) at the paper-like "
               f"setting ({s['illuminance_lux']:g} lx, estimator on a {s['estimation_step_nm']:g} nm "
               "grid): r² predicted from the bound, var(C) / (var(C) + mean sd²), against the "

@@ -19,6 +19,18 @@ g7x`):
   1 +- 0.5 m; its correction of the greys against grey-world and white-patch on the patches
   measure sampled, its reliability and flags.
 
+**The metric, named before the paired test** (:data:`PRIMARY_METRIC`): the per-patch relative
+error beyond photon noise of the held-out residuals. It is the quantity the instrument carries
+(the budget's per-patch term, ``sca.budget.DEFAULT_UNCERTAIN['patch']``, and ``uw3p calibrate``'s
+``patch_sd``: what a chart's misfit costs a measurement), it weighs every patch alike (the dark
+patches, which carry the veiling light, as much as the white; a relative RMS is set by the bright
+ones), and it was the rows' number before the comparison below existed (issue 39). The relative
+RMS is printed beside it and judged by nothing. Per chart the model (with measure's light field)
+and the affine baseline are compared on that metric, paired (:func:`paired_test`: the sign
+test, two-sided, and Wilcoxon's signed-rank test), and by leave-one-chart-out prediction
+(:func:`leave_one_chart_out`: the method with the lower median on the other charts, scored on
+the chart left out).
+
 Results are cached (``cache/realcamera-<fingerprint>.json``; the fingerprint covers the code and
 data they come from), so a rerun costs nothing. Without ``../shared/realdata`` the study writes
 that it could not run, and the report says so.
@@ -37,13 +49,19 @@ import numpy as np
 
 from .common import figures_dir, save_figure, style, write_csv
 
-__all__ = ["main", "run", "summarise", "fingerprint", "CACHE", "METHODS_CV", "RESULT"]
+__all__ = ["main", "run", "summarise", "fingerprint", "leave_one_chart_out", "paired_test",
+           "CACHE", "METHODS_CV", "PAIRED", "PRIMARY_METRIC", "RESULT"]
 
 #: The file the report reads (in ``<out>/realcamera/``)
 RESULT = "realcamera.json"
 #: The cross-validated variants in the order of the report
 METHODS_CV = ("model", "model + light field", "model + in-water reflectance",
               "model + forward scattering", "model + tilted chart", "affine", "diagonal")
+#: The one metric the real-camera verdicts judge, named before the paired test (the module's
+#: docstring says why): the per-patch relative error beyond photon noise, held out
+PRIMARY_METRIC = "systematic"
+#: The pair compared chart by chart: the model as ``uw3p measure`` fits it, the affine baseline
+PAIRED = ("model + light field", "affine")
 #: The cache folder (the sweep's)
 CACHE = Path(os.environ.get("UW3P_CACHE", "cache"))
 ROOT = Path(__file__).resolve().parents[1]
@@ -164,6 +182,60 @@ def run(workers: int = 2, cache_dir=None, charts=None) -> dict:
     return out
 
 
+def paired_test(a, b) -> dict:
+    """Paired per-chart comparison of two methods' errors (lower is better).
+
+    Parameters
+    ----------
+    a, b : array_like, (N,)
+        Each chart's error of method a and of method b.
+
+    Returns
+    -------
+    dict
+        ``wins`` (charts where a < b), ``losses``, ``ties``, ``n``; ``p_sign`` (the sign test:
+        :func:`scipy.stats.binomtest` of the wins among the untied charts at 1/2, two-sided) and
+        ``p_wilcoxon`` (:func:`scipy.stats.wilcoxon` of a - b, two-sided; None with fewer than
+        two untied charts); ``median_difference`` (median of a - b).
+    """
+    from scipy import stats
+
+    d = np.asarray(a, float) - np.asarray(b, float)
+    wins, losses = int((d < 0).sum()), int((d > 0).sum())
+    untied = wins + losses
+    return {"wins": wins, "losses": losses, "ties": int(d.size - untied), "n": int(d.size),
+            "p_sign": float(stats.binomtest(wins, untied, 0.5).pvalue) if untied else None,
+            "p_wilcoxon": float(stats.wilcoxon(d[d != 0]).pvalue) if untied >= 2 else None,
+            "median_difference": float(np.median(d))}
+
+
+def leave_one_chart_out(errors: dict) -> dict:
+    """Leave-one-chart-out prediction: for each chart, the method whose median error over the
+    other charts is lower, scored on the chart left out.
+
+    Parameters
+    ----------
+    errors : dict
+        method -> (N,) per-chart errors (:data:`PRIMARY_METRIC`).
+
+    Returns
+    -------
+    dict
+        ``chosen`` (N,) the method chosen without each chart, ``error`` (N,) its error on that
+        chart, ``median`` of those errors, ``counts``: method -> times chosen.
+    """
+    names = list(errors)
+    e = np.array([np.asarray(errors[k], float) for k in names])
+    chosen, scored = [], []
+    for i in range(e.shape[1]):
+        rest = np.delete(e, i, axis=1)
+        j = int(np.argmin(np.median(rest, axis=1)))
+        chosen.append(names[j])
+        scored.append(float(e[j, i]))
+    return {"chosen": chosen, "error": scored, "median": float(np.median(scored)),
+            "counts": {k: chosen.count(k) for k in names}}
+
+
 def _stats(values) -> dict:
     v = np.asarray(values, float)
     return {"median": float(np.median(v)), "min": float(v.min()), "max": float(v.max())}
@@ -184,7 +256,10 @@ def summarise(out: dict) -> dict:
         {median, min, max}; ``greys_held_out`` and ``greys_measure``: method -> stats;
         ``measure_reliable`` (count), ``measure_flags`` (flag -> count), ``beats_affine``:
         variant -> whether its median cross-validated error is below the affine baseline's,
-        ``wins``: variant -> charts where it is below the affine baseline's.
+        ``wins``: variant -> charts where it is below the affine baseline's; ``metric``
+        (:data:`PRIMARY_METRIC`), ``paired`` (:func:`paired_test` of :data:`PAIRED` on it) and
+        ``loco`` (:func:`leave_one_chart_out` of :data:`PAIRED` on it, without the per-chart
+        lists).
     """
     if not out.get("available"):
         return {"available": False, "reason": out.get("reason", "")}
@@ -196,7 +271,12 @@ def summarise(out: dict) -> dict:
         for f in c["measure"]["flags"]:
             flags[f] = flags.get(f, 0) + 1
     aff = cv["affine"]["median"]
+    per = {k: [c["cv"][k][PRIMARY_METRIC] for c in ch] for k in PAIRED}
+    loco = leave_one_chart_out(per)
     return {
+        "metric": PRIMARY_METRIC, "paired_methods": list(PAIRED),
+        "paired": paired_test(*(per[k] for k in PAIRED)),
+        "loco": {"median": loco["median"], "counts": loco["counts"]},
         "available": True, "n": len(ch), "cv_systematic": cv, "cv_rms": rms,
         "greys_held_out": {k: _stats([c["greys"][k] for c in ch]) for k in ch[0]["greys"]},
         "greys_measure": {k: _stats([c["measure"]["greys"][k] for c in ch])
@@ -206,7 +286,7 @@ def summarise(out: dict) -> dict:
         "measure_balance": [float(np.median([c["measure"]["nuisance"].get("balance", [0.0] * 3)[j]
                                              for c in ch])) for j in range(3)],
         "beats_affine": {k: cv[k]["median"] < aff for k in METHODS_CV if k.startswith("model")},
-        "wins": {k: sum(c["cv"][k]["systematic"] < c["cv"]["affine"]["systematic"] for c in ch)
+        "wins": {k: sum(c["cv"][k][PRIMARY_METRIC] < c["cv"]["affine"][PRIMARY_METRIC] for c in ch)
                  for k in METHODS_CV if k.startswith("model")},
         "seconds": out.get("seconds", 0.0),
     }

@@ -17,7 +17,8 @@ the other nuisances of the default budget drawn from their priors as in the ``pr
    the very same photos, with the default budget (``reference`` only).
 
 :func:`run_reference` renders and fits; :func:`reference_text` is HONESTY.md's section.
-Coverage is two-sided where the world lies inside its stated budget (``reference``); for
+Each world's coverage test is :func:`experiments.honesty.test_of` of its name (``reference``:
+two-sided, inside its stated budget; ``sky-beyond``: one-sided, outside it); for
 ``sky-beyond`` honest means each chart flagged (not reliable) or covered, and the report says
 how many are neither.
 """
@@ -34,8 +35,8 @@ from sca.reference import REFERENCE_MINUTES, measure_light, sky_sd, with_referen
 from . import honesty as h
 from . import independent_world as iw
 
-__all__ = ["BEYOND_SD", "DTAU_BANDS", "DTAU_TARGET", "REFERENCE_LABELS", "dtau_half_widths",
-           "reference_text", "run_reference"]
+__all__ = ["BEYOND_SD", "DTAU_BANDS", "DTAU_TARGET", "ILLUMINANT_SHOTS", "REFERENCE_LABELS",
+           "dtau_half_widths", "illuminant_check", "reference_text", "run_reference"]
 
 #: The sky's change of the ``sky-beyond`` world, in units of the stated sd (uniform).
 BEYOND_SD = (3.0, 4.0)
@@ -43,6 +44,8 @@ BEYOND_SD = (3.0, 4.0)
 #: tau = c (depth + distance) at most 0.10 (issue 47).
 DTAU_BANDS = ("443", "490", "555")
 DTAU_TARGET = 0.10
+#: Reference shots per light of :func:`illuminant_check` (each a render and a fit: ~0.5 s)
+ILLUMINANT_SHOTS = 20
 #: The fits of the reference worlds (row labels): the light and the chart's response measured
 #: in air, the light alone (decision 0069-reference-shot) and the default budget.
 WITH_REF, LIGHT_ONLY, DEFAULT = "with the reference", "the light only", "default budget"
@@ -92,6 +95,44 @@ def _air_shots(world, cond, drawn, rng) -> list:
         air = iw.render_calibration(rng=stream, **opts)
         lights.append(measure_light(np.maximum(air["rgb"], 0.0), air["sigma"]))
     return lights
+
+
+def illuminant_check(n: int = ILLUMINANT_SHOTS, seed: int = h.SEED) -> dict:
+    """What a reference shot says of the ``wrong_illuminant`` world's light.
+
+    ``n`` charts photographed in air by the independent renderer (the clean world's tolerances,
+    exposure 0.2-0.9) under :data:`experiments.honesty.WRONG_ILLUMINANT` and, for contrast,
+    under D65, each light fitted by :func:`sca.reference.measure_light` and judged by
+    :func:`sca.reference.check_daylight` (``uw3p measure --reference`` refuses a light it
+    rejects).
+
+    Returns
+    -------
+    dict
+        light name -> {'n', 'refused' (count), 'cct_median' (K), 'chi2_dof_median'}.
+    """
+    from sca.reference import check_daylight
+
+    from forward.errors import InputError
+
+    rng = np.random.default_rng([seed, 50, 5])
+    out = {}
+    for light in (h.WRONG_ILLUMINANT, "D65"):
+        refused, cct, chi2 = 0, [], []
+        for stream in rng.spawn(n):
+            opts = {**h.CLEAN_OPTIONS, "illuminant": light,
+                    "exposure": float(stream.uniform(*h.EXPOSURE_RANGE))}
+            air = iw.render_calibration(rng=stream, **opts)
+            lt = measure_light(np.maximum(air["rgb"], 0.0), air["sigma"])
+            cct.append(lt.cct)
+            chi2.append(lt.chi2_dof)
+            try:
+                check_daylight(lt)
+            except InputError:
+                refused += 1
+        out[light] = {"n": n, "refused": refused, "cct_median": float(np.median(cct)),
+                      "chi2_dof_median": float(np.median(chi2))}
+    return out
 
 
 def dtau_half_widths(est, rendered) -> dict:
@@ -167,8 +208,9 @@ def _water_set(water, n, rng, log, beyond=True):
     """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
     world, cond, rendered, lights, air_s, (beyond_seq, uw_seq) = _draw_set(water, n, rng)
     budgets = with_reference(None, lights, REFERENCE_MINUTES)
+    test = h.test_of("reference")
     out = {"reference": {
-        label: _summary(h.fit_set(rendered, budget), cond, rendered, "two-sided")
+        label: _summary(h.fit_set(rendered, budget), cond, rendered, test)
         for label, budget in ((WITH_REF, budgets), (LIGHT_ONLY, with_reference(
             None, _light_only(lights), REFERENCE_MINUTES)), (DEFAULT, None))}}
     stated = budgets["daylight"]["sd"]
@@ -195,7 +237,8 @@ def _sky_beyond(world, cond, budgets, beyond_seq, uw_seq) -> dict:
     far = {**cond, "daylight_mired": cond["surface_mired"] + _beyond(
         np.random.default_rng(beyond_seq), cond["surface_mired"], stated)}
     beyond = _render(world, far, _fresh(uw_seq))
-    return {WITH_REF: _summary(h.fit_set(beyond, budgets), far, beyond, "one-sided")}
+    return {WITH_REF: _summary(h.fit_set(beyond, budgets), far, beyond,
+                                  h.test_of("sky-beyond"))}
 
 
 def run_reference(n: int = h.C_CHARTS_FULL, seed: int = h.SEED, log=None, *, waters=None,
@@ -304,12 +347,12 @@ def _beyond_text(ref) -> list:
            and s["coverage"][k]["p"] < h.CONSISTENCY_P]
     if not bad:
         lines.append("Honest: the misses among the reliable charts are no more than the "
-                     "nominal 5 % (one-sided binomial test); the rest are flagged.")
+                     f"nominal 5 % ({s['test']} binomial test); the rest are flagged.")
     else:
         names = ", ".join(dict(h.reported_quantities()).get(k, k) for k in bad)
         lines.append(f"**Not honest** for {names}: a sky changed by {BEYOND_SD[0]:g}-"
                      f"{BEYOND_SD[1]:g} sd is neither flagged nor covered on more charts than "
-                     "the nominal 5 % (one-sided p < "
+                     f"the nominal 5 % ({s['test']} p < "
                      f"{h.CONSISTENCY_P}): the photo underwater hardly sees the light's colour. "
                      "The reference shot is honest only within its stated sky sd (decision "
                      "0069-reference-shot): give the time between the shot and the dive, and "
@@ -324,8 +367,8 @@ def _reference_verdict(ref) -> list:
         fails = [dict(h.reported_quantities()).get(k, k) for k, v in s["coverage"].items()
                  if v["p"] is not None and v["p"] < h.CONSISTENCY_P]
         out.append(f"`reference` {label} (pooled, {s['reliable']} reliable of {s['n']}): "
-                   + ("every quantity covered at the nominal rate (two-sided)." if not fails
-                      else "**coverage fails** (two-sided p < "
+                   + (f"every quantity covered at the nominal rate ({s['test']})." if not fails
+                      else f"**coverage fails** ({s['test']} p < "
                       f"{h.CONSISTENCY_P}) for " + ", ".join(fails) + "."))
     return out
 
@@ -364,7 +407,7 @@ def reference_text(ref) -> list:
 
 def holds(ref) -> dict:
     """The reference world's criterion per fit with the reference: covered at the nominal
-    rate (two-sided), pooled over both water types."""
+    rate (its test, :func:`experiments.honesty.test_of`), pooled over both water types."""
     s = ref["pooled"]["reference"][WITH_REF]
     return {f"reference: {dict(h.reported_quantities()).get(k, k)}":
             bool(v["p"] is None or v["p"] >= h.CONSISTENCY_P) for k, v in s["coverage"].items()}

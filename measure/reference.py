@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from forward.errors import InputError
-from sca.reference import REFERENCE_MINUTES, bracket, measure_light, sky_sd, with_reference
+from sca.reference import (REFERENCE_MINUTES, bracket, check_daylight, measure_light, sky_sd,
+                           with_reference)
 
 from .chart import LAYOUTS, orientations, sample_patches
 from .detect import find_chart
@@ -87,7 +88,8 @@ def reference_light(photo, setup, layout="patches"):
     Raises
     ------
     forward.errors.InputError
-        Naming '--reference' when the chart's grey row does not fall from white to black.
+        Naming '--reference' when the chart's grey row does not fall from white to black, or
+        when the light is not daylight (:func:`sca.reference.check_daylight`).
     """
     lay = LAYOUTS[layout]
     found = find_chart(photo, lay)
@@ -98,4 +100,4 @@ def reference_light(photo, setup, layout="patches"):
                          "from white to black along its grey row")
     s = sample_patches(photo, corners, lay)
     sigma = np.where(np.asarray(s.clipped) > 0, np.nan, np.asarray(s.sigma, float))
-    return measure_light(s.rgb, sigma, setup)
+    return check_daylight(measure_light(s.rgb, sigma, setup))

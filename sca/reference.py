@@ -36,7 +36,8 @@ from .budget_defaults import DEFAULT_UNCERTAIN
 
 __all__ = ["SKY_SD", "SKY_MINUTES", "REFERENCE_MINUTES", "CONFLICT_FLAG", "Light", "Bracket",
            "bracket", "conflict_of", "measure_light", "planned", "sky_sd", "with_reference",
-           "PLANNED_FIT_SD", "PER_CHART", "REFERENCE_PATCH", "patch_response"]
+           "PLANNED_FIT_SD", "PER_CHART", "REFERENCE_PATCH", "check_daylight",
+           "patch_response"]
 
 #: The sky's change reaches the default prior's spread (mired) ...
 SKY_SD = float(DEFAULT_UNCERTAIN["daylight"])
@@ -286,6 +287,26 @@ def _response_entries(base, lights) -> dict:
     patch = max(lt.patch_sd() for lt in lights)
     return {"response": (f[0] if len(lights) == 1 else f).tolist(),  # plain numbers: recorded
             "patch": min(patch, float(parse_sd("patch", base.get("patch", patch))))}
+
+
+def check_daylight(light: Light, argument: str = "--reference") -> Light:
+    """``light`` if it is a daylight the model can move along, else a clear refusal.
+
+    A reference shot under a light off the daylight series (tungsten, illuminant A: ~2400 K
+    where daylight runs from ~4000 K) leaves the fit's 'daylight' shift at the series' end with
+    no curvature: its sd is not finite. Underwater such a light is indistinguishable from CDOM
+    along the path (HONESTY.md's ``wrong_illuminant``): the reference shot is what can tell.
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming ``argument`` when the light's sd is not finite.
+    """
+    if not np.isfinite(light.sd):
+        raise InputError(argument, f"the light in the reference shot is not daylight (its colour "
+                         f"lies beyond the daylight series, CCT ~{light.cct:.0f} K; chi2/dof "
+                         f"{light.chi2_dof:.2g}): give the light with --illuminant")
+    return light
 
 
 def measure_light(rgb, sigma, setup: ChartSetup | None = None, *, uncertain=None) -> Light:

@@ -191,7 +191,7 @@ def test_attenuation_criterion_counts_misses_and_width():
     for band in h.C_BANDS:
         ok[f"inside:{band}"] = [True] * 95 + [False] * 5
         ok[f"half:{band}"] = [0.05] * n
-    v = h._band_numbers([ok], h.C_BANDS[0])
+    v = h._band_numbers([ok], h.C_BANDS[0], "two-sided")
     assert (v["covered"], v["reliable"]) == (95, 100) and v["p_two_sided"] > h.CONSISTENCY_P
     crit, _ = h._attenuation_numbers({"clean": {"clear": ok}})
     assert all(b["holds"] for b in crit["clean"].values())
@@ -202,3 +202,49 @@ def test_attenuation_criterion_counts_misses_and_width():
     missed = {**ok, **{f"inside:{b}": [True] * 80 + [False] * 20 for b in h.C_BANDS}}
     crit, _ = h._attenuation_numbers({"clean": {"clear": missed}})
     assert not any(b["holds"] for b in crit["clean"].values())
+
+
+# --------------------------------------------------------------------------- issue 50 item 5
+def _band_rows(n, inside):
+    rows = {"depth": [5.0] * n, "reliable": [True] * n, "geometry": [0.05] * n}
+    for band in h.C_BANDS:
+        rows[f"inside:{band}"] = [True] * inside + [False] * (n - inside)
+        rows[f"half:{band}"] = [0.05] * n
+    return rows
+
+
+def test_a_worlds_sidedness_is_defined_once_and_every_section_reads_it():
+    """The c(lambda) criterion tests each world by the world's own test: `clean` one-sided (its
+    over-coverage is expected), `priors` two-sided (over-coverage fails), as the main table."""
+    assert h.world_test("clean") == "one-sided" and h.world_test("priors") == "two-sided"
+    assert h.test_of("reference") == "two-sided" and h.test_of("sky-beyond") == "one-sided"
+    every = _band_rows(200, 200)  # 100 % covered: too wide for a two-sided test
+    crit, breakdown = h._attenuation_numbers({"clean": {"clear": every}, "priors": {"clear": every}})
+    assert all(v["test"] == "one-sided" and v["holds"] for v in crit["clean"].values())
+    assert all(v["test"] == "two-sided" and not v["holds"] for v in crit["priors"].values())
+    assert all(b["test"] == "one-sided" for d in breakdown["clean"]["clear"].values()
+               for b in d.values())
+    att = {"criterion": crit, "breakdown": breakdown, "n": 200, "seed": 1, "elapsed_s": 1.0}
+    table = [ln for ln in h._attenuation_text(att) if ln.startswith("| clean | c_")]
+    assert table and all("| one-sided |" in ln for ln in table)
+    texts = [v["criterion"] for v in h.acceptance({}, att)]
+    assert not any("one-sided" in t or "two-sided" in t for t in texts)
+
+
+def test_c_is_named_the_paths_attenuation_coefficient_not_the_beam_attenuation():
+    crit, breakdown = h._attenuation_numbers({"clean": {"clear": _band_rows(100, 95)}})
+    att = {"criterion": crit, "breakdown": breakdown, "n": 100, "seed": 1, "elapsed_s": 1.0}
+    text = "\n".join(h._attenuation_text(att))
+    assert h.C_NAME in text and "not the beam attenuation" in h.C_NAME
+    assert "(the beam attenuation" not in text
+
+
+def test_the_wrong_illuminant_is_said_plainly_with_what_prevents_it():
+    s = {"n": 10, "reliable": 8, "reliable_fraction": 0.8, "confident_wrong": 5, "flags": {},
+         "coverage": {k: {"covered": 3, "p": 1e-6} for k in (*h.TESTED, "joint")}}
+    results = {"wrong_illuminant": {"group": "limitation", "fits": {h.DEFAULT_LABEL: s}}}
+    check = {"A": {"n": 4, "refused": 4, "cct_median": 2370.0, "chi2_dof_median": 2.3}}
+    text = "\n".join(h._limitation_text(results, check))
+    assert "outside what one underwater photo can see" in text
+    assert "0069-reference-shot" in text and "--reference" in text
+    assert "refused 4 of 4" in text

@@ -70,3 +70,23 @@ def test_instrument_tabulates_delta_tau_with_the_measured_light():
         assert np.all(np.diff(widths) > 0), r
     text = "\n".join(instrument._reference_section(rows, prior))
     assert "with the reference" in text and " nan" not in text
+
+
+def test_a_reference_shot_under_tungsten_light_is_refused():
+    """HONESTY.md's wrong_illuminant world: the reference shot is what can tell the light is
+    not daylight (issue 50 item 5); under D65 it is accepted."""
+    from forward.errors import InputError
+    from sca.reference import check_daylight, measure_light
+
+    from experiments import independent_world as iw
+
+    for light, refused in (("A", True), ("D65", False)):
+        air = iw.render_calibration(rng=1, **{**h.CLEAN_OPTIONS, "illuminant": light,
+                                              "exposure": 0.6})
+        lt = measure_light(np.maximum(air["rgb"], 0.0), air["sigma"])
+        if refused:
+            with pytest.raises(InputError) as err:
+                check_daylight(lt)
+            assert err.value.argument == "--reference" and "not daylight" in str(err.value)
+        else:
+            assert check_daylight(lt) is lt
