@@ -241,16 +241,18 @@ def test_score_floors_zero_and_defines_each_number():
 
 
 def test_criterion_needs_all_three():
+    """The criterion judges the real-water choice's coverage among its reliable stations."""
     from experiments.realwater.empirical import criterion
 
     morel = {"factor_error": 2.0, "coverage": 0.3, "closed": 0.9}
-    good = {"factor_error": 1.9, "coverage": 0.95, "closed": 0.6}
-    assert criterion({"morel": morel, "case1": good})["met"]
-    for k, v in (("factor_error", 2.1), ("coverage", 0.9), ("coverage", 0.99), ("closed", 0.4)):
-        c = criterion({"morel": morel, "case1": {**good, k: v}})
-        assert not c["met"] and not c[k]
-    assert criterion({"morel": morel, "case1": {**good, "coverage": 0.9}})["coverage_margin"] \
-        == pytest.approx(-0.02)
+    good = {"factor_error": 1.9, "coverage": 0.5, "coverage_reliable": 0.95, "closed": 0.6}
+    assert criterion({"morel": morel, "real_water": good})["met"]
+    for k, v in (("factor_error", 2.1), ("coverage_reliable", 0.9), ("coverage_reliable", 0.99),
+                 ("closed", 0.4)):
+        c = criterion({"morel": morel, "real_water": {**good, k: v}})
+        assert not c["met"] and not c[k.removesuffix("_reliable")]
+    assert criterion({"morel": morel, "real_water": {**good, "coverage_reliable": 0.9}})[
+        "coverage_margin"] == pytest.approx(-0.02)
 
 
 # ------------------------------------------------------------------ real data
@@ -273,22 +275,3 @@ def test_case1_table_is_learned_on_the_even_rows_only():
             (learned[q].alpha, learned[q].beta, learned[q].sd)
     test = biooptical.held_out(st, read_case1())
     assert all(test[q]["n"] > 250 for q in CASE1_QUANTITIES)
-
-
-@needs_data
-def test_empirical_comparison_on_a_few_stations(tmp_path):
-    from experiments.realwater import empirical, nomad
-
-    st = nomad.load_nomad().subset(np.arange(120))
-    res = empirical.compare(st, diagnostics=False)
-    for half in ("even", "odd"):
-        s = res["halves"][half]
-        assert set(s) == {"median", "morel", "package", "real_water_budget", "case1"}
-        assert np.isnan(s["median"]["coverage"]) and 0 <= s["case1"]["coverage"] <= 1
-        assert s["median"]["bias_log"] == pytest.approx(
-            np.median(np.log(res["median_even"] / res["estimates"][half]["chl"])))
-    assert res["median_even"] == pytest.approx(np.median(st.chl[st.station % 2 == 0]))
-    md, numbers = empirical.section(st, tmp_path)
-    text = "\n".join(md)
-    assert "The criterion" in text and (tmp_path / "nomad_empirical.csv").is_file()
-    assert isinstance(numbers["criterion"]["met"], bool)

@@ -293,7 +293,7 @@ def inverse_stats(st: NomadStations, fit, train, water=None) -> dict:
     and test cruises (``train``: the cruise-blocked split's mask)."""
     ci = fit.chl_ci
     out = {}
-    for name, m in (("chl", np.ones(len(st), bool)), ("chl_train", train),
+    for name, m in (("chl", np.ones(st.chl.size, bool)), ("chl_train", train),
                     ("chl_test", ~train)):
         out[name] = _scores(fit.chl[m], st.chl[m], ci[m, 0], ci[m, 1], fit.reliable[m],
                             st.cruise[m], CHL_FLOOR)

@@ -83,11 +83,18 @@ def cluster_bootstrap(statistic, clusters, n_resamples: int = BOOTSTRAP_RESAMPLE
     _, inverse = np.unique(np.asarray(clusters).astype(str), return_inverse=True)
     if inverse.size == 0:
         return np.nan, np.nan
-    members = np.split(np.argsort(inverse, kind="stable"),
-                       np.cumsum(np.bincount(inverse))[:-1])
-    rng = np.random.default_rng(seed)
-    draws = rng.integers(0, len(members), size=(n_resamples, len(members)))
-    values = np.array([statistic(np.concatenate([members[k] for k in d])) for d in draws])
+    order = np.argsort(inverse, kind="stable")  # the stations cluster by cluster
+    sizes = np.bincount(inverse)
+    starts = np.cumsum(sizes) - sizes
+    draws = np.random.default_rng(seed).integers(0, sizes.size, size=(n_resamples, sizes.size))
+    values = np.array([statistic(order[_members(starts[d], sizes[d])]) for d in draws])
     tail = 100 * (1 - level) / 2
     lo, hi = np.nanpercentile(values, [tail, 100 - tail])
     return float(lo), float(hi)
+
+
+def _members(starts, sizes) -> np.ndarray:
+    """Positions in the cluster-sorted stations of the clusters starting at ``starts`` with
+    ``sizes`` members (repeats allowed), concatenated."""
+    ends = np.cumsum(sizes)
+    return np.repeat(starts - (ends - sizes), sizes) + np.arange(ends[-1] if ends.size else 0)
