@@ -55,6 +55,9 @@ ESTIMATORS = {
     "case1": "package + Case-1 relation prior (relearned on the training cruises)",
     "real_water": "**the real-water choice**: Pope & Fry water + trained μ̄_d + Case-1 relations",
 }
+#: The package's estimators as the headline names them.
+SHORT = {"package": "the package's defaults", "case1": "the package with the Case-1 prior",
+         "real_water": "the real-water choice"}
 #: The documented real-water choice's key (the criterion's and ``nomad_inverse.csv``'s).
 CHOICE = "real_water"
 #: The issue's criterion on the test cruises: the choice's median factor error below Morel's
@@ -267,38 +270,55 @@ def _ci(pair, pct=False):
     return f" [{_pc(pair[0])}–{_pc(pair[1])}]" if pct else f" [{_f(pair[0])}–{_f(pair[1])}]"
 
 
+def _fe(s: dict) -> str:
+    """A score's factor error with its cruise-clustered interval."""
+    return f"{s['factor_error']:.2f}{_ci(s.get('factor_error_ci'))}"
+
+
 def headline(numbers: dict) -> str:
     """REALWATER.md's first paragraph: where the package's estimators lose to a constant on the
     test cruises, and whether the real-water choice met the criterion (numbers of
     :func:`section`)."""
     test = numbers["scores"]["test"]
-    const = test["median"]
-
-    def fe(k):
-        return f"{test[k]['factor_error']:.2f}{_ci(test[k].get('factor_error_ci'))}"
-    losers = [k for k in ("package", "case1", CHOICE) if k in test
-              and test[k]["factor_error"] > const["factor_error"]]
-    lose = ("; ".join(f"{ESTIMATORS[k].replace('**', '')}: {fe(k)}" for k in losers))
+    const = _fe(test["median"])
+    losers = [k for k in SHORT if k in test
+              and test[k]["factor_error"] > test["median"]["factor_error"]]
     text = (f"**On the held-out cruises** (NOMAD, {numbers['n_test']} stations of "
             f"{numbers['cruises_test']} cruises none of which has a training station; median "
             "factor error of C with its cruise-clustered bootstrap 95 % interval, an estimate "
             f"of 0 scored as {CHL_FLOOR:g} mg m⁻³): ")
-    text += (f"**the package loses to a constant** (the training cruises' median C, {fe('median')}) "
-             f"with {lose}. " if losers else
-             f"no package estimator loses to a constant ({fe('median')}). ")
-    text += f"Morel (1988) as published: {fe('morel')}; given the same training: {fe('morel_trained')}. "
+    text += (" and ".join(f"**{SHORT[k]} lose to a constant**: {_fe(test[k])}" for k in losers)
+             + f" against the training cruises' median C's {const}. " if losers else
+             f"no package estimator loses to a constant ({const}). ")
+    text += (f"Morel (1988) as published: {_fe(test['morel'])}; given the same training: "
+             f"{_fe(test['morel_trained'])}. ")
     crit = numbers.get("criterion")
-    if crit is not None:
-        c = test[CHOICE]
-        text += (f"The real-water choice (Pope & Fry water, μ̄_d and the Case-1 relations learned "
-                 f"on the training cruises): factor error {fe(CHOICE)}, coverage among reliable "
-                 f"{_pc(crit['coverage_value'])}{_ci(c.get('coverage_reliable_ci'), True)}, closed "
-                 f"{_pc(c['closed'])}: the criterion (factor error below Morel's, coverage 92–98 %, "
-                 f"half closed) is {'**met**' if crit['met'] else '**not met**'}"
-                 + ("" if crit["met"] else " (" + ", ".join(
-                     n for n, k in (("factor error", "factor_error"), ("coverage", "coverage"),
-                                    ("closed", "closed")) if not crit[k]) + " failed)") + ".")
-    return text + "\n"
+    return text + ("" if crit is None else _choice_text(test, crit)) + "\n"
+
+
+def _choice_text(test: dict, crit: dict) -> str:
+    """The headline's sentences on the real-water choice and the criterion."""
+    c = test[CHOICE]
+    failed = [n for n, k in (("factor error", "factor_error"), ("coverage", "coverage"),
+                             ("closed", "closed")) if not crit[k]]
+    return (f"The real-water choice (Pope & Fry water, μ̄_d and the Case-1 relations learned on "
+            f"the training cruises): factor error {_fe(c)}, coverage among reliable "
+            f"{_pc(crit['coverage_value'])}{_ci(c.get('coverage_reliable_ci'), True)}, closed "
+            f"{_pc(c['closed'])}: the criterion (factor error below Morel's, coverage 92–98 %, "
+            f"half closed) is {'**met**' if crit['met'] else '**not met**'}"
+            + (f" ({', '.join(failed)} failed)" if failed else "") + ". "
+            + _versus_trained(test))
+
+
+def _versus_trained(test: dict) -> str:
+    """Where Morel's law given the same training stands against the real-water choice, and how
+    wide the choice's intervals are (words follow the numbers)."""
+    c, t = test[CHOICE], test["morel_trained"]
+    better = t["factor_error"] < c["factor_error"]
+    return (f"Morel's law given the same training has {'the lower' if better else 'a higher'} "
+            f"factor error ({t['factor_error']:.2f} against {c['factor_error']:.2f}) with "
+            f"coverage {_pc(t['coverage'])}; the choice's intervals are wide (median hi/lo "
+            f"{_f(c['width_factor'], 1)}, {_pc(c['measured'])} 'measured').")
 
 
 def _figure(st, res, outdir):

@@ -39,8 +39,9 @@ from sca.problem import chl_from_u, u_from_chl
 from sca.spectral import (KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CDOM, START_CHL, TOL,
                           SpectrumProblem, scaled_spectra)
 
-__all__ = ["CDOM_FLOOR", "CHL_FLOOR", "MOREL_POWER", "MOREL_TABLE", "MorelFit", "MorelModel",
-           "fit_morel", "morel_coefficients", "morel_problem", "score", "train_morel"]
+__all__ = ["CDOM_FLOOR", "CHL_FLOOR", "MIN_TRAIN_PAIRS", "MOREL_POWER", "MOREL_TABLE", "MorelFit",
+           "MorelModel", "fit_morel", "morel_coefficients", "morel_problem", "score",
+           "train_morel"]
 
 #: An estimate below this is scored as this (mg m^-3): the package's smallest start-grid C.
 CHL_FLOOR = float(START_CHL[0])
@@ -49,6 +50,10 @@ CHL_FLOOR = float(START_CHL[0])
 CDOM_FLOOR = float(START_CDOM[START_CDOM > 0][0])
 #: C is iterated in u = C^MOREL_POWER (Morel's exponents are 0.6-0.7 over 400-700 nm).
 MOREL_POWER = 0.65
+#: :func:`train_morel` refits a band's chi and e only with at least this many training stations
+#: (NOMAD's 619 nm band has 4; a law fitted to a handful is noise; decision
+#: 0077-cruise-blocked-realwater).
+MIN_TRAIN_PAIRS = 20
 #: Morel's (1988) table of ``data/`` (K_w, chi, e).
 MOREL_TABLE = "diffuse_attenuation_morel_1988.csv"
 
@@ -131,7 +136,8 @@ def morel_problem(wavelengths, kd, rel: float, coefficients=None) -> SpectrumPro
 def train_morel(kd, wavelengths, chl) -> tuple:
     """Morel's law given the training stations: chi and e of each band refitted by least squares
     of ln(K_d - K_w) on ln C over the training stations (K_w as published; pairs with
-    K_d <= K_w or a missing band left out; a band with fewer than 3 pairs keeps Table 2).
+    K_d <= K_w or a missing band left out; a band with fewer than :data:`MIN_TRAIN_PAIRS` pairs
+    keeps Table 2).
 
     Parameters
     ----------
@@ -152,7 +158,7 @@ def train_morel(kd, wavelengths, chl) -> tuple:
     x = np.log(np.asarray(chl, float))
     for j in range(kw.size):
         ok = np.isfinite(kd[:, j]) & (kd[:, j] > kw[j])
-        if ok.sum() >= 3:
+        if ok.sum() >= MIN_TRAIN_PAIRS:
             e[j], ln_chi = np.polyfit(x[ok], np.log(kd[ok, j] - kw[j]), 1)
             chi[j] = np.exp(ln_chi)
     return kw, chi, e
