@@ -144,3 +144,23 @@ def test_comparison_learns_on_the_training_cruises_only(tmp_path):
     assert lines[[i for i, x in enumerate(lines) if not x.startswith("#")][0]].startswith(
         "split,station,cruise")
     assert "On the held-out cruises" in empirical.headline(numbers)
+
+
+def test_headline_says_where_the_package_loses_to_a_constant():
+    """REALWATER.md's first paragraph names every package estimator whose factor error on the
+    test cruises exceeds the constant's, and the criterion's verdict with what failed."""
+    from experiments.realwater.empirical import criterion, headline
+
+    def s(fe, cov=np.nan, closed=np.nan, **kw):
+        return {"factor_error": fe, "factor_error_ci": (fe - 0.1, fe + 0.1), "coverage": cov,
+                "closed": closed, "measured": 0.0, "width_factor": 20.0, **kw}
+    test = {"median": s(4.0), "morel": s(2.2, 0.3, 0.9), "morel_trained": s(1.6, 0.3, 0.9),
+            "package": s(5.4, 0.7, 0.2), "case1": s(2.7, 0.7, 0.9),
+            "real_water": s(2.5, 0.8, 0.9, coverage_reliable=0.8)}
+    numbers = {"scores": {"test": test}, "n_test": 10, "cruises_test": 3,
+               "criterion": criterion(test)}
+    text = headline(numbers)
+    assert "**the package's defaults lose to a constant**: 5.40 [5.30–5.50]" in text
+    assert "Case-1 prior lose" not in text and "**not met** (factor error, coverage failed)" in text
+    test["package"] = s(3.0, 0.7, 0.2)
+    assert "no package estimator loses to a constant" in headline(numbers)
