@@ -184,7 +184,8 @@ def auxiliary_observations(auxiliary, water) -> list:
     auxiliary : dict or None
         'cdom': (value, sd) m^-1; 'secchi': (depth, sd) m; 'kd': {wavelength nm: (value, sd)}
         m^-1. Values and sds may be (N,) arrays (one per chart; NaN: not measured). 'case1':
-        True (or a sequence of 'cdom', 'nap', 'phyto'), the Case-1 relation prior
+        True (or a sequence of 'cdom', 'nap', 'phyto', or a dict of one's own relations), the
+        Case-1 relation prior
         (:func:`sca.biooptical.case1_observations`).
     water : forward.Water
         The water model of the fit.

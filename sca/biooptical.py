@@ -264,9 +264,10 @@ def case1_observations(water, choice=True, relations: dict | None = None) -> lis
     ----------
     water : forward.Water
         The water model of the fit.
-    choice : bool or sequence of str, optional
+    choice : bool, sequence of str or dict, optional
         True: every relation of the table; a sequence: those quantities (of
-        :data:`CASE1_QUANTITIES`); False or empty: none.
+        :data:`CASE1_QUANTITIES`); a dict quantity -> :class:`Relation`: those relations (e.g.
+        learned on a user's own stations by :func:`fit_relation`); False or empty: none.
     relations : dict, optional
         quantity -> :class:`Relation` (default: :func:`read_case1`).
 
@@ -281,6 +282,12 @@ def case1_observations(water, choice=True, relations: dict | None = None) -> lis
     """
     if choice is False or choice is None:
         return []
+    if isinstance(choice, dict):
+        relations, choice = choice, list(choice)
+        bad = [r for r in relations.values() if not isinstance(r, Relation)]
+        if bad:
+            raise InputError("auxiliary['case1']", f"a dict of relations needs Relation values, "
+                             f"got {bad[0]!r}")
     table = read_case1() if relations is None else dict(relations)
     if choice is True:
         names = [q for q in CASE1_QUANTITIES if q in table]

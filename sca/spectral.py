@@ -371,7 +371,8 @@ def fit_spectrum(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     auxiliary : dict, optional
         What else is known of the water, fused in the fit as in every estimator
         (:func:`sca.auxiliary.auxiliary_observations`): e.g. a sample's a_CDOM(440),
-        ``{'cdom': (value, sd)}``, or the Case-1 relation prior ``{'case1': True}``
+        ``{'cdom': (value, sd)}``, or the Case-1 relation prior ``{'case1': True}`` (or a dict
+        of one's own :class:`sca.biooptical.Relation` s)
         (:mod:`sca.biooptical`: a_CDOM(440), a_NAP(440) and a_phi(440) tied to C with their
         scatter measured on NOMAD's even rows; the particle relations act where ``uncertain``
         frees their scales, e.g. ``{**KD_UNCERTAIN, **sca.biooptical.CASE1_UNCERTAIN}``; a

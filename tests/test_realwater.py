@@ -124,20 +124,24 @@ def test_nomad_twenty_stations_inverse_csv(tmp_path):
 
     st = nomad.load_nomad().subset(np.arange(20))
     fit = nomad.fit_stations(st)
-    path = nomad.write_inverse_csv(tmp_path / "nomad_inverse.csv", st, fit)
+    train = np.arange(20) < 12
+    path = nomad.write_inverse_csv(tmp_path / "nomad_inverse.csv", st, fit, train)
     with open(path, newline="") as f:
         rows = list(csv.DictReader(l for l in f if not l.startswith("#")))
     assert len(rows) == 20
-    for col in ("station", "chl_insitu", "chl", "chl_lo", "chl_hi", "reliable", "cdom_insitu",
-                "cdom", "cdom_lo", "cdom_hi"):
+    for col in ("station", "cruise", "split", "chl_insitu", "chl", "chl_lo", "chl_hi",
+                "reliable", "cdom_insitu", "cdom", "cdom_lo", "cdom_hi"):
         assert col in rows[0]
+    assert [r["split"] for r in rows] == ["train"] * 12 + ["test"] * 8
+    assert [r["cruise"] for r in rows] == list(st.cruise)
     for r in rows:
         assert float(r["chl"]) >= 0 and float(r["chl_lo"]) <= float(r["chl"]) <= float(r["chl_hi"])
         assert r["reliable"] in ("0", "1")
-    stats = nomad.inverse_stats(st, fit)
-    assert 0.0 <= stats["chl"]["coverage_all"] <= 1.0
+    stats = nomad.inverse_stats(st, fit, train)
+    assert 0.0 <= stats["chl"]["coverage"] <= 1.0
     assert stats["chl"]["n_reliable"] == int(np.sum(fit.reliable))
-    assert np.isfinite(stats["chl"]["median_factor_error"])
+    assert stats["chl_train"]["n"] == 12 and stats["chl_test"]["n"] == 8
+    assert np.isfinite(stats["chl"]["factor_error"])
 
 
 @needs_data
@@ -206,7 +210,7 @@ def test_real_data_command_exits_2_without_data(monkeypatch, tmp_path):
 def test_real_water_budget_terms_are_the_even_stations_scatter():
     """REAL_WATER_UNCERTAIN's phyto_scale and nap_scale are the scatter of real water's
     chlorophyll-specific absorption about eqs 10 and 8, measured on the even NOMAD stations
-    (the odd ones test it in REALWATER.md): the constants follow the data they cite."""
+    (REALWATER.md): the constants follow the data they cite."""
     import forward
     from experiments.realwater import nomad
     from sca.budget import REAL_WATER_UNCERTAIN as DEFAULT_UNCERTAIN

@@ -14,12 +14,23 @@ import traceback
 from pathlib import Path
 
 from .nomad_data import realdata_dir
-from .report import write_report
+from .report import header, write_report
 
 #: The sections, in order: (module, title). Missing modules are reported as missing.
 SECTIONS = (("nomad", "NOMAD v2"), ("casts", "COPS casts"), ("g7x", "Canon G7X photographs"),
             ("phyto", "Phytoplankton absorption"))
 ROOT = Path(__file__).resolve().parents[2]
+
+
+def _lead(numbers: dict) -> str:
+    """The report's first paragraph: the held-out comparison's headline
+    (:func:`experiments.realwater.empirical.headline`; '' when the NOMAD section failed)."""
+    empirical = numbers.get("nomad", {}).get("empirical")
+    if not empirical:
+        return ""
+    from .empirical import headline
+
+    return headline(empirical)
 
 
 def main(argv=None) -> int:
@@ -54,7 +65,8 @@ def main(argv=None) -> int:
         print(f"{name}: done", file=sys.stderr)
         sections.append(md)
         numbers[name] = nums
-    write_report(Path(args.report), sections, numbers, out / "realwater.json")
+    write_report(Path(args.report), sections, numbers, out / "realwater.json",
+                 header=header(_lead(numbers)))
     print(f"wrote {args.report}", file=sys.stderr)
     return 1 if failed else 0
 

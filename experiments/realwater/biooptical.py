@@ -28,9 +28,9 @@ from sca.biooptical import CASE1_QUANTITIES, CASE1_TABLE, fit_relation, read_cas
 
 from .nomad_data import NomadStations, cdom_440, load_nomad
 
-__all__ = ["CHECK_RTOL", "CHL_FLOOR", "COMMAND", "FLOOR", "TABLE_PATH", "agrees", "held_out",
-           "learn_relations", "main", "measured_440", "nap_440", "phyto_440", "table_text",
-           "training_rows"]
+__all__ = ["CHECK_RTOL", "CHL_FLOOR", "COMMAND", "FLOOR", "TABLE_PATH", "agrees", "fit_relations",
+           "held_out", "learn_relations", "main", "measured_440", "nap_440", "phyto_440",
+           "table_text", "tested_on", "training_rows"]
 
 #: The command that writes the table (named in its header).
 COMMAND = "python -m experiments.realwater.biooptical"
@@ -72,7 +72,12 @@ def measured_440(st: NomadStations, water=None) -> dict:
 
 
 def held_out(st: NomadStations, relations: dict, water=None) -> dict:
-    """The relations tested on the ODD rows: the residual ln(a + floor) - ln alpha -
+    """The relations tested on the ODD rows (:func:`tested_on`)."""
+    return tested_on(st.subset(np.flatnonzero(st.station % 2 == 1)), relations, water)
+
+
+def tested_on(test: NomadStations, relations: dict, water=None) -> dict:
+    """The relations tested on the stations ``test``: the residual ln(a + floor) - ln alpha -
     beta ln(C + chl_floor) of the measured a_q(440).
 
     Returns
@@ -82,13 +87,12 @@ def held_out(st: NomadStations, relations: dict, water=None) -> dict:
         (its standard deviation), 'within' (share with |residual| <= 1.96 sd_learned: 0.95
         if the learned scatter holds)}.
     """
-    odd = st.subset(np.flatnonzero(st.station % 2 == 1))
-    values = measured_440(odd, water)
+    values = measured_440(test, water)
     out = {}
     for q, r in relations.items():
         ok = np.isfinite(values[q])
         res = (np.log(values[q][ok] + r.floor) - np.log(r.alpha)
-               - r.beta * np.log(odd.chl[ok] + r.chl_floor))
+               - r.beta * np.log(test.chl[ok] + r.chl_floor))
         out[q] = {"n": int(ok.sum()), "median": float(np.median(res)),
                   "sd": float(np.std(res, ddof=1)),
                   "within": float(np.mean(np.abs(res) <= 1.959964 * r.sd))}
@@ -96,7 +100,7 @@ def held_out(st: NomadStations, relations: dict, water=None) -> dict:
 
 
 def learn_relations(st: NomadStations, water=None) -> dict:
-    """The relations learned on the even rows of ``st``.
+    """The relations learned on the even rows of ``st`` (the shipped table's rows).
 
     Parameters
     ----------
@@ -110,9 +114,14 @@ def learn_relations(st: NomadStations, water=None) -> dict:
     dict
         quantity -> :class:`sca.biooptical.Relation`.
     """
-    even = training_rows(st)
-    values = measured_440(even, water)
-    return {q: fit_relation(q, even.chl, values[q], floor=FLOOR, chl_floor=CHL_FLOOR)
+    return fit_relations(training_rows(st), water)
+
+
+def fit_relations(train: NomadStations, water=None) -> dict:
+    """The relations learned on every station of ``train`` (e.g. the training cruises of
+    :func:`experiments.realwater.split.cruise_split`): quantity -> :class:`Relation`."""
+    values = measured_440(train, water)
+    return {q: fit_relation(q, train.chl, values[q], floor=FLOOR, chl_floor=CHL_FLOOR)
             for q in CASE1_QUANTITIES}
 
 

@@ -36,16 +36,24 @@ from sca.intervals import BOUND_FOUND, BOUND_OPEN, BOUND_ZERO, own_units, profil
 from sca.lm import evaluate, levenberg_marquardt
 from sca.model import CHL_MAX
 from sca.problem import chl_from_u, u_from_chl
-from sca.spectral import (KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CHL, TOL, SpectrumProblem,
-                          scaled_spectra)
+from sca.spectral import (KD_MODEL_ERROR, KD_SIGMA_REL, MAX_ITER, START_CDOM, START_CHL, TOL,
+                          SpectrumProblem, scaled_spectra)
 
-__all__ = ["CHL_FLOOR", "MOREL_POWER", "MOREL_TABLE", "MorelFit", "MorelModel", "fit_morel",
-           "morel_coefficients", "morel_problem", "score"]
+__all__ = ["CDOM_FLOOR", "CHL_FLOOR", "MIN_TRAIN_PAIRS", "MOREL_POWER", "MOREL_TABLE", "MorelFit",
+           "MorelModel", "fit_morel", "morel_coefficients", "morel_problem", "score",
+           "train_morel"]
 
 #: An estimate below this is scored as this (mg m^-3): the package's smallest start-grid C.
 CHL_FLOOR = float(START_CHL[0])
+#: An a_CDOM(440) estimate below this is scored as this (m^-1): the smallest non-zero a_CDOM of
+#: the package's start grid.
+CDOM_FLOOR = float(START_CDOM[START_CDOM > 0][0])
 #: C is iterated in u = C^MOREL_POWER (Morel's exponents are 0.6-0.7 over 400-700 nm).
 MOREL_POWER = 0.65
+#: :func:`train_morel` refits a band's chi and e only with at least this many training stations
+#: (NOMAD's 619 nm band has 4; a law fitted to a handful is noise; decision
+#: 0081-cruise-blocked-realwater).
+MIN_TRAIN_PAIRS = 20
 #: Morel's (1988) table of ``data/`` (K_w, chi, e).
 MOREL_TABLE = "diffuse_attenuation_morel_1988.csv"
 
@@ -78,6 +86,9 @@ class MorelModel:
     ----------
     wavelengths : array_like, (q,)
         The bands, nm (400-700).
+    coefficients : tuple of array_like, optional
+        (K_w, chi, e) at the bands (default: Table 2, :func:`morel_coefficients`; a trained
+        law: :func:`train_morel`).
 
     Attributes
     ----------
@@ -91,9 +102,10 @@ class MorelModel:
         The paper's (its lower bound of C, 0, is the fit's).
     """
 
-    def __init__(self, wavelengths):
+    def __init__(self, wavelengths, coefficients=None):
         self.wavelengths = wavelength_grid(wavelengths)
-        self.kw, self.chi, self.e = morel_coefficients(self.wavelengths)
+        self.kw, self.chi, self.e = (morel_coefficients(self.wavelengths) if coefficients is None
+                                     else (np.asarray(c, float) for c in coefficients))
         self.e0 = MOREL_POWER
         self.water = resolve_water(None)
 
@@ -111,13 +123,45 @@ class MorelModel:
         return kd, d
 
 
-def morel_problem(wavelengths, kd, rel: float) -> SpectrumProblem:
+def morel_problem(wavelengths, kd, rel: float, coefficients=None) -> SpectrumProblem:
     """N K_d spectra against Morel's law, C the one free parameter: the layout of
-    :class:`sca.spectral.SpectrumProblem` with :class:`MorelModel` and the weights
-    1 / (rel K_d)^2 of :func:`sca.spectral.scaled_spectra` (NaN: a missing band, weight 0)."""
+    :class:`sca.spectral.SpectrumProblem` with :class:`MorelModel` (``coefficients`` as there)
+    and the weights 1 / (rel K_d)^2 of :func:`sca.spectral.scaled_spectra` (NaN: a missing
+    band, weight 0)."""
     kd = np.atleast_2d(np.asarray(kd, float))
     M, W2, scale = scaled_spectra(kd, np.isfinite(kd), rel)
-    return SpectrumProblem(MorelModel(wavelengths), M, W2, scale, ("chl",))
+    return SpectrumProblem(MorelModel(wavelengths, coefficients), M, W2, scale, ("chl",))
+
+
+def train_morel(kd, wavelengths, chl) -> tuple:
+    """Morel's law given the training stations: chi and e of each band refitted by least squares
+    of ln(K_d - K_w) on ln C over the training stations (K_w as published; pairs with
+    K_d <= K_w or a missing band left out; a band with fewer than :data:`MIN_TRAIN_PAIRS` pairs
+    keeps Table 2).
+
+    Parameters
+    ----------
+    kd : array_like, (N, q)
+        The training stations' measured K_d, m^-1 (NaN: missing).
+    wavelengths : array_like, (q,)
+        The bands, nm.
+    chl : array_like, (N,)
+        Their in-situ C, mg m^-3.
+
+    Returns
+    -------
+    tuple of ndarray
+        (K_w, chi, e), each (q,): the ``coefficients`` of :class:`MorelModel`.
+    """
+    kw, chi, e = (np.array(c) for c in morel_coefficients(wavelengths))
+    kd = np.atleast_2d(np.asarray(kd, float))
+    x = np.log(np.asarray(chl, float))
+    for j in range(kw.size):
+        ok = np.isfinite(kd[:, j]) & (kd[:, j] > kw[j])
+        if ok.sum() >= MIN_TRAIN_PAIRS:
+            e[j], ln_chi = np.polyfit(x[ok], np.log(kd[ok, j] - kw[j]), 1)
+            chi[j] = np.exp(ln_chi)
+    return kw, chi, e
 
 
 @dataclass
@@ -144,7 +188,7 @@ class MorelFit:
 
 
 def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
-              model_error: float = KD_MODEL_ERROR) -> MorelFit:
+              model_error: float = KD_MODEL_ERROR, coefficients=None) -> MorelFit:
     """Fit C alone to measured K_d spectra by Morel's (1988) K_w + chi C^e, with intervals.
 
     The weights are :func:`sca.spectral.fit_spectrum`'s (relative sd
@@ -160,6 +204,8 @@ def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
         The bands, nm, within 400-700.
     sigma_rel, model_error : float, optional
         As :func:`sca.spectral.fit_spectrum`.
+    coefficients : tuple, optional
+        (K_w, chi, e) at the bands (default Table 2; :func:`train_morel`).
 
     Returns
     -------
@@ -167,7 +213,7 @@ def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
     """
     kd = np.atleast_2d(np.asarray(kd, float))
     rel = float(np.hypot(sigma_rel, model_error))
-    prob = morel_problem(wavelengths, kd, rel)
+    prob = morel_problem(wavelengths, kd, rel, coefficients)
     N = prob.size
     grid = prob.model.kd({"chl": START_CHL})[0]  # (g, q)
     k = prob.M * prob.scale[:, None]
@@ -187,17 +233,25 @@ def fit_morel(kd, wavelengths, *, sigma_rel: float = KD_SIGMA_REL,
                     p_value=p_value, code=code)
 
 
-def score(estimate, reference, lo=None, hi=None) -> dict:
-    """How well estimates of C match the in-situ C.
+def score(estimate, reference, lo=None, hi=None, *, floor: float = CHL_FLOOR,
+          clusters=None) -> dict:
+    """How well estimates of C (or of a_CDOM) match the in-situ values: **the one scoring rule**
+    of REALWATER.md's tables.
 
     Parameters
     ----------
     estimate : array_like, (N,)
-        C_hat, mg m^-3 (values below :data:`CHL_FLOOR`, 0 included, are scored as it).
+        The estimates (values below ``floor``, 0 included, are scored as ``floor`` and counted).
     reference : array_like, (N,)
-        The in-situ C, mg m^-3 (> 0).
+        The in-situ values (> 0).
     lo, hi : array_like, (N,), optional
         The 95 % interval (``inf``: open upper end); None: the estimator gives none.
+    floor : float, optional
+        Where an estimate of 0 is scored (default :data:`CHL_FLOOR`, mg m^-3).
+    clusters : array_like, (N,), optional
+        Each station's cruise: adds cruise-clustered bootstrap 95 % intervals
+        (:func:`experiments.realwater.split.cluster_bootstrap`) 'factor_error_ci' and
+        'coverage_ci' (NaN, NaN without an interval).
 
     Returns
     -------
@@ -214,7 +268,7 @@ def score(estimate, reference, lo=None, hi=None) -> dict:
 
     est = np.asarray(estimate, float)
     ref = np.asarray(reference, float)
-    e = np.maximum(est, CHL_FLOOR)
+    e = np.maximum(est, floor)
     r = np.log(e / ref)
     out = {"n": int(ref.size), "n_zero": int(np.sum(est <= 0)),
            "factor_error": float(np.exp(np.median(np.abs(r)))),
@@ -222,13 +276,27 @@ def score(estimate, reference, lo=None, hi=None) -> dict:
            "r2_log": np.nan if ref.size < 3 or np.ptp(ref) == 0 else 0.0 if np.ptp(e) == 0
            else float(np.corrcoef(np.log(e), np.log(ref))[0, 1] ** 2),
            "coverage": np.nan, "closed": np.nan, "measured": np.nan, "width_factor": np.nan}
+    inside = None
     if lo is not None:
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         closed = (lo > 0) & np.isfinite(hi)
+        inside = (lo <= ref) & (ref <= hi)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(closed, hi / np.where(closed, lo, 1.0), np.inf)
-        out.update(coverage=float(np.mean((lo <= ref) & (ref <= hi))),
-                   closed=float(np.mean(closed)),
+        out.update(coverage=float(np.mean(inside)), closed=float(np.mean(closed)),
                    measured=float(np.mean(ratio <= MEASURED_RATIO)),
                    width_factor=float(np.median(ratio[closed])) if closed.any() else np.nan)
+    if clusters is not None:
+        out.update(_intervals(np.abs(r), inside, clusters))
+    return out
+
+
+def _intervals(abs_log, inside, clusters) -> dict:
+    """Cruise-clustered bootstrap intervals of the factor error and the coverage."""
+    from .split import cluster_bootstrap
+
+    out = {"factor_error_ci": cluster_bootstrap(
+        lambda i: np.exp(np.median(abs_log[i])), clusters)}
+    out["coverage_ci"] = (np.nan, np.nan) if inside is None else cluster_bootstrap(
+        lambda i: np.mean(inside[i]), clusters)
     return out

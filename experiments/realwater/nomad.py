@@ -39,9 +39,10 @@ from sca.spectral import (
 )
 
 from ..common import save_figure, style, write_csv
-from .estimators import MOREL_TABLE, morel_coefficients
+from .estimators import CDOM_FLOOR, CHL_FLOOR, MOREL_TABLE, morel_coefficients, score
 from .nomad_data import (_GRID_443, CHL_CLASSES, MIN_KD_BANDS, NomadStations, cdom_440,
                          load_nomad)
+from .split import SPLIT_SEED
 
 __all__ = [
     "CHL_CLASSES",
@@ -273,43 +274,32 @@ def fit_stations(st: NomadStations, **kw):
     return fit_spectrum(st.kd, st.wavelengths, **kw)
 
 
-def _log_stats(est, ref, lo, hi, reliable):
-    ok = (est > 0) & (ref > 0)
-    r = np.log10(est[ok] / ref[ok])
-    inside = (lo <= ref) & (ref <= hi)
-    rel = reliable
-    out = {"n": int(ok.sum()),
-           "bias_factor": float(10 ** np.median(r)) if r.size else np.nan,
-           "median_factor_error": float(10 ** np.median(np.abs(r))) if r.size else np.nan,
-           "r2_log": float(np.corrcoef(np.log10(est[ok]), np.log10(ref[ok]))[0, 1] ** 2)
-           if r.size > 2 else np.nan,
-           "coverage_all": float(np.mean(inside)) if inside.size else np.nan,
-           "n_reliable": int(rel.sum()),
-           "coverage_reliable": float(np.mean(inside[rel])) if rel.any() else np.nan}
-    okr = ok & rel
-    if okr.sum() > 2:
-        rr = np.log10(est[okr] / ref[okr])
-        out["bias_factor_reliable"] = float(10 ** np.median(rr))
-        out["median_factor_error_reliable"] = float(10 ** np.median(np.abs(rr)))
-        out["r2_log_reliable"] = float(np.corrcoef(np.log10(est[okr]),
-                                                   np.log10(ref[okr]))[0, 1] ** 2)
+def _scores(est, ref, lo, hi, reliable, clusters, floor) -> dict:
+    """:func:`~experiments.realwater.estimators.score` (the one rule: an estimate of 0 scored as
+    ``floor`` and counted) with cruise-clustered intervals, and the coverage among the
+    reliable stations."""
+    out = score(est, ref, lo, hi, floor=floor, clusters=clusters)
+    r = reliable
+    out.update(n_reliable=int(r.sum()), coverage_reliable=float(np.mean(
+        (lo[r] <= ref[r]) & (ref[r] <= hi[r]))) if r.any() else np.nan)
     return out
 
 
-def inverse_stats(st: NomadStations, fit, water=None) -> dict:
-    """Bias, median factor error, r^2 (log10) and interval coverage of the fitted C and
-    a_CDOM(440) against the in-situ values, for all stations, the reliable ones, and the
-    even / odd station halves (a check that the numbers do not hang on a few stations)."""
-    out = {"chl": _log_stats(fit.chl, st.chl, fit.chl_ci[:, 0], fit.chl_ci[:, 1], fit.reliable)}
-    for name, par in (("even", 0), ("odd", 1)):
-        m = st.station % 2 == par
-        out[f"chl_{name}"] = _log_stats(fit.chl[m], st.chl[m], fit.chl_ci[m, 0],
-                                        fit.chl_ci[m, 1], fit.reliable[m])
+def inverse_stats(st: NomadStations, fit, train, water=None) -> dict:
+    """Scores of the fitted C and a_CDOM(440) against the in-situ values
+    (:func:`~experiments.realwater.estimators.score`, the rule of every table: C = 0 counted as
+    :data:`~experiments.realwater.estimators.CHL_FLOOR`, a_CDOM = 0 as
+    :data:`~experiments.realwater.estimators.CDOM_FLOOR`), for all stations and the training
+    and test cruises (``train``: the cruise-blocked split's mask)."""
+    ci = fit.chl_ci
+    out = {}
+    for name, m in (("chl", np.ones(st.chl.size, bool)), ("chl_train", train),
+                    ("chl_test", ~train)):
+        out[name] = _scores(fit.chl[m], st.chl[m], ci[m, 0], ci[m, 1], fit.reliable[m],
+                            st.cruise[m], CHL_FLOOR)
     has = ~np.isnan(st.ag443)
-    ref = cdom_440(st.ag443[has], water)
-    out["cdom"] = _log_stats(fit.cdom[has], ref, fit.cdom_ci[has, 0], fit.cdom_ci[has, 1],
-                             fit.reliable[has])
-    out["chl_zero"] = int(np.sum(fit.chl <= 0))
+    out["cdom"] = _scores(fit.cdom[has], cdom_440(st.ag443[has], water), fit.cdom_ci[has, 0],
+                          fit.cdom_ci[has, 1], fit.reliable[has], st.cruise[has], CDOM_FLOOR)
     mu = fit.nuisance.get("downwelling_cosine")
     if mu is not None and fit.reliable.any():
         out["mu_d_p16"], out["mu_d_median"], out["mu_d_p84"] = (
@@ -321,13 +311,16 @@ def inverse_stats(st: NomadStations, fit, water=None) -> dict:
     return out
 
 
-def write_inverse_csv(path: Path, st: NomadStations, fit, water=None) -> Path:
-    """``nomad_inverse.csv``: one row per station (written whole, via a temporary file)."""
+def write_inverse_csv(path: Path, st: NomadStations, fit, train, water=None) -> Path:
+    """``nomad_inverse.csv``: one row per station (written whole, via a temporary file): its
+    cruise, its ``split`` ('train' / 'test': the cruise-blocked split's mask ``train``) and
+    ``fit`` (the real-water choice in ``make real-data``)."""
     ref = cdom_440(st.ag443, water)
     rows = []
     for i in range(len(st)):
         has = np.isfinite(ref[i])
-        rows.append([int(st.station[i]), int(st.nomad_id[i]), f"{st.chl[i]:.6g}",
+        rows.append([int(st.station[i]), int(st.nomad_id[i]), st.cruise[i],
+                     "train" if train[i] else "test", f"{st.chl[i]:.6g}",
                      "hplc" if st.hplc[i] else "fluorometric", f"{fit.chl[i]:.6g}",
                      f"{fit.chl_ci[i, 0]:.6g}", f"{fit.chl_ci[i, 1]:.6g}",
                      int(bool(fit.reliable[i])), f"{fit.chi2[i]:.6g}", int(fit.dof[i]),
@@ -335,13 +328,17 @@ def write_inverse_csv(path: Path, st: NomadStations, fit, water=None) -> Path:
                      f"{ref[i]:.6g}" if has else "", f"{fit.cdom[i]:.6g}" if has else "",
                      f"{fit.cdom_ci[i, 0]:.6g}" if has else "",
                      f"{fit.cdom_ci[i, 1]:.6g}" if has else ""])
-    header = ["station", "nomad_id", "chl_insitu", "chl_source", "chl", "chl_lo", "chl_hi",
-              "reliable", "chi2", "dof", "p_value", "cdom_insitu", "cdom", "cdom_lo", "cdom_hi"]
+    header = ["station", "nomad_id", "cruise", "split", "chl_insitu", "chl_source", "chl",
+              "chl_lo", "chl_hi", "reliable", "chi2", "dof", "p_value", "cdom_insitu", "cdom",
+              "cdom_lo", "cdom_hi"]
     comment = ("NOMAD v2 inverse: C (mg m^-3) and a_CDOM(440) (m^-1) fitted to each measured "
-               "K_d spectrum\nby sca.spectral.fit_spectrum (95 % profile-likelihood intervals; "
-               f"sigma_rel {KD_SIGMA_REL}, model error {KD_MODEL_ERROR},\npriors {KD_UNCERTAIN}). "
-               "station = data row of the NOMAD file (0-based); cdom_insitu = ag443 taken to "
-               "440 nm by eq 6.\nGenerated by: make real-data")
+               "K_d spectrum\nby sca.spectral.fit_spectrum with the real-water choice "
+               "(experiments.realwater.empirical.real_water_choice: Pope & Fry 1997 water,\n"
+               "mu_d and the Case-1 relations learned on the training cruises; 95 % "
+               f"profile-likelihood intervals; sigma_rel {KD_SIGMA_REL}, model error "
+               f"{KD_MODEL_ERROR}).\nstation = data row of the NOMAD file (0-based); split = "
+               f"the cruise-blocked split (seed {SPLIT_SEED}): train / test cruises; "
+               "cdom_insitu = ag443 taken to 440 nm by eq 6.\nGenerated by: make real-data")
     return write_csv(path, header, rows, comment)
 
 
@@ -402,6 +399,7 @@ def _figure_inverse(st, fit, outdir):
     ax.set_ylim(1e-3, 1e3)
     ax.set_xlabel("in-situ C (mg m$^{-3}$)")
     ax.set_ylabel("C fitted to K_d, 95 % interval (mg m$^{-3}$; 0 drawn at 10$^{-3}$)")
+    ax.set_title("the fit of nomad_inverse.csv")
     ax.legend(loc="upper left")
     paths = save_figure(fig, "nomad_inverse", outdir)
     plt.close(fig)
@@ -409,6 +407,27 @@ def _figure_inverse(st, fit, outdir):
 
 
 # ------------------------------------------------------------------ the section
+#: The inverse table's fits: key of :func:`experiments.realwater.empirical.compare` -> label.
+INVERSE_FITS = {"package": "defaults", "real_water": "real-water choice"}
+
+
+def _inverse_rows(stats: dict) -> list:
+    """Markdown rows of :func:`inverse_stats` per fit (:data:`INVERSE_FITS`)."""
+    rows = []
+    for key, stat in stats.items():
+        for label, v in (("C, all", stat["chl"]), ("C, training cruises", stat["chl_train"]),
+                         ("C, test cruises", stat["chl_test"]), ("a_CDOM(440)", stat["cdom"])):
+            ci = v.get("factor_error_ci", (np.nan, np.nan))
+            cc = v.get("coverage_ci", (np.nan, np.nan))
+            rows.append(f"| {INVERSE_FITS[key]} | {label} | {v['n']} | {v['n_zero']} | "
+                        f"{_fmt(v['bias_factor'])} | {_fmt(v['factor_error'])} "
+                        f"[{_fmt(ci[0])}–{_fmt(ci[1])}] | {_fmt(v['r2_log'])} | "
+                        f"{_fmt(100 * v['coverage'], 0)} % [{_fmt(100 * cc[0], 0)}–"
+                        f"{_fmt(100 * cc[1], 0)}] | {v['n_reliable']} | "
+                        f"{_fmt(100 * v['coverage_reliable'], 0)} % |")
+    return rows
+
+
 def _shown(path: Path) -> str:
     """``path`` relative to the repository when inside it (the report's file names)."""
     try:
@@ -470,21 +489,24 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
               ["group", "model", "band_nm", "n", "median_ratio", "p16", "p84"],
               [(g, m, b, n, f"{a:.4g}", f"{lo:.4g}", f"{hi:.4g}") for g, m, b, n, a, lo, hi in rows],
               "predicted / measured K_d per band, NOMAD v2 (Generated by: make real-data)")
-    fit = fit_stations(st)
-    stats = inverse_stats(st, fit)
-    write_inverse_csv(outdir / "nomad_inverse.csv", st, fit)
+    from .empirical import CHOICE, compare
+    from .empirical import section as empirical_section
+
+    res = compare(st)
+    fits = {k: res["fits"][k] for k in ("package", CHOICE) if k in res["fits"]}
+    stats = {k: inverse_stats(st, f, res["train"]) for k, f in fits.items()}
+    shown = fits.get(CHOICE, fits["package"])
+    write_inverse_csv(outdir / "nomad_inverse.csv", st, shown, res["train"])
     checks = iop_checks(st)
     widened = bio_optical_uncertain(checks)
     synth = synthetic_coverage(st)
-    from .empirical import section as empirical_section
-
-    empirical_md, empirical = empirical_section(st, outdir)
-    figs = _figure_forward(st, pred, groups, outdir) + _figure_inverse(st, fit, outdir)
+    empirical_md, empirical = empirical_section(st, outdir, res=res)
+    figs = _figure_forward(st, pred, groups, outdir) + _figure_inverse(st, shown, outdir)
     table = {(g, m, b): (n, a, lo, hi) for g, m, b, n, a, lo, hi in rows}
     red = red_band_subset(st, pred)
     numbers = {"stations": len(st), "stations_with_ag443": int(np.sum(~np.isnan(st.ag443))),
                "hplc_fraction": float(np.mean(st.hplc)), "inverse": stats,
-               "iop_checks": checks, "widened_priors": widened, "empirical": empirical,
+               "iop_checks": checks, "inverse_fit": CHOICE if CHOICE in fits else "package", "widened_priors": widened, "empirical": empirical,
                "synthetic_coverage": synth, "red_band_subset": red,
                "forward": {f"{g}|{m}|{b}": v for (g, m, b), v in table.items()}}
     md = [f"## NOMAD v2: the model against {len(st)} measured K_d spectra\n",
@@ -531,34 +553,26 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
            *_group_table(table, groups, "kd_model", with_n=True)]
     md += ["", "Morel 1988 by water type, for comparison:\n",
            *_group_table(table, groups, "morel1988", with_n=False)]
-    s = stats["chl"]
-    c = stats["cdom"]
     md += ["", "### Inverse: C and a_CDOM fitted to each K_d spectrum\n",
            ("`sca.spectral.fit_spectrum` (the one core: `forward.WaterTerms.path_coefficient` with "
            "`DIFFUSE_TERMS`, `sca.lm` Levenberg–Marquardt, `sca.intervals` 95 % profile "
            f"likelihood). Error model fixed beforehand: per band {100 * KD_SIGMA_REL:.0f} % "
            f"(radiometric K_d) ⊕ {100 * KD_MODEL_ERROR:.0f} % (the K_d approximation's own "
            "error), priors cdom_slope ± 0.0025 nm⁻¹, nap_slope ± 0.0025 nm⁻¹ (the budget's), "
-           "μ̄_d 0.75 ± 0.075. Reliable: χ² p ≥ 0.01, converged, C interval closed.\n"),
-           ("| quantity | stations with C > 0 | bias (median factor) | median factor error | r² (log10) | "
-           "coverage of 95 % interval | reliable | coverage (reliable) |"),
-           "|---|---|---|---|---|---|---|---|"]
-    for label, v in (("C, all", s), ("C, even stations", stats["chl_even"]),
-                     ("C, odd stations", stats["chl_odd"]), ("a_CDOM(440)", c)):
-        md.append(f"| {label} | {v['n']} | {_fmt(v['bias_factor'])} | "
-                  f"{_fmt(v['median_factor_error'])} | {_fmt(v['r2_log'])} | "
-                  f"{_fmt(100 * v['coverage_all'], 0)} % | {v['n_reliable']} | "
-                  f"{_fmt(100 * v['coverage_reliable'], 0)} % |")
-    md.append(f"\nStations fitted with C = 0 (all their absorption put into CDOM; excluded "
-              f"from bias, factor error and r², included in coverage): "
-              f"{stats['chl_zero']}. Fitted μ̄_d (nuisance, prior 0.75 ± 0.075), median over "
-              f"reliable stations: {_fmt(stats['mu_d_median'])} [16–84 %: "
-              f"{_fmt(stats['mu_d_p16'])}–{_fmt(stats['mu_d_p84'])}].")
-    if "bias_factor_reliable" in s:
-        md.append(f"\nReliable stations only (C): bias {_fmt(s['bias_factor_reliable'])}×, "
-                  f"median factor error {_fmt(s['median_factor_error_reliable'])}, r² "
-                  f"{_fmt(s['r2_log_reliable'])}. Misfits (χ² p < 0.01): "
-                  f"{_fmt(100 * stats['misfit_fraction'], 0)} % of stations.")
+           "μ̄_d 0.75 ± 0.075 (the defaults) or as the real-water choice learns it (next "
+           "subsection). Reliable: χ² p ≥ 0.01, converged, C interval closed. Scored by the "
+           f"rule of every table: an estimate of 0 counted as {CHL_FLOOR:g} mg m⁻³ (a_CDOM: "
+           f"{CDOM_FLOOR:g} m⁻¹); training / test: the cruise-blocked split; [a–b]: "
+           "cruise-clustered bootstrap 95 % interval.\n"),
+           ("| fit | quantity | n | estimates of 0 | bias (median factor) | median factor error | "
+            "r² (ln) | coverage of 95 % interval | reliable | coverage (reliable) |"),
+           "|---|---|---|---|---|---|---|---|---|---|",
+           *_inverse_rows(stats)]
+    d = stats["package"]
+    md.append(f"\nDefaults: fitted μ̄_d (nuisance, prior 0.75 ± 0.075), median over "
+              f"reliable stations: {_fmt(d['mu_d_median'])} [16–84 %: "
+              f"{_fmt(d['mu_d_p16'])}–{_fmt(d['mu_d_p84'])}]; misfits (χ² p < 0.01): "
+              f"{_fmt(100 * d['misfit_fraction'], 0)} % of stations.")
     md += ["", ("**The intervals on the model's own worlds** (a check of the machinery, not of "
            f"the water): {synth['n']} K_d spectra made by the model at the ag443 stations' "
            "in-situ C and a_CDOM, their own bands, nuisances drawn from the priors, per-band "
@@ -583,8 +597,9 @@ def run(outdir: Path, *, stations: int | None = None) -> tuple[str, dict]:
             "C, measured on the EVEN stations only (ln sd "
             f"{_fmt(checks['aph443']['log_sd_even'])} and {_fmt(checks['ad443']['log_sd_even'])}"
             "), as priors on `phyto_scale` and `nap_scale` (relative sds, centred on the "
-            "paper's values: `sca.budget.REAL_WATER_UNCERTAIN`), is tested on the odd stations "
-            "in the next table (row 'package + the budget's real-water term').")]
+            "paper's values: `sca.budget.REAL_WATER_UNCERTAIN`). The even rows share cruises with "
+            "both halves of the cruise-blocked split below, so this term is not compared there "
+            "(every estimator there learns on the training cruises only).")]
     md += empirical_md
     md += ["", "Files: " + ", ".join(f"`{p.name}`" for p in figs if p.suffix == ".png")
            + ", `nomad_forward_ratio.csv`, `nomad_inverse.csv` (one row per station) in "

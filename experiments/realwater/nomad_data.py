@@ -67,6 +67,9 @@ class NomadStations:
         m^-1; NaN where not measured.
     bb555 : ndarray, (N,)
         Total backscattering at 555 nm, m^-1; NaN where not measured.
+    cruise : ndarray of str, (N,)
+        NOMAD's ``cruise`` (the unit of a cruise-blocked split: stations of one cruise share
+        their water, :mod:`experiments.realwater.split`).
     """
 
     station: np.ndarray
@@ -79,6 +82,7 @@ class NomadStations:
     aph443: np.ndarray
     ad443: np.ndarray
     bb555: np.ndarray
+    cruise: np.ndarray
 
     def __len__(self) -> int:
         return self.station.size
@@ -87,7 +91,8 @@ class NomadStations:
         """The stations ``idx`` (index array or boolean mask)."""
         return NomadStations(self.station[idx], self.nomad_id[idx], self.wavelengths,
                              self.kd[idx], self.chl[idx], self.hplc[idx], self.ag443[idx],
-                             self.aph443[idx], self.ad443[idx], self.bb555[idx])
+                             self.aph443[idx], self.ad443[idx], self.bb555[idx],
+                             self.cruise[idx])
 
 
 def load_nomad(path=None) -> NomadStations:
@@ -137,7 +142,8 @@ def load_nomad(path=None) -> NomadStations:
     bb = positive(df["bb555"])
     rows = np.flatnonzero(keep)
     return NomadStations(rows, df["id"].to_numpy()[rows].astype(int), wl, kd[rows], chl[rows],
-                         hplc[rows], ag[rows], aph[rows], ad[rows], bb[rows])
+                         hplc[rows], ag[rows], aph[rows], ad[rows], bb[rows],
+                         df["cruise"].astype(str).to_numpy()[rows])
 
 
 def cdom_440(ag443, water=None) -> np.ndarray:
