@@ -30,7 +30,7 @@ from forward.spectra import WHITE_PATCH
 
 from .model import CDOM_MAX, CHL_MAX  # where a profile interval is open (one definition)
 
-__all__ = ["CONFIDENCE", "MISFIT_P", "SCALE_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
+__all__ = ["CONFIDENCE", "CONFLICT_P", "MISFIT_P", "SCALE_P", "DARK_SNR", "ORDER_SIGMAS", "CHL_MAX", "CDOM_MAX", "GREY_ROW",
            "BLOCKING", "INFORMATIVE", "Z95", "profile_delta", "gain_wald", "wald", "goodness",
            "input_flag_table", "input_flags", "estimate_flag_table", "estimate_flags",
            "flag_tuples", "is_reliable", "EXACT_SIGMA_FLOOR", "ORDER_FRACTION"]
@@ -47,6 +47,9 @@ MISFIT_P = 1e-3
 #: missed wrong scale is fitted as another water with a confident interval (decision
 #: 0008-trust-noise-fit-flags).
 SCALE_P = 0.01
+#: A reading whose likelihood-ratio test against the photos has a p-value below this is a
+#: ``reading-conflict`` (one in a thousand false alarms per reading, as ``misfit``).
+CONFLICT_P = 1e-3
 #: The grey row's white-black contrast must exceed this many standard deviations in at least
 #: one channel, else the chart is ``dark``.
 DARK_SNR = 10.0

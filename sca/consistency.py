@@ -33,15 +33,13 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
+from .assess import CONFLICT_P
 from .lm import LM_TOL, levenberg_marquardt
 
-__all__ = ["CONFLICT_P", "PULL_MAX", "CONSISTENCY_MAX_ITER", "consistency_flag_table",
+__all__ = ["PULL_MAX", "CONSISTENCY_MAX_ITER", "consistency_flag_table",
            "add_flags", "combined", "consistency_records", "finalize_batch", "finalize_single", "nuisance_pulls", "objectives_alone",
            "reading_tests", "tested", "without_observation"]
 
-#: A reading whose likelihood-ratio test against the photos has a p-value below this is a
-#: ``reading-conflict`` (one in a thousand false alarms per reading, as ``misfit``).
-CONFLICT_P = 1e-3
 #: A nuisance whose fitted value lies more than this many of its prior's standard deviations
 #: from the prior's centre is ``nuisance-pulled`` (a right prior's pull has an sd of at most 1:
 #: about 5e-4 false alarms per nuisance).

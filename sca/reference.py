@@ -52,7 +52,7 @@ REFERENCE_MINUTES = 10.0
 #: (decision 0075-design-reference-shot).
 PLANNED_FIT_SD = 2.0
 #: The flag (:data:`sca.assess.BLOCKING`) of an estimate whose budget holds reference shots that
-#: disagree beyond their sds (:func:`bracket`: chi^2 p below :data:`sca.consistency.CONFLICT_P`).
+#: disagree beyond their sds (:func:`bracket`: chi^2 p below :data:`sca.assess.CONFLICT_P`).
 CONFLICT_FLAG = "reference-conflict"
 #: The nuisances of the camera held to their priors in the fit in air.
 CAMERA_PRIORS = ("balance", "camera_shift")
@@ -176,8 +176,8 @@ class Bracket:
 
     @property
     def conflict(self) -> bool:
-        """The shots disagree beyond their sds: p below :data:`sca.consistency.CONFLICT_P`."""
-        from .consistency import CONFLICT_P
+        """The shots disagree beyond their sds: p below :data:`sca.assess.CONFLICT_P`."""
+        from .assess import CONFLICT_P
 
         return self.p < CONFLICT_P
 

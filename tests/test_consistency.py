@@ -10,7 +10,8 @@ import sca
 from forward.imaging import resolve_setup
 from measure.joint import fit_joint
 from measure.statements import statements
-from sca.consistency import CONFLICT_P, PULL_MAX, nuisance_pulls, reading_tests
+from sca.assess import CONFLICT_P
+from sca.consistency import PULL_MAX, nuisance_pulls, reading_tests
 from sca.joint import estimate_joint
 
 #: The issue's water: C 1.5 mg m^-3, a_CDOM(440) 0.15 m^-1, 5 m deep, 1.5 m away.

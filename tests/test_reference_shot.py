@@ -11,7 +11,7 @@ from forward.daylight import D_SERIES_CCT, daylight_spd, mired
 from forward.errors import InputError
 from sca.budget import DEFAULT_UNCERTAIN, resolve_budget
 from sca.assess import BLOCKING
-from sca.consistency import CONFLICT_P
+from sca.assess import CONFLICT_P
 from sca.reference import (CONFLICT_FLAG, SKY_SD, bracket, measure_light, sky_sd,
                            with_reference)
 

@@ -1,4 +1,4 @@
-"""HONESTY.md's reference-shot world (experiments/reference_worlds.py, issue 47 item 6): the light
+"""HONESTY.md's reference-shot world (experiments/honesty.py, issue 47 item 6): the light
 measured in air by sca.reference.measure_light on the independent renderer's chart, the sky
 changed within its stated sd, the chart underwater fitted with that prior. Its intervals must
 hold the truth at the nominal 95 %, no less and no more (two-sided binomial, p > 0.01), on
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from experiments import honesty as h
-from experiments import reference_worlds as rw
+from experiments import honesty as rw
 
 #: Charts of the coastal water (one fit each: each chart has its own measured prior).
 N_CHARTS = 40
@@ -33,7 +33,7 @@ def test_the_reference_world_is_covered_at_the_nominal_rate(reference):
 
 def test_the_reference_narrows_tau_on_the_same_photos(reference):
     e = reference["waters"]["coastal"]["reference"]
-    with_ref, default = e[rw.WITH_REF]["median_dtau95"], e[rw.DEFAULT]["median_dtau95"]
+    with_ref, default = e[rw.WITH_REF]["median_dtau95"], e[rw.REF_DEFAULT]["median_dtau95"]
     # at 443 nm the daylight's colour limits tau: the measured light must narrow it
     assert with_ref["443"] < 0.8 * default["443"], (with_ref, default)
     # the chart's response measured in air narrows tau beyond the light alone (decision

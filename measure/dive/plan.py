@@ -29,7 +29,7 @@ from .summary import CORRECTED, summary_row
 from forward.errors import InputError
 
 __all__ = ["complete_files", "correction_range", "holds_results", "photo_key", "plan_photo",
-           "resolve_inputs"]
+           "resolve_inputs", "run_setup"]
 
 
 def correction_range(inputs: dict):
@@ -269,3 +269,20 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
     job = {"image": str(photo), "out": str(out), "inputs": inputs, "options": options,
            "tiff": tiff, "report": report, "key": key, "run": run_digest, "plan": plan}
     return job, None, None
+
+
+def run_setup(options):
+    """The run's camera set-up (camera, profile balance, illuminant, the chart's measured
+    reflectance if given)."""
+    import forward
+
+    from ..camera import camera_setup, load_profile, read_chart_reflectance
+
+    prof = options.get("profile")
+    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
+    chart = options.get("chart_reflectance")
+    return camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
+                        quantal=options.get("quantal", False),
+                        illuminant=options.get("illuminant"),
+                        gains=None if prof is None else (prof.gains or None),
+                        reflectances=None if chart is None else read_chart_reflectance(chart))

@@ -42,7 +42,7 @@ from .ifdo import write_ifdo
 from .manifest import FILE_OPTIONS, check_manifest, manifest, manifest_digest, write_manifest
 from .metadata import exif_info, read_metadata
 from .names import LOCK_FILE, NOT_UTF8, RUN_FILES, dive_files, output_names
-from .plan import holds_results, plan_photo
+from .plan import holds_results, plan_photo, run_setup
 from .plot import plot_survey
 from .summary import MEASURED, STATUSES, dive_code, summary_row, write_summary
 from .survey import survey_dataset, write_survey
@@ -367,7 +367,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
                          f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
     meta = _match_rows(meta, [p.name for p in photos])
     options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
-    _run_setup(options)  # a bad camera, illuminant, profile or chart: refused up front
+    run_setup(options)  # a bad camera, illuminant, profile or chart: refused up front
     run = manifest(options, tiff, report, version, defaults={
         "depth": depth, "distance": distance,
         "corners": None if corners is None else parse_corners(corners).tolist()})
@@ -518,7 +518,7 @@ def _finish(rows, records, root, interrupted, joint, options, version, command, 
                                                               measured or {})
     if not interrupted:
         correct_frames(rows, records, jobs or {}, joint_data if joint else None,
-                       _run_setup(options), water=options.get("water"), version=version,
+                       run_setup(options), water=options.get("water"), version=version,
                        command=command, tiff=tiff)
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
@@ -548,21 +548,6 @@ def _remove(path: Path) -> None:
         raise InputError("out", f"cannot remove {path}: {exc.strerror or exc}") from None
 
 
-def _run_setup(options):
-    """The run's camera set-up (camera, profile balance, illuminant, the chart's measured
-    reflectance if given)."""
-    from ..camera import camera_setup, load_profile, read_chart_reflectance
-
-    prof = options.get("profile")
-    prof = load_profile(prof) if isinstance(prof, (str, os.PathLike)) else prof
-    chart = options.get("chart_reflectance")
-    return camera_setup(options.get("camera", forward.DEFAULT_CAMERA),
-                        quantal=options.get("quantal", False),
-                        illuminant=options.get("illuminant"),
-                        gains=None if prof is None else (prof.gains or None),
-                        reflectances=None if chart is None else read_chart_reflectance(chart))
-
-
 def _joint(rows, records, root, options, measured):
     """Fit the dive as one water (measure.joint): the photos this run measured as the
     JointPhoto objects its workers made (``measured``), an earlier run's from their
@@ -575,7 +560,7 @@ def _joint(rows, records, root, options, measured):
         return None, None, None, "not fitted: no photo was measured"
     from ..auxiliary import auxiliary_record, dive_auxiliary
 
-    setup = _run_setup(options)
+    setup = run_setup(options)
     aux = dive_auxiliary(good)  # every measurement of the dive's water, each reading once
     try:
         # each photo's own budget, as it was measured: the run's, its own depth and distance sds

@@ -14,7 +14,7 @@ import signal
 import threading
 
 from ..output import strict_json
-from .plan import correction_range
+from .plan import correction_range, run_setup
 
 __all__ = ["dask_setup", "run_job"]
 
@@ -59,12 +59,11 @@ def _referenced(base, shots, options) -> dict:
         return base
     from ..image import read_image
     from ..reference import reference_budget
-    from .run import _run_setup
 
     def read(photo):
         return read_image(photo, black_level=options.get("black_level"),
                           white_level=options.get("white_level"))
-    return reference_budget(base, shots, read, _run_setup(options),
+    return reference_budget(base, shots, read, run_setup(options),
                             options.get("layout", "patches"))
 
 
