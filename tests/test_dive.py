@@ -16,7 +16,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 from measure import dive
 from measure.output import MARKER, TEMP_PREFIX, check_out
 from uw3p.cli import main
