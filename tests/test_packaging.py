@@ -143,6 +143,7 @@ def _commands(venv, run, tmp_path):
                       "0.1", "--gain", "known", "--exact"], run, tmp_path)
     assert res.returncode == 0 and "verdict" in res.stdout, res.stdout[-2000:] + res.stderr[-2000:]
     res = _run(venv, [uw3p, "figures", "--grid", "reduced"], run, tmp_path)
-    assert res.returncode == 2 and "uw3p figures" in res.stderr and "repository" in res.stderr, \
+    assert res.returncode == 2 and "experiments: not installed" in res.stderr \
+        and "repository" in res.stderr, \
         res.stderr[-2000:]
     assert not (run / "figures").exists()

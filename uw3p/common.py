@@ -41,9 +41,9 @@ _RANGE_STEP_NM = 10.0
 
 
 #: Why ``uw3p figures`` and ``uw3p bench`` refuse to run from the installed package.
-_NOT_INSTALLED = ("runs from the repository (a checkout of uw3p: git clone, then pip install -e "
-                  "'.[test]'), not from the installed package: the wheel does not ship "
-                  "experiments/ (decision 0077-installed-packages)")
+_NOT_INSTALLED = ("not installed: uw3p {} runs from the repository (a checkout of uw3p: git "
+                  "clone, then pip install -e '.[test]'), not from the installed package, which "
+                  "does not ship experiments/ (decision 0077-installed-packages)")
 
 
 def replication_root(command: str) -> Path:
@@ -67,7 +67,7 @@ def replication_root(command: str) -> Path:
     Raises
     ------
     forward.InputError
-        Naming ``uw3p <command>`` when no checkout holds ``experiments/`` (an installed wheel).
+        Naming ``experiments`` when no checkout holds it (an installed wheel).
     """
     import importlib.util
     import sys
@@ -77,7 +77,7 @@ def replication_root(command: str) -> Path:
         return Path(spec.origin).resolve().parents[1]
     root = Path(__file__).resolve().parents[1]
     if not (root / "experiments" / "__init__.py").is_file():
-        raise InputError(f"uw3p {command}", _NOT_INSTALLED)
+        raise InputError("experiments", _NOT_INSTALLED.format(command))
     sys.path.insert(0, str(root))
     return root
 
