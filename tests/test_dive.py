@@ -107,7 +107,7 @@ def test_metadata_is_read_and_bad_files_are_refused_with_the_line(tmp_path):
         with pytest.raises(ValueError, match="metadata: .*" + word.replace("(", r"\(")
                            .replace(")", r"\)")):
             dive.read_metadata(f)
-    with pytest.raises(ValueError, match="metadata: cannot read"):
+    with pytest.raises(ValueError, match="metadata: file not found"):
         dive.read_metadata(tmp_path / "missing.csv")
 
 

@@ -147,3 +147,18 @@ def _commands(venv, run, tmp_path):
         and "repository" in res.stderr, \
         res.stderr[-2000:]
     assert not (run / "figures").exists()
+
+
+def test_no_installed_package_imports_experiments():
+    """What the wheel installs (pyproject's package list: not experiments) never imports
+    experiments: library code, commands and doctests (decision 0077-installed-packages);
+    ``uw3p figures`` and ``uw3p bench`` find the checkout through uw3p.common.replication_root."""
+    import re
+    import tomllib
+
+    listed = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]
+    assert {p.split(".")[0] for p in listed} == INSTALLED, listed
+    pattern = re.compile(r"^\s*(>>> )?(from|import) experiments\b", re.M)
+    found = [str(f.relative_to(ROOT)) for top in INSTALLED - {"uw3p_data"}
+             for f in (ROOT / top).rglob("*.py") if pattern.search(f.read_text())]
+    assert found == ["uw3p/cmd_figures.py"], found  # after replication_root: the checkout's
