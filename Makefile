@@ -24,8 +24,9 @@ install: $(STAMP)
 test: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile -m "not release and not adversarial"
 
-# the packages as users get them: sdist and wheel built, twine-checked, the wheel run alone
-# (its kernels compiled afresh: a minute)
+# the packages as users get them: sdist and wheel built, twine-checked, the wheel installed alone
+# in a clean venv (no experiments: decision 0082-installed-packages) running uw3p calibrate,
+# measure, correct and design (its kernels compiled afresh: 4-5 minutes on 2 shared cores)
 test-release: $(STAMP)
 	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -m release
 

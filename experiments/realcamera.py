@@ -74,8 +74,7 @@ def fingerprint() -> str:
 
     h = hashlib.sha256()
     files = [p for pkg in ("forward", "sca", "measure", "uw3p") for p in sorted((ROOT / pkg).rglob("*.py"))]
-    files += [Path(__file__), ROOT / "experiments" / "realwater" / "g7x.py",
-              ROOT / "experiments" / "synthetic_photo.py"]
+    files += [Path(__file__), ROOT / "experiments" / "realwater" / "g7x.py"]
     files += sorted((ROOT / "data").glob("*.csv"))
     files += sorted((g7x.REALDATA / "g7x").glob("*.mat"))
     for p in files:

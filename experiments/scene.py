@@ -11,7 +11,7 @@ vignetting, photon and read noise, clipping at the white level. ``chart=False`` 
 same frame without the chart. :func:`card_corners` places the card in the frame (size as a
 fraction of the frame width, rotation, foreshortening, mirror image). :func:`write_dng` and
 :func:`write_tiff` write the linear image as a Bayer RAW DNG (through
-:func:`experiments.synthetic_photo.write_dng`, the project's DNG fixture writer: a file writer,
+:func:`measure.synthetic_photo.write_dng`, the project's DNG fixture writer: a file writer,
 no physics) or a 16-bit linear TIFF.
 
 Coordinates: pixels, x right, y down, a pixel's centre at its integer index (the convention of
@@ -343,7 +343,7 @@ def write_dng(path, rgb_linear, *, black=(512, 510, 514, 516), white=2 ** 14 - 1
     str
         The path written.
     """
-    from .synthetic_photo import write_dng as _write
+    from measure.synthetic_photo import write_dng as _write
 
     rgb = np.asarray(rgb_linear)
     H, W = rgb.shape[:2]

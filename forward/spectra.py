@@ -247,8 +247,10 @@ def read_spectral_table(filename: str) -> tuple[np.ndarray, np.ndarray]:
 def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
     """Read a user CSV: first column wavelength in nm, further columns values.
 
-    Lines starting with '#' and blank lines are ignored; ';' is accepted as a separator like
-    ','. A first non-comment line that is not numeric is taken as a header.
+    Read by the package's one CSV reader (:class:`forward.csvtable.Table`): comma, semicolon or
+    tab separated (detected), a decimal comma in a semicolon- or tab-separated file, ``#``
+    comment lines and blank lines before the first row skipped, a first row that is not all
+    numbers taken as the header. ``400;0,12;0,45;0,33`` is a wavelength and three values.
 
     Parameters
     ----------
@@ -267,27 +269,26 @@ def read_spectral_csv(path, *, name: str) -> tuple[np.ndarray, np.ndarray]:
     Raises
     ------
     ValueError
-        If the file is missing, has no numeric rows, a non-numeric row after the first, rows of
-        unequal length, no value column, non-finite values or non-increasing wavelengths.
+        If the file is missing, has no numeric rows, a cell that is not a number (its line and
+        column named), a row whose number of fields differs from the first's (its line named),
+        no value column, non-finite values or non-increasing wavelengths.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(name, f"file not found: {p}")
+    from .csvtable import Table
+
+    table = Table(path, name)
+    p, width = table.path, len(table.first)
+    if width < 2:
+        raise InputError(name, f"{p} must have a wavelength column and >= 1 value column")
     rows = []
-    for ln in p.read_text(encoding="utf-8").splitlines():
-        if not ln.strip() or ln.lstrip().startswith("#"):
+    for k, (line, row) in enumerate(table.numbered()):
+        if k == 0 and table.header is not None:
             continue
-        parts = [s.strip() for s in ln.replace(";", ",").split(",")]
-        try:
-            rows.append([float(s) for s in parts])
-        except ValueError:
-            if rows:
-                raise InputError(name, f"non-numeric row in {p}: {ln!r}") from None
-            continue  # header
+        if len(row) != width:
+            raise InputError(name, f"{p} line {line}: {len(row)} fields, the first row has "
+                             f"{width} (separator {table.delimiter!r})")
+        rows.append([table.number(x, line, j + 1) for j, x in enumerate(row)])
     if not rows:
         raise InputError(name, f"no numeric rows in {p}")
-    if len({len(r) for r in rows}) != 1 or len(rows[0]) < 2:
-        raise InputError(name, f"{p} must have a wavelength column and >= 1 value column in every row")
     arr = validate.array(name, rows, ndim=2)
     wl = arr[:, 0]
     if np.any(np.diff(wl) <= 0):

@@ -492,7 +492,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     A photo measured, then corrected along a range map that runs from 1 m to 6 m across it:
 
     >>> import tempfile, pathlib, numpy as np, measure
-    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
     >>> folder = pathlib.Path(tempfile.mkdtemp())
     >>> corners = default_corners(360, 240)
     >>> photo = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,

@@ -463,7 +463,7 @@ def measure(image, *, corners=None, depth, distance, camera=forward.DEFAULT_CAME
     A generated photo (a DNG of a chart at 5 m, seen from 1.5 m) measured as a user's would be:
 
     >>> import tempfile, pathlib, measure
-    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
     >>> folder = pathlib.Path(tempfile.mkdtemp())
     >>> corners = default_corners(360, 240)
     >>> photo = write_dng(render_mosaic(Scene(chl=2.0, cdom=0.1, depth=5.0, distance=1.5,

@@ -25,7 +25,7 @@ def chart_photos(tmp_path_factory):
     published curves (360 x 240 px DNGs): in air (``air``) and at 5 m depth, 1.5 m away, in water
     of C = 2 mg m^-3 and CDOM 0.1 m^-1 (``uw``); the profile calibrated from the air photo."""
     import measure
-    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
     from forward import chart_setup
 
     tmp = tmp_path_factory.mktemp("chart_photos")
@@ -57,7 +57,7 @@ def fast_shot(tmp_path_factory):
     the published curves) measured once with the exact model and no light field (fast), for
     the correction's tests that write their own outputs from it: 'dng', 'meas', 'corners'."""
     import measure
-    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 
     tmp = tmp_path_factory.mktemp("fast_shot")
     corners = default_corners(360, 240)

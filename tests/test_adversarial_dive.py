@@ -37,7 +37,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 
 W, H = 360, 240
 _BIN = Path(sys.executable).with_name("uw3p")

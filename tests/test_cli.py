@@ -310,7 +310,7 @@ def test_bench_writes_to_a_folder_of_its_own_and_refuses_a_file(tmp_path):
 @pytest.fixture(scope="module")
 def small_photo(tmp_path_factory):
     """A small rendered RAW (DNG) of the chart underwater and its corners as --corners text."""
-    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 
     width, height = 240, 160
     corners = default_corners(width, height)

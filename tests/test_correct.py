@@ -9,7 +9,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 from measure.correct import (_white_response, correct_image, correction_table,
                              seathru_coefficients, srgb_encoding_lut)
 from measure.correctwater import correction_water, exposure_ratio

@@ -11,7 +11,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 from forward.errors import InputError
 from measure.camera import camera_setup, load_profile, profile_digest
 from measure.correctwater import DEPTH_EXTRAPOLATION_MAX_M, correction_water

@@ -16,7 +16,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.output import MARKER, TEMP_PREFIX, check_out
@@ -108,7 +108,7 @@ def test_metadata_is_read_and_bad_files_are_refused_with_the_line(tmp_path):
         with pytest.raises(ValueError, match="metadata: .*" + word.replace("(", r"\(")
                            .replace(")", r"\)")):
             dive.read_metadata(f)
-    with pytest.raises(ValueError, match="metadata: cannot read"):
+    with pytest.raises(ValueError, match="metadata: file not found"):
         dive.read_metadata(tmp_path / "missing.csv")
 
 

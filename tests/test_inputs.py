@@ -536,7 +536,7 @@ def test_a_photo_with_glints_is_measured_like_the_clean_one(tmp_path, chart_phot
     like the clean photo (``uw_measured``, measured once for the run, not here again)."""
     import rawpy
 
-    from experiments.synthetic_photo import write_dng
+    from measure.synthetic_photo import write_dng
 
     with rawpy.imread(str(chart_photos["uw"])) as raw:
         glint = raw.raw_image_visible.copy()  # the clean photo's mosaic
@@ -555,7 +555,7 @@ def test_a_photo_with_glints_is_measured_like_the_clean_one(tmp_path, chart_phot
 
 @pytest.mark.slow
 def test_the_short_camera_calibrates_and_measures_from_the_command_line(tmp_path):
-    from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 
     W, H = 360, 240
     corners = default_corners(W, H)

@@ -11,7 +11,7 @@ import pytest
 
 import forward
 import measure
-from experiments.synthetic_photo import Scene, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, render_mosaic, write_dng
 from forward.spectra import WHITE_PATCH
 from uw3p.cli import main
 

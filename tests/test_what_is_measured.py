@@ -4,7 +4,7 @@ words, and the measurements a user makes besides the photos (a water sample's a_
 depth, a radiometer's K_d, the chart's own spectra) as inputs of the command line, the Python
 functions and the dive's metadata CSV.
 
-The photographs are generated (:mod:`experiments.synthetic_photo`), as in tests/test_measure.py
+The photographs are generated (:mod:`measure.synthetic_photo`), as in tests/test_measure.py
 and tests/test_dive.py."""
 
 import csv
@@ -20,7 +20,7 @@ import pytest
 import forward
 import measure
 import sca
-from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.auxiliary import combine_readings, dive_auxiliary, merge_auxiliary, parse_kd

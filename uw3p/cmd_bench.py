@@ -5,7 +5,8 @@
 Runs ``python -m experiments.benchmark`` in its own process with one BLAS thread, writing
 BENCHMARKS.md, results.json and the speed-error figure into ``--out`` (default
 ``bench-results/``), never over the repository's record; ``make bench`` writes the record.
-Exits with the benchmark's status.
+Exits with the benchmark's status. It runs from the repository (a checkout), not from the
+installed wheel, which does not ship ``experiments`` (decision 0082-installed-packages).
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ import os
 import sys
 
 from forward.errors import InputError
+
+from .common import replication_root
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -63,7 +66,7 @@ def run(args, out, err) -> int:
     Raises
     ------
     ValueError
-        When ``--out`` is a file.
+        When ``--out`` is a file, or ``experiments`` is not there (the installed wheel).
     """
     import subprocess
 
@@ -71,6 +74,8 @@ def run(args, out, err) -> int:
     # benchmark runs in its own process
     env = dict(os.environ)
     env.setdefault("OPENBLAS_NUM_THREADS", "1")
+    root = str(replication_root(NAME))
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
     from pathlib import Path
 
     out_dir = Path(args.out)

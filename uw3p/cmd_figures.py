@@ -4,12 +4,14 @@ runs).
     uw3p figures [NAMES...] [--grid reduced] [--out figures] [--report REPRODUCTION.md]
 
 A thin front to ``python -m experiments``; its output is not buffered (progress is shown as it
-comes).
+comes). It runs from the repository (a checkout, ``pip install -e .``), not from the installed
+wheel, which does not ship ``experiments`` (decision 0082-installed-packages): there it exits 2
+saying so.
 """
 
 from __future__ import annotations
 
-from .common import EXIT_OK
+from .common import EXIT_OK, replication_root
 
 __all__ = ["NAME", "BUFFERED", "add_parser", "run"]
 
@@ -61,7 +63,13 @@ def run(args, out, err) -> int:
     -------
     int
         ``EXIT_OK``.
+
+    Raises
+    ------
+    forward.InputError
+        When ``experiments`` is not there (the installed wheel, not a checkout).
     """
+    replication_root(NAME)
     from experiments.__main__ import main as figures_main
 
     argv = list(args.names) + ["--out", args.out]

@@ -22,6 +22,7 @@ __all__ = [
     "uncertain_from_args", "budget_text", "check_spectra_args", "camera_note",
     "wavelengths_from_args", "water_from_args", "setup_kwargs", "read_photo",
     "write_file", "write_atomic", "atomic_open", "json_text", "option_message", "plain",
+    "replication_root",
 ]
 
 #: Exit status: success (every estimate reliable / converged).
@@ -37,6 +38,48 @@ EXIT_INTERRUPTED = 130
 #: Without any of the three the package's own grid is used (400-700 nm at 1 nm,
 #: ``forward.spectra.DEFAULT_STEP_NM``).
 _RANGE_STEP_NM = 10.0
+
+
+#: Why ``uw3p figures`` and ``uw3p bench`` refuse to run from the installed package.
+_NOT_INSTALLED = ("not installed: uw3p {} runs from the repository (a checkout of uw3p: git "
+                  "clone, then pip install -e '.[test]'), not from the installed package, which "
+                  "does not ship experiments/ (decision 0082-installed-packages)")
+
+
+def replication_root(command: str) -> Path:
+    """The checkout holding ``experiments/`` (the replication side), importable once this returns.
+
+    ``uw3p figures`` and ``uw3p bench`` run its scripts; the wheel ships only ``forward``,
+    ``sca``, ``measure``, ``uw3p`` and ``uw3p_data`` (decision 0082-installed-packages). An
+    editable install maps only those, so the checkout beside this package is put on
+    ``sys.path`` when ``experiments`` is not already importable.
+
+    Parameters
+    ----------
+    command : str
+        The subcommand (named in the error).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder that holds ``experiments/``.
+
+    Raises
+    ------
+    forward.InputError
+        Naming ``experiments`` when no checkout holds it (an installed wheel).
+    """
+    import importlib.util
+    import sys
+
+    spec = importlib.util.find_spec("experiments")
+    if spec is not None and spec.origin:
+        return Path(spec.origin).resolve().parents[1]
+    root = Path(__file__).resolve().parents[1]
+    if not (root / "experiments" / "__init__.py").is_file():
+        raise InputError("experiments", _NOT_INSTALLED.format(command))
+    sys.path.insert(0, str(root))
+    return root
 
 
 # --------------------------------------------------------------------------- options

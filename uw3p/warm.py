@@ -46,11 +46,12 @@ def warm(out=sys.stdout) -> float:
     sca.estimate_batch(np.repeat(sim.rgb[None], n, 0), depth=5.0, distance=1.5,
                        sigma=np.repeat(sim.rgb_sigma[None], n, 0), gain="free")
     out.write(f"a batch: {time.perf_counter() - t0:.0f} s\n")
-    try:
-        from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
-    except ImportError:  # pidng (the [test] extra) absent: no DNG to measure
+    import importlib.util
+
+    if importlib.util.find_spec("pidng") is None:  # the [test] extra absent: no DNG to measure
         return time.perf_counter() - t0
     import measure
+    from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
 
     with tempfile.TemporaryDirectory(prefix="uw3p-warm-") as tmp:
         W, H = 480, 320

@@ -641,7 +641,7 @@ def write_chart_dng(rgb, path, seed: int = 0):
     with the black patch's), exposed so that the image maximum reaches :data:`DNG_FILL` of the
     14-bit range above the black level, with the photon noise that :func:`photon_sigma` assumes
     (:data:`FULL_WELL_E` electrons at the maximum) and 2 DN of read noise
-    (:func:`experiments.synthetic_photo.mosaic_from_values`, ``write_dng``).
+    (:func:`measure.synthetic_photo.mosaic_from_values`, ``write_dng``).
 
     Parameters
     ----------
@@ -659,7 +659,7 @@ def write_chart_dng(rgb, path, seed: int = 0):
     corners : numpy.ndarray, (4, 2)
         The patch grid's corners (pixels), as ``uw3p measure --corners`` takes them.
     """
-    from ..synthetic_photo import (BLACK_LEVELS_DN, WHITE_LEVEL_DN, Scene, default_corners,
+    from measure.synthetic_photo import (BLACK_LEVELS_DN, WHITE_LEVEL_DN, Scene, default_corners,
                                    mosaic_from_values, write_dng)
 
     rgb = np.asarray(rgb, float)

@@ -3,9 +3,7 @@
 
 from __future__ import annotations
 
-import csv
 import datetime
-import io
 import math
 import re
 from pathlib import Path
@@ -13,7 +11,7 @@ from forward.errors import InputError
 
 __all__ = ["REFERENCE_COLUMNS", "AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
-           "read_metadata", "separator"]
+           "read_metadata"]
 
 #: Required columns of the metadata CSV (``--metadata``): the image's file name relative to the
 #: folder, the chart's depth (m) and the camera-to-chart distance (m)
@@ -78,8 +76,9 @@ def read_metadata(path) -> dict:
     (a radiometer's K_d at <nm> nm, m^-1). An empty cell means "not given here": the EXIF depth
     or the default applies (corners: detected; a measurement: the run's, if any). A quoted
     cell may hold line breaks; columns with an empty header (a spreadsheet's trailing comma)
-    are ignored when their cells are empty. The separator is the header line's
-    (:func:`separator`: comma, semicolon or tab); with a semicolon or tab, a number may have a
+    are ignored when their cells are empty. The file is read by the package's one CSV reader
+    (:class:`forward.csvtable.Table`: UTF-8 or UTF-16, comma, semicolon or tab detected, ``#``
+    comment lines before the header skipped); with a semicolon or tab, a number may have a
     decimal comma. A row with fewer cells than the columns (a line cut short) is refused.
 
     Parameters
@@ -105,32 +104,13 @@ def read_metadata(path) -> dict:
         sd (or the reverse), a value under no column name, an empty or repeated image name, a
         malformed CSV.
     """
-    p = Path(path)
-    try:
-        with open(p, encoding="utf-8-sig", newline="") as fh:
-            text = fh.read()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError("metadata", f"cannot read {p}: {getattr(exc, 'strerror', None) or exc}") \
-            from None
-    return _rows(p, io.StringIO(text, newline=""), separator(text))
+    from forward.csvtable import Table
 
-
-def separator(text: str) -> str:
-    """The metadata CSV's separator: the first of comma, semicolon and tab its header line
-    holds (a spreadsheet's CSV in a locale whose decimal mark is a comma uses semicolons; one
-    saved as "Unicode text", tabs).
-
-    Parameters
-    ----------
-    text : str
-        The file's content.
-
-    Returns
-    -------
-    str
-    """
-    head = text.lstrip("\ufeff").split("\n", 1)[0]
-    return next((sep for sep in (",", ";", "\t") if sep in head), ",")
+    table = Table(path, "metadata")
+    rows = table.numbered()
+    _, header = next(rows)
+    return _rows(table.path, [h.strip() for h in header], rows,
+                 None if table.decimal_comma else ",")
 
 
 #: Cells that are text, not numbers (a decimal comma is read in the others when the
@@ -138,67 +118,66 @@ def separator(text: str) -> str:
 _TEXT_CELLS = ("image", "corners", "range_map") + REFERENCE_COLUMNS
 
 
-def _rows(p: Path, fh, sep: str = ",") -> dict:
-    """The rows of an open metadata CSV (:func:`read_metadata`)."""
-    reader = csv.reader(fh, delimiter=sep)
-    try:
-        header = [h.strip() for h in next(reader, [])]
-        named = [(i, h) for i, h in enumerate(header) if h]
-        names = [h for _, h in named]
-        missing = [c for c in METADATA_COLUMNS if c not in names]
-        if missing:
-            raise InputError("metadata", f"{p} line 1: missing column(s) {', '.join(missing)} "
-                             f"(needs {', '.join(METADATA_COLUMNS)}; optional "
-                             f"{', '.join(METADATA_OPTIONAL + sum(AUXILIARY_COLUMNS.values(), ()))}"
-                             ", kd_<nm>, kd_<nm>_sd)")
-        aux_columns = sum(AUXILIARY_COLUMNS.values(), ())
-        unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL
-                   + aux_columns and not KD_COLUMN.match(c)]
-        if unknown:
-            raise InputError("metadata", f"{p} line 1: unknown column(s) {', '.join(unknown)}")
-        repeated = sorted({c for c in names if names.count(c) > 1})
-        if repeated:
-            raise InputError("metadata", f"{p} line 1: column(s) {', '.join(repeated)} repeat")
-        pairs = _auxiliary_pairs(p, names)
-        last = max(i for i, _ in named) + 1  # cells a row must have (trailing unnamed: no)
-        rows = {}
-        start = reader.line_num + 1
-        for raw in reader:
-            n, start = start, reader.line_num + 1
-            where = f"{p} line {n}"  # the argument: metadata
-            if len(raw) > len(header):
-                raise InputError("metadata", f"{where}: more cells than columns")
-            if len(raw) < last and any(v.strip() for v in raw):
-                raise InputError("metadata", f"{where}: fewer cells ({len(raw)}) than columns ({last}): a "
-                                 "line cut short? (give empty cells for values not given)")
-            raw = raw + [""] * (len(header) - len(raw))
-            stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
-            if stray:
-                raise InputError("metadata", f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
-                                 "column name in line 1")
-            cell = {h: raw[i] if h in _TEXT_CELLS or sep == "," else raw[i].replace(",", ".")
-                    for i, h in named}
-            if not any(v.strip() for v in cell.values()):
-                continue
-            name = cell["image"].strip()
-            if not name:
-                raise InputError("metadata", f"{where}: image is empty")
-            if name in rows:
-                raise InputError("metadata", f"{where}: image {name!r} repeats line {rows[name]['line']}")
-            rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
-                          "distance_m": _number(cell["distance_m"], "distance_m", where),
-                          "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
-                                                positive=False),
-                          "distance_sd_m": _number(cell.get("distance_sd_m", ""),
-                                                   "distance_sd_m", where, positive=False),
-                          "corners": cell.get("corners", "").strip() or None,
-                          "range_m": _number(cell.get("range_m", ""), "range_m", where),
-                          "range_map": _range_map(p, cell.get("range_map", ""), where),
-                          "auxiliary": _auxiliary(cell, pairs, where), "line": n,
-                          "reference": _references(p, cell, where),
-                          "raw_name": cell["image"]}
-    except csv.Error as exc:
-        raise InputError("metadata", f"{p} line {reader.line_num}: {exc}") from None
+def _check_header(p: Path, names: list) -> None:
+    """Refuse missing, unknown or repeated columns (line 1 of the metadata CSV)."""
+    missing = [c for c in METADATA_COLUMNS if c not in names]
+    if missing:
+        raise InputError("metadata", f"{p} line 1: missing column(s) {', '.join(missing)} "
+                         f"(needs {', '.join(METADATA_COLUMNS)}; optional "
+                         f"{', '.join(METADATA_OPTIONAL + sum(AUXILIARY_COLUMNS.values(), ()))}"
+                         ", kd_<nm>, kd_<nm>_sd)")
+    aux_columns = sum(AUXILIARY_COLUMNS.values(), ())
+    unknown = [c for c in names if c not in METADATA_COLUMNS + METADATA_OPTIONAL
+               + aux_columns and not KD_COLUMN.match(c)]
+    if unknown:
+        raise InputError("metadata", f"{p} line 1: unknown column(s) {', '.join(unknown)}")
+    repeated = sorted({c for c in names if names.count(c) > 1})
+    if repeated:
+        raise InputError("metadata", f"{p} line 1: column(s) {', '.join(repeated)} repeat")
+
+
+def _rows(p: Path, header: list, numbered, sep) -> dict:
+    """The rows of a metadata CSV (:func:`read_metadata`): ``numbered`` yields (line, cells)
+    after the header; ``sep`` ',' when a comma separates the cells (no decimal comma)."""
+    named = [(i, h) for i, h in enumerate(header) if h]
+    names = [h for _, h in named]
+    _check_header(p, names)
+    pairs = _auxiliary_pairs(p, names)
+    last = max(i for i, _ in named) + 1  # cells a row must have (trailing unnamed: no)
+    rows = {}
+    for n, raw in numbered:
+        where = f"{p} line {n}"  # the argument: metadata
+        if len(raw) > len(header):
+            raise InputError("metadata", f"{where}: more cells than columns")
+        if len(raw) < last and any(v.strip() for v in raw):
+            raise InputError("metadata", f"{where}: fewer cells ({len(raw)}) than columns ({last}): a "
+                             "line cut short? (give empty cells for values not given)")
+        raw = raw + [""] * (len(header) - len(raw))
+        stray = [i + 1 for i, h in enumerate(header) if not h and raw[i].strip()]
+        if stray:
+            raise InputError("metadata", f"{where}: cell {stray[0]} ({raw[stray[0] - 1]!r}) has no "
+                             "column name in line 1")
+        cell = {h: raw[i] if h in _TEXT_CELLS or sep == "," else raw[i].replace(",", ".")
+                for i, h in named}
+        if not any(v.strip() for v in cell.values()):
+            continue
+        name = cell["image"].strip()
+        if not name:
+            raise InputError("metadata", f"{where}: image is empty")
+        if name in rows:
+            raise InputError("metadata", f"{where}: image {name!r} repeats line {rows[name]['line']}")
+        rows[name] = {"depth_m": _number(cell["depth_m"], "depth_m", where, positive=False),
+                      "distance_m": _number(cell["distance_m"], "distance_m", where),
+                      "depth_sd_m": _number(cell.get("depth_sd_m", ""), "depth_sd_m", where,
+                                            positive=False),
+                      "distance_sd_m": _number(cell.get("distance_sd_m", ""),
+                                               "distance_sd_m", where, positive=False),
+                      "corners": cell.get("corners", "").strip() or None,
+                      "range_m": _number(cell.get("range_m", ""), "range_m", where),
+                      "range_map": _range_map(p, cell.get("range_map", ""), where),
+                      "auxiliary": _auxiliary(cell, pairs, where), "line": n,
+                      "reference": _references(p, cell, where),
+                      "raw_name": cell["image"]}
     return rows
 
 

@@ -324,7 +324,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     to keep the example quick; a real dive keeps the default budget):
 
     >>> import tempfile, pathlib, measure
-    >>> from experiments.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+    >>> from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
     >>> dive = pathlib.Path(tempfile.mkdtemp())
     >>> corners = default_corners(360, 240)
     >>> for name, depth in [("a.dng", 4.0), ("b.dng", 8.0)]:

@@ -8,9 +8,11 @@ model unit), vignetting and a light gradient across the chart (both achromatic),
 read noise, rounding and clipping at the white level (14 bits by default).
 :func:`write_dng` writes it as a DNG with ``pidng`` that rawpy reads back.
 
-This module lives on the replication side (``experiments``), not in ``measure``: ``pidng`` is a
-test dependency (the ``[test]`` extra, which ``make install`` installs), and the production
-package must not need it.
+It lives in ``measure`` (not on the replication side, ``experiments``, which the wheel does not
+ship: decision 0082-installed-packages) because the library's doctests and ``python -m
+uw3p.warm`` make their photographs with it. Only :func:`write_dng` needs ``pidng`` (the
+``[test]`` extra, which ``make install`` installs), imported when it is called: the package
+itself does not need it.
 """
 
 from __future__ import annotations
