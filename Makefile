@@ -19,10 +19,12 @@ install: $(STAMP)
 
 # the whole suite (what CI runs), on both cores (pytest-xdist: most tests are single-threaded;
 # --dist loadfile keeps each module on one worker, its module fixtures made once; loadgroup's
-# xdist_group marks are ignored under pytest 9.2, pytest-xdist issue 1386);
+# xdist_group marks are ignored under pytest 9.2, pytest-xdist issue 1386; --no-loadscope-reorder
+# keeps the modules in tests/conftest.py's order, the longest first, where xdist would queue them
+# by their number of tests and start the one-item figure run of tests/test_experiments.py late);
 # not the tests marked release (make test-release) or adversarial (make test-adversarial)
 test: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile -m "not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "not release and not adversarial"
 
 # the packages as users get them: sdist and wheel built, twine-checked, the wheel installed alone
 # in a clean venv (no experiments: decision 0082-installed-packages) running uw3p calibrate,
@@ -34,7 +36,7 @@ test-release: $(STAMP)
 # minute); one BLAS thread, as in make test (BLAS threads spinning after numpy's small calls
 # made the light-field searches of tests/test_wait.py take 30-40 s instead of 4)
 test-fast: $(STAMP)
-	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not release and not adversarial"
+	OPENBLAS_NUM_THREADS=1 $(PY) -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "not slow and not release and not adversarial"
 
 # the costly attacks on the dive workflow (tests/test_adversarial_dive.py: photos measured,
 # runs interrupted and killed, clusters started; about 10 min on 2 cores)

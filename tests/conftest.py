@@ -69,8 +69,9 @@ def fast_shot(tmp_path_factory):
 
 
 #: Run first, longest first (their node ids, or a module's path for all of its tests): on two
-#: workers (``make test``, ``--dist loadfile``: each module on one worker, its module fixtures
-#: made once) the longest modules (the reduced figure run of tests/test_experiments.py, the
+#: workers (``make test``, ``--dist loadfile --no-loadscope-reorder``: each module on one worker,
+#: its module fixtures made once, the modules in this order, not in xdist's by number of tests)
+#: the longest modules (the reduced figure run of tests/test_experiments.py, the
 #: shared dive of tests/test_adversarial_dive.py) and the kernels' cold compile start at once,
 #: while the other worker works through the rest, instead of one of them running alone at the
 #: end.

@@ -27,17 +27,28 @@ def charts():
     return out, depth, distance
 
 
-def _reference(M, depth, distance):
-    return [sca.estimate(M[i], depth=depth[i], distance=distance[i], uncertain={},
-                         quadrature="full") for i in range(len(M))]
+@pytest.fixture(scope="module")
+def fitted(charts):
+    """The charts of one noise setting (False, True) fitted by the batch and, one at a time, by
+    the sca loop (the reference): each made once for the module's tests."""
+    stacks, depth, distance = charts
+    done = {}
+
+    def fits(noise):
+        if noise not in done:
+            M = stacks[noise]
+            batch = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={},
+                                       quadrature="full")
+            loop = [sca.estimate(M[i], depth=depth[i], distance=distance[i], uncertain={},
+                                 quadrature="full") for i in range(len(M))]
+            done[noise] = batch, loop
+        return done[noise]
+    return fits
 
 
 @pytest.mark.slow
-def test_noise_free_same_optimum_as_sca(charts):
-    stacks, depth, distance = charts
-    M = stacks[False]
-    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={}, quadrature="full")
-    ref = _reference(M, depth, distance)
+def test_noise_free_same_optimum_as_sca(fitted):
+    b, ref = fitted(False)
     assert b.converged.all(), set(b.status[~b.converged])
     for i, e in enumerate(ref):
         assert e.converged
@@ -47,11 +58,10 @@ def test_noise_free_same_optimum_as_sca(charts):
 
 
 @pytest.mark.slow
-def test_noisy_objective_equal_or_lower_than_sca(charts):
+def test_noisy_objective_equal_or_lower_than_sca(charts, fitted):
     stacks, depth, distance = charts
     M = stacks[True]
-    b = sca.estimate_batch(M, depth=depth, distance=distance, uncertain={}, quadrature="full")
-    ref = _reference(M, depth, distance)
+    b, ref = fitted(True)
     obj = np.array([e.objective for e in ref])
     # wherever the loop converges, the batch converges too, to an equal or lower objective
     loop_ok = np.array([e.converged for e in ref])
@@ -67,15 +77,12 @@ def test_noisy_objective_equal_or_lower_than_sca(charts):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("noise", [False, True])
-def test_batch_reaches_the_loops_optimum(charts, noise):
+def test_batch_reaches_the_loops_optimum(fitted, noise):
     """The batch (variable projection + LM) and the cvxpy loop minimise the same objective."""
-    stacks, depth, distance = charts
-    b = sca.estimate_batch(stacks[noise], depth=depth, distance=distance, uncertain={},
-                           quadrature="full")
+    b, ref = fitted(noise)
     assert b.converged.sum() >= len(CASES) - 2
     for i in range(0, len(b), 3):
-        e = sca.estimate(stacks[noise][i], depth=float(depth[i]), distance=float(distance[i]),
-                         uncertain={}, quadrature="full")
+        e = ref[i]
         if b.converged[i] and e.converged:
             # equal objective (noise-free ones are at rounding level: compared absolutely)
             assert b.objective[i] <= e.objective * (1 + 1e-6) + 1e-20, i

@@ -194,8 +194,8 @@ def test_photos_at_other_depths_and_distances_build_no_quadrature_rule(tmp_path,
                                                                      files, corners, profile,
                                                                      true_setup):
     """Issue 46 item 5: with one profile, a photo at another depth and distance (its light
-    field another gradient) builds no spectral quadrature rule; its estimates are those of a
-    first measurement with an empty cache."""
+    field another gradient) builds no spectral quadrature rule (one built, one file in the disk
+    cache); its estimates are those of a first measurement with an empty cache."""
     from sca import quadrature as Q
 
     deeper = _dng(tmp_path, "deeper.dng", Scene(chl=2.0, cdom=0.1, depth=9.0, distance=2.5,
@@ -215,6 +215,7 @@ def test_photos_at_other_depths_and_distances_build_no_quadrature_rule(tmp_path,
     Q._scaled.cache_clear()
     reused = [measured(*p, "dive") for p in photos]
     assert len(builds) == 1
+    assert len(list((tmp_path / "dive" / "quadrature").glob("*.npz"))) == 1  # one rule on disk
     Q._rule.cache_clear()
     Q._scaled.cache_clear()
     fresh = measured(*photos[1], "fresh")

@@ -303,26 +303,24 @@ def test_survey_names_the_coefficient_by_its_path_model():
 
 # --------------------------------------------------------------------------- photographs
 @pytest.fixture(scope="module")
-def shots(tmp_path_factory):
-    """A camera profile and an underwater photo of a known water; and a chart whose patches
-    are off the nominal by 3 % (its spectra in a CSV), photographed in air and underwater."""
+def shots(chart_photos, tmp_path_factory):
+    """A camera profile and an underwater photo of a known water (the session's
+    ``chart_photos``); and a chart whose patches are off the nominal by 3 % (its spectra in a
+    CSV), photographed in air and underwater by the same camera."""
     tmp = tmp_path_factory.mktemp("shots37")
-    corners = default_corners(W, H)
-    balance = (0.55, 1.0, 0.7)
+    corners = chart_photos["corners"]
     rng = np.random.default_rng(5)
     chart = forward.chart_reflectances() * (1 + 0.03 * rng.standard_normal(24))[None, :]
+    setup = forward.chart_setup(channel_gains=(0.55, 1.0, 0.7), reflectances=chart)
     out = {"corners": corners, "chart": _write_chart(tmp / "chart.csv", chart,
-                                                     forward.wavelength_grid())}
-    for name, refl in (("", None), ("worn_", chart)):
-        setup = forward.chart_setup(channel_gains=balance, reflectances=refl)
-        out[f"{name}air"] = write_dng(render_mosaic(Scene(
-            chl=0, cdom=0, depth=0, distance=0, gain=9000, width=W, height=H, seed=1), corners,
-            setup=setup), tmp / f"{name}air.dng")
-        out[f"{name}uw"] = write_dng(render_mosaic(Scene(
-            **UW, gain=30000, width=W, height=H, seed=2), corners, setup=setup),
-            tmp / f"{name}uw.dng")
-    air = measure.read_image(out["air"])
-    out["profile"] = measure.calibrate(measure.sample_patches(air, corners), image=air.path)
+                                                     forward.wavelength_grid()),
+           "uw": chart_photos["uw"],
+           "profile": chart_photos["profile"]}
+    out["worn_air"] = write_dng(render_mosaic(Scene(
+        chl=0, cdom=0, depth=0, distance=0, gain=9000, width=W, height=H, seed=1), corners,
+        setup=setup), tmp / "worn_air.dng")
+    out["worn_uw"] = write_dng(render_mosaic(Scene(
+        **UW, gain=30000, width=W, height=H, seed=2), corners, setup=setup), tmp / "worn_uw.dng")
     return out
 
 
