@@ -20,7 +20,7 @@ import pytest
 import forward
 import measure
 import sca
-from measure.synthetic_photo import Scene, default_corners, render_mosaic, write_dng
+from measure.synthetic_photo import Scene, render_mosaic, write_dng
 import measure.joint  # noqa: F401  (an import error fails, never skips)
 from measure import dive
 from measure.auxiliary import combine_readings, dive_auxiliary, merge_auxiliary, parse_kd
