@@ -129,10 +129,10 @@ def _joint_numbers(j) -> dict:
             "uncertain": {k: v for k, v in j.uncertain.items()}}
 
 
-def fit_dive(dive: dict, rendered: dict) -> dict:
-    """The joint fit and every photo's own fit (default budget); plain numbers."""
+def joint_fit(dive: dict, rendered: dict, uncertain=None) -> dict:
+    """The dive's joint fit (the default camera set-up, the told geometry, budget
+    ``uncertain``: None the default); plain numbers and its time 'joint_s'."""
     import forward
-    import sca
     from forward.imaging import resolve_setup
     from sca.joint import estimate_joint
 
@@ -140,12 +140,18 @@ def fit_dive(dive: dict, rendered: dict) -> dict:
     setup = resolve_setup(None, forward.DEFAULT_CAMERA, None, None, None)
     names = [f"photo {i + 1}" for i in range(dive["depth"].size)]
     j = estimate_joint(rendered["rgb"], depth=dive["depth_told"], distance=dive["distance_told"],
-                       sigma=rendered["sigma"], setup=setup, names=names)
-    joint_s = time.perf_counter() - t0
+                       sigma=rendered["sigma"], setup=setup, names=names, uncertain=uncertain)
+    return {**_joint_numbers(j), "joint_s": time.perf_counter() - t0}
+
+
+def fit_dive(dive: dict, rendered: dict) -> dict:
+    """The joint fit and every photo's own fit (default budget); plain numbers."""
+    import sca
+
+    joint = joint_fit(dive, rendered)
     b = sca.estimate_batch(rendered["rgb"], depth=dive["depth_told"],
                            distance=dive["distance_told"], sigma=rendered["sigma"], gain="free")
-    return {**_joint_numbers(j), "truth": rendered["truth"], "joint_s": joint_s,
-            "single_chl_ci": b.chl_ci.tolist(), "single_reliable": b.reliable.tolist()}
+    return {**joint, "truth": rendered["truth"], "single_chl_ci": b.chl_ci.tolist(), "single_reliable": b.reliable.tolist()}
 
 
 def _one(args):
@@ -156,9 +162,11 @@ def _one(args):
     return fit_dive(dive, render_dive(dive, rng))
 
 
-def _pool_map(tasks, workers):
+def _pool_map(tasks, workers, task=None):
+    """``task`` (default the dives' own, a module-level function) of every one of ``tasks`` in
+    ``workers`` processes."""
     with ProcessPoolExecutor(workers) as pool:
-        return list(pool.map(_one, tasks))
+        return list(pool.map(task or _one, tasks))
 
 
 def run(dives: int = DIVES_FULL, seed: int = SEED, workers: int | None = None) -> dict:
