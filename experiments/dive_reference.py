@@ -31,18 +31,20 @@ import time
 import numpy as np
 
 from . import independent_world as iw
-from .dive_honesty import _coverage, _pool_map, _tested_ok, joint_fit, render_dive
+from .dive_honesty import (_coverage, _coverage_table, _pct, _pool_map, _tested_ok, joint_fit,
+                           render_dive)
 from .dive_worlds import draw_dive
 from .honesty import JOINT_QUANTITIES as QUANTITIES, _sky_change
 
 __all__ = ["ABLATIONS", "AIR_EXPOSURE", "C_BANDS", "C_TARGET", "DIVES_FULL", "DIVES_QUICK",
-           "LABELS", "PHOTOS", "bounds", "draw", "fit", "render", "summarise"]
+           "LABELS", "PHOTOS", "bounds", "covered", "draw", "fit", "one", "render", "run",
+           "section", "summarise", "target_met"]
 
 #: Photos per dive (issue 47: a dive of six photos).
 PHOTOS = 6
-#: Dives in the full run (about 17 s of CPU each: 10 dives ~85 s on 2 cores) and with
+#: Dives in the full run (about 17 s of CPU each: 8 dives ~70 s on 2 cores) and with
 #: ``--quick``.
-DIVES_FULL, DIVES_QUICK = 10, 4
+DIVES_FULL, DIVES_QUICK = 8, 4
 #: The bands of the criterion and its target: joint 95 % relative half-width of c (issue 47).
 C_BANDS = ("c_443", "c_490", "c_555")
 C_TARGET = 0.05
@@ -56,14 +58,14 @@ ABLATIONS = {"as stated": {}, "no sky change": {"sky": 0.0}, "no per-patch term"
              "depth and distance exact": {"depth": 0.0, "distance": 0.0}}
 
 
-def draw(rng: np.random.Generator) -> dict:
-    """One dive's truth (:func:`draw_dive`, :data:`PHOTOS` photos) with 'surface_mired' (the
+def draw(rng: np.random.Generator, photos: int = PHOTOS) -> dict:
+    """One dive's truth (:func:`draw_dive`, ``photos`` photos) with 'surface_mired' (the
     light of the reference shot), the photos' light changed within the sky's stated sd, and
     each photo's own per-patch factors scaled to the reference budget's own part."""
     from sca.budget import DEFAULT_UNCERTAIN
     from sca.reference import REFERENCE_MINUTES, REFERENCE_PATCH, sky_sd
 
-    dive = draw_dive(rng, n=PHOTOS)
+    dive = draw_dive(rng, n=photos)
     surface = dive["options"]["daylight_mired"]
     change = _sky_change(rng, np.array([surface]), sky_sd(REFERENCE_MINUTES))[0]
     scale = REFERENCE_PATCH / float(DEFAULT_UNCERTAIN["patch"])
@@ -85,18 +87,20 @@ def render(dive: dict, rng: np.random.Generator) -> dict:
     return out
 
 
-def fit(dive: dict, rendered: dict) -> dict:
-    """The joint fit with the reference and with the default budget (plain numbers of
-    :func:`experiments.dive_honesty.fit_dive`'s kind), and the bounds (:func:`bounds`)."""
+def fit(dive: dict, rendered: dict, full: bool = True) -> dict:
+    """The joint fit with the reference and (``full``) with the default budget (plain numbers
+    of :func:`experiments.dive_honesty.fit_dive`'s kind) and the bounds (:func:`bounds`)."""
     from sca.reference import with_reference
 
     light = rendered["light"]
     out = {"truth": rendered["truth"], "light": light.to_dict(),
            "surface_mired": dive["surface_mired"],
            "photo_mired": dive["options"]["daylight_mired"], "fits": {}}
-    for label, uncertain in ((WITH_REF, with_reference(None, light)), (DEFAULT, None)):
+    for label, uncertain in ((WITH_REF, with_reference(None, light)), (DEFAULT, None))[
+            :len(LABELS) if full else 1]:
         out["fits"][label] = joint_fit(dive, rendered, uncertain)
-    out["bounds"] = bounds(dive, rendered, with_reference(None, light))
+    if full:
+        out["bounds"] = bounds(dive, rendered, with_reference(None, light))
     return out
 
 
@@ -146,25 +150,28 @@ def bounds(dive: dict, rendered: dict, uncertain: dict) -> dict:
 
 
 def one(args) -> dict:
-    """(dive, seed) -> the dive rendered and fitted (a worker's task), its time 'dive_s'."""
-    dive, seed = args
+    """(dive, seed, full) -> the dive rendered and fitted (:func:`fit`; a worker's task), its
+    time 'dive_s'."""
+    dive, seed, full = args
     t0 = time.perf_counter()
-    out = fit(dive, render(dive, np.random.default_rng(seed)))
+    out = fit(dive, render(dive, np.random.default_rng(seed)), full)
     return {**out, "dive_s": time.perf_counter() - t0}
 
 
-def run(dives: int = DIVES_FULL, seed: int = 0, workers: int | None = None) -> dict:
-    """Draw, render and fit ``dives`` dives with a reference shot (``workers`` processes)."""
+def run(dives: int = DIVES_FULL, seed: int = 0, workers: int | None = None,
+        photos: int = PHOTOS, full: bool = True) -> dict:
+    """Draw, render and fit ``dives`` dives of ``photos`` photos with a reference shot
+    (``workers`` processes; ``full``: the default budget's fit and the bounds too)."""
     import os
 
     rng = np.random.default_rng([seed, 47, 60])
-    truth = [draw(rng) for _ in range(dives)]
+    truth = [draw(rng, photos) for _ in range(dives)]
     seeds = rng.integers(0, 2 ** 31, dives)
     workers = workers or min(2, os.cpu_count() or 1)
     t0 = time.perf_counter()
-    fits = _pool_map([(t, int(s)) for t, s in zip(truth, seeds)], workers, one)
+    fits = _pool_map([(t, int(s), full) for t, s in zip(truth, seeds)], workers, one)
     return {"fits": fits, "seconds": time.perf_counter() - t0, "dives": dives, "seed": seed,
-            "workers": workers}
+            "workers": workers, "photos": photos}
 
 
 def _half_widths(fits, label) -> dict:
@@ -183,16 +190,16 @@ def _half_widths(fits, label) -> dict:
 def summarise(out: dict) -> dict:
     """Per fit: reliable, coverage (two-sided, as the budget-prior dives') and
     the c bands' half-widths against :data:`C_TARGET`; the bounds' medians per ablation; the
-    lights' errors; time per dive."""
+    lights' errors; time per dive (the fits and bounds :func:`run` made)."""
     fits = out["fits"]
     per = {}
-    for label in LABELS:
+    for label in [lab for lab in LABELS if lab in fits[0]["fits"]]:
         rel = [(f["truth"], f["fits"][label]) for f in fits if f["fits"][label]["reliable"]]
         per[label] = {"reliable": len(rel), "coverage": _coverage(rel, "two-sided"),
                       "c_half_widths": _half_widths(fits, label)}
     bound = {a: {b: float(np.median([f["bounds"][a][b] for f in fits])) for b in C_BANDS}
-             for a in ABLATIONS}
-    return {"dives": len(fits), "photos": PHOTOS, "fits": per, "bounds": bound,
+             for a in ABLATIONS} if "bounds" in fits[0] else None
+    return {"dives": len(fits), "photos": out["photos"], "fits": per, "bounds": bound,
             "light_error_median": float(np.median([abs(f["light"]["centre_mired"]
                                                        - f["surface_mired"]) for f in fits])),
             "sky_change_median": float(np.median([abs(f["photo_mired"] - f["surface_mired"])
@@ -212,3 +219,63 @@ def covered(s: dict) -> bool:
     """The reference fits' coverage holds two-sided for every tested quantity
     (as the budget-prior dives')."""
     return _tested_ok(s["fits"][WITH_REF]["coverage"])
+
+
+def _band_row(label, hw) -> str:
+    return f"| {label} | " + " | ".join(
+        f"±{_pct(hw[b]['median'], 1)} ({hw[b]['within']} / {hw[b]['n']} within)"
+        for b in C_BANDS) + " |"
+
+
+def section(s: dict) -> list[str]:
+    """DIVE.md's section 3: coverage with and without the reference, the c bands' half-widths
+    against :data:`C_TARGET` and the bound that limits them."""
+    from sca.reference import REFERENCE_MINUTES, REFERENCE_PATCH, sky_sd
+
+    ref = s["fits"][WITH_REF]
+    head = "| fit | " + " | ".join(f"{b.replace('_', '(')}) half-width" for b in C_BANDS) + " |"
+    lines = [
+        f"## 3. Dives of {s['photos']} photos with the reference shot (issue 47)",
+        "",
+        f"{s['dives']} budget-prior dives of {s['photos']} photos (as section 1, the daylight "
+        "drawn from the 30-mired prior), each with a reference shot: the same chart and camera "
+        "photographed in air under the surface light by the independent renderer and the light "
+        "measured (`sca.reference.measure_light`, with the chart's response; median error "
+        f"{s['light_error_median']:.2g} mired); the sky then changed within its stated sd "
+        f"({sky_sd(REFERENCE_MINUTES):.2g} mired at {REFERENCE_MINUTES:g} min; median change "
+        f"{s['sky_change_median']:.2g} mired) and every photo rendered under the changed light. "
+        "Each photo's own part of the per-patch error is the reference budget's (sd "
+        f"sqrt(1 - rho) x {100 * REFERENCE_PATCH:g} %: what the shot cannot see). Each dive "
+        "fitted by `sca.joint.estimate_joint` with `uncertain=with_reference(None, light)` and, "
+        "on the same photos, with the default budget. Coverage two-sided. Seed "
+        f"{s['seed']}, {s['workers']} worker processes, {s['seconds']:.0f} s; a dive (render, "
+        f"shot, both fits, bounds) took {s['dive_s_median']:.0f} s (median).",
+        "",
+    ]
+    for label in LABELS:
+        f = s["fits"][label]
+        lines += [f"**{label}**: {f['reliable']} / {s['dives']} reliable.", ""]
+        lines += _coverage_table(f["coverage"]) + [""]
+    lines += [f"Issue 47's target: c(443/490/555) within ±{100 * C_TARGET:g} % (joint 95 % "
+              "relative half-width, median of the reliable dives):", "", head,
+              "|---|" + "---|" * len(C_BANDS)]
+    lines += [_band_row(label, s["fits"][label]["c_half_widths"]) for label in LABELS]
+    lines += ["", "The bound (`sca.joint.dive_precision` at each dive's true water and geometry, "
+              "its photos' noise, the reference budget; median of the dives' 1.96 sd / c), as "
+              "stated and with one term removed:", "", "| budget | " + " | ".join(
+                  b.replace("_", "(") + ")" for b in C_BANDS) + " |",
+              "|---|" + "---|" * len(C_BANDS)]
+    lines += [f"| {a} | " + " | ".join(f"±{_pct(v[b], 1)}" for b in C_BANDS) + " |"
+              for a, v in s["bounds"].items()]
+    met, ok = target_met(s), covered(s)
+    lines += ["", f"Coverage with the reference (two-sided, every quantity): "
+              f"**{'holds' if ok else 'FAILS'}**. The ±{100 * C_TARGET:g} % target: "
+              f"**{'met' if met else 'not met'}** (median half-width over the bound as stated: "
+              + ", ".join(f"{b.replace('_', '(')}) {_ratio(ref, s, b)}" for b in C_BANDS)
+              + ").", ""]
+    return lines
+
+
+def _ratio(ref, s, band) -> str:
+    m = ref["c_half_widths"][band]["median"]
+    return "-" if m is None else f"{m / s['bounds']['as stated'][band]:.1f} x"
