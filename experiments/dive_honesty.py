@@ -158,7 +158,8 @@ def fit_dive(dive: dict, rendered: dict) -> dict:
     joint = joint_fit(dive, rendered)
     b = sca.estimate_batch(rendered["rgb"], depth=dive["depth_told"],
                            distance=dive["distance_told"], sigma=rendered["sigma"], gain="free")
-    return {**joint, "truth": rendered["truth"], "single_chl_ci": b.chl_ci.tolist(), "single_reliable": b.reliable.tolist()}
+    return {**joint, "truth": rendered["truth"], "single_chl_ci": b.chl_ci.tolist(),
+            "single_reliable": b.reliable.tolist()}
 
 
 def _one(args):
