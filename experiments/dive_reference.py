@@ -34,7 +34,7 @@ from . import independent_world as iw
 from .dive_honesty import (_coverage, _coverage_table, _pct, _pool_map, _tested_ok, joint_fit,
                            render_dive)
 from .dive_worlds import draw_dive
-from .honesty import JOINT_QUANTITIES as QUANTITIES, _sky_change
+from .honesty import _sky_change
 
 __all__ = ["ABLATIONS", "AIR_EXPOSURE", "C_BANDS", "C_TARGET", "DIVES_FULL", "DIVES_QUICK",
            "LABELS", "PHOTOS", "bounds", "covered", "draw", "fit", "one", "render", "run",

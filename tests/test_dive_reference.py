@@ -2,7 +2,6 @@
 world (6 dives of 2 photos, the fit with the reference only) is covered two-sided, the light
 measured in air is the surface light, and the acceptance fails on a world that is not covered."""
 
-import numpy as np
 import pytest
 
 from experiments import dive_reference as r
