@@ -555,7 +555,9 @@ def report(s: dict, command: str, clean: dict | None = None) -> str:
         "(`experiments/independent_world.py`, no code shared with `forward`). Which coverage "
         "test applies where: dives drawn from the budget's own priors (section 1) are tested "
         "two-sided; the clean dives (section 2) are inside the budget and cleaner than it, so "
-        "their criterion is that none is reliable with the truth outside.",
+        "their criterion is that none is reliable with the truth outside; the dives with the "
+        "reference shot (section 3) are drawn from the reference budget's priors and tested "
+        "two-sided.",
         "",
     ] + _prior_section(s, command)
     if clean is not None:
