@@ -1,6 +1,7 @@
 """Is the joint estimate of a dive honest on a world we did not make?  (DIVE.md)
 
-    python -m experiments.dive_honesty [--dives 40] [--clean 6] [--quick] [--out DIVE.md]
+    python -m experiments.dive_honesty [--dives 40] [--clean 6] [--reference 10] [--quick]
+                                       [--out DIVE.md]
 
 Every photo is rendered by the independent renderer (:mod:`experiments.independent_world`, no
 code shared with ``forward``) and every dive fitted by :func:`sca.joint.estimate_joint`, each
@@ -27,6 +28,12 @@ photo alone by :func:`sca.estimate_batch` (the same budget). Two kinds of dive:
    of it shared by the photos) and once with the current one (decisions
    0053-patch-floor and 0054-patch-correlation). Criterion: no dive reliable with the truth outside
    (must be 0).
+
+3. **Dives with the reference shot** (:mod:`experiments.dive_reference`; issue 47's dive
+   criterion): six photos, a reference shot of the same chart in air measured
+   (:func:`sca.reference.measure_light`), the sky changed within its stated sd, the joint fit
+   with ``with_reference(None, light)`` beside the default budget's on the same photos; the c
+   bands' half-widths against ±5 % and the Cramér-Rao bound that limits them.
 
 The report gives, for each kind, the fraction reliable, each quantity's coverage (C,
 a_CDOM(440), the path's attenuation coefficient at 443-670 nm, a_nw(440)) with its
@@ -129,10 +136,10 @@ def _joint_numbers(j) -> dict:
             "uncertain": {k: v for k, v in j.uncertain.items()}}
 
 
-def fit_dive(dive: dict, rendered: dict) -> dict:
-    """The joint fit and every photo's own fit (default budget); plain numbers."""
+def joint_fit(dive: dict, rendered: dict, uncertain=None) -> dict:
+    """The dive's joint fit (the default camera set-up, the told geometry, budget
+    ``uncertain``: None the default); plain numbers and its time 'joint_s'."""
     import forward
-    import sca
     from forward.imaging import resolve_setup
     from sca.joint import estimate_joint
 
@@ -140,12 +147,19 @@ def fit_dive(dive: dict, rendered: dict) -> dict:
     setup = resolve_setup(None, forward.DEFAULT_CAMERA, None, None, None)
     names = [f"photo {i + 1}" for i in range(dive["depth"].size)]
     j = estimate_joint(rendered["rgb"], depth=dive["depth_told"], distance=dive["distance_told"],
-                       sigma=rendered["sigma"], setup=setup, names=names)
-    joint_s = time.perf_counter() - t0
+                       sigma=rendered["sigma"], setup=setup, names=names, uncertain=uncertain)
+    return {**_joint_numbers(j), "joint_s": time.perf_counter() - t0}
+
+
+def fit_dive(dive: dict, rendered: dict) -> dict:
+    """The joint fit and every photo's own fit (default budget); plain numbers."""
+    import sca
+
+    joint = joint_fit(dive, rendered)
     b = sca.estimate_batch(rendered["rgb"], depth=dive["depth_told"],
                            distance=dive["distance_told"], sigma=rendered["sigma"], gain="free")
-    return {**_joint_numbers(j), "truth": rendered["truth"], "joint_s": joint_s,
-            "single_chl_ci": b.chl_ci.tolist(), "single_reliable": b.reliable.tolist()}
+    return {**joint, "truth": rendered["truth"], "single_chl_ci": b.chl_ci.tolist(),
+            "single_reliable": b.reliable.tolist()}
 
 
 def _one(args):
@@ -156,9 +170,11 @@ def _one(args):
     return fit_dive(dive, render_dive(dive, rng))
 
 
-def _pool_map(tasks, workers):
+def _pool_map(tasks, workers, task=None):
+    """``task`` (default the dives' own, a module-level function) of every one of ``tasks`` in
+    ``workers`` processes."""
     with ProcessPoolExecutor(workers) as pool:
-        return list(pool.map(_one, tasks))
+        return list(pool.map(task or _one, tasks))
 
 
 def run(dives: int = DIVES_FULL, seed: int = SEED, workers: int | None = None) -> dict:
@@ -539,7 +555,9 @@ def report(s: dict, command: str, clean: dict | None = None) -> str:
         "(`experiments/independent_world.py`, no code shared with `forward`). Which coverage "
         "test applies where: dives drawn from the budget's own priors (section 1) are tested "
         "two-sided; the clean dives (section 2) are inside the budget and cleaner than it, so "
-        "their criterion is that none is reliable with the truth outside.",
+        "their criterion is that none is reliable with the truth outside; the dives with the "
+        "reference shot (section 3) are drawn from the reference budget's priors and tested "
+        "two-sided.",
         "",
     ] + _prior_section(s, command)
     if clean is not None:
@@ -562,8 +580,12 @@ def main(argv=None) -> int:
                     help=f"one-water budget-prior dives (default {DIVES_FULL})")
     ap.add_argument("--clean", type=int, default=None,
                     help=f"clean dives per water (default {CLEAN_DIVES_FULL})")
+    ap.add_argument("--reference", type=int, default=None,
+                    help="dives with the reference shot (default "
+                    "experiments.dive_reference.DIVES_FULL)")
     ap.add_argument("--quick", action="store_true",
-                    help=f"{DIVES_QUICK} dives, {CLEAN_DIVES_QUICK} clean dives per water")
+                    help=f"{DIVES_QUICK} dives, {CLEAN_DIVES_QUICK} clean dives per water, "
+                    "experiments.dive_reference.DIVES_QUICK with the reference shot")
     ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--out", default=str(ROOT / "DIVE.md"))
     ap.add_argument("--json", default=str(ROOT / "benchmarks" / "dive.json"))
@@ -573,17 +595,22 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     dives = args.dives or (DIVES_QUICK if args.quick else DIVES_FULL)
     per_water = args.clean or (CLEAN_DIVES_QUICK if args.quick else CLEAN_DIVES_FULL)
-    if dives < 1 or per_water < 1:
-        print("--dives, --clean: must be >= 1", file=sys.stderr)
+    from . import dive_reference as dr
+
+    with_ref = args.reference or (dr.DIVES_QUICK if args.quick else dr.DIVES_FULL)
+    if dives < 1 or per_water < 1 or with_ref < 1:
+        print("--dives, --clean, --reference: must be >= 1", file=sys.stderr)
         return 2
     s = summarise(run(dives, args.seed))
     c = summarise_clean(run_clean(per_water, args.seed))
+    r = dr.summarise(dr.run(with_ref, args.seed))
     command = "python -m experiments.dive_honesty" + "".join(
-        f" --{k} {v}" for k, v in (("dives", args.dives), ("clean", args.clean)) if v) + (
+        f" --{k} {v}" for k, v in (("dives", args.dives), ("clean", args.clean),
+                                   ("reference", args.reference)) if v) + (
         " --quick" if args.quick else "")
-    text = report(s, command, c)
-    ok = honest(s) and clean_acceptance(c)
-    s["clean"] = c
+    text = report(s, command, c) + "\n".join(dr.section(r))
+    ok = honest(s) and clean_acceptance(c) and dr.covered(r)
+    s["clean"], s["reference"] = c, r
     if not args.no_photos:
         from . import dive_acceptance
 
