@@ -723,6 +723,33 @@ def test_a_second_run_into_the_same_out_is_refused(tmp_path, shots):
     res = _run(d, out, shots, progress=second_run)
     assert len(refused) == 2 and [r["status"] for r in res.rows] == ["measured", "measured"]
     assert [r["status"] for r in _run(d, out, shots).rows] == ["done earlier"] * 2
+    assert not (out / ".uw3p.lock").exists()  # a clean run leaves no lock file
+
+
+def test_the_lock_file_goes_with_the_run_and_a_removed_one_is_not_shared(tmp_path):
+    """No .uw3p.lock is left after a run; a run whose opened lock file was removed by a run
+    that ended (it locks a file no longer in the folder) is refused, not let in beside a
+    third run that locks the new file."""
+    import os
+
+    from measure.dive.files import locked
+
+    out = tmp_path / "out"
+    with locked(out):
+        assert (out / ".uw3p.lock").exists()
+    assert not (out / ".uw3p.lock").exists()
+    real_open = os.open
+
+    def open_then_removed(path, *a, **k):  # the previous run removes the file after our open
+        fd = real_open(path, *a, **k)
+        os.unlink(path)
+        return fd
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(os, "open", open_then_removed)
+        with pytest.raises(ValueError, match="^out: another uw3p run is writing"):
+            with locked(out):
+                pass
 
 
 def test_an_out_that_cannot_be_written_is_bad_input(tmp_path, shots, monkeypatch, capsys):
