@@ -21,7 +21,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from ..output import read_marker, strict_json
+from ..output import image_options, read_marker, strict_json
 from .plan import correction_range
 from .summary import CORRECTED
 
@@ -50,7 +50,7 @@ def _water_verdict(joint_data: dict, extrapolated) -> dict:
 
 
 def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, version="",
-                   command="", tiff="compressed") -> int:
+                   command="", images=None) -> int:
     """Correct the chartless frames of a dive with its joint water (rows updated in place).
 
     Parameters
@@ -70,8 +70,9 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
         The run's water model.
     version, command : str
         Recorded in correction.json and complete.json.
-    tiff : str
-        The run's ``tiff`` option.
+    images : dict, optional
+        The run's images (:func:`measure.output.image_options`; default its defaults): the
+        frames get the same format, linear TIFF and method as the measured photos.
 
     Returns
     -------
@@ -83,6 +84,7 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
     from ..correctwater import exposure_ratio
     from ..image import read_image
 
+    images = image_options() if images is None else images
     digest = water_digest(joint_data) if joint_data else None
     done = 0
     for row in rows:
@@ -107,7 +109,8 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
             ratio = exposure_ratio(photo.exposure, (ref or {}).get("image", {}).get("exposure"))
             corr = correct_image(photo, joint_data, correction_range(inputs), setup=setup,
                                  depth=float(inputs["depth_m"]), photo=name,
-                                 exposure_ratio=ratio, model=water, linear=tiff != "none")
+                                 exposure_ratio=ratio, model=water, linear=images["linear"],
+                                 method=images["method"])
             if ratio is None:
                 corr.notes.append(f"exposure ratio to {name} unknown (EXIF): taken as 1")
             record = {"image": row["image"], "range": {"given": str(correction_range(inputs))}
@@ -115,7 +118,8 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
                       "notes": corr.notes, "not_modelled": list(NOT_MODELLED),
                       "water_digest": digest, "command": command, "version": version
                       } | applied(corr.table)
-            write_corrected(corr, row["out"], record=record, version=version, tiff=tiff,
+            write_corrected(corr, row["out"], record=record, version=version,
+                            tiff=images["tiff"], output_format=images["output_format"],
                             overwrite=True, marker={
                                 "key": key, "water": digest, "corrected": True,
                                 "extrapolated": corr.table.water.extrapolated is not None})
