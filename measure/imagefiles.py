@@ -17,7 +17,7 @@ import os
 
 import numpy as np
 
-__all__ = ["JPEG_QUALITY", "JPEG_ROWS", "LINEAR_FILE", "OUTPUT_FORMATS", "SRGB_FILES",
+__all__ = ["JPEG_QUALITY", "JPEG_ROWS", "LINEAR_FILE", "OUTPUT_FORMATS", "SRGB_BITS", "SRGB_FILES",
            "TIFF_COMPRESSION", "srgb_icc", "submit_images", "to_8bit", "write_jpeg",
            "write_srgb_tiff"]
 
@@ -37,6 +37,8 @@ TIFF_COMPRESSION = {"compression": "zlib", "compressionargs": {"level": 1}, "pre
 OUTPUT_FORMATS = ("jpeg", "tiff16")
 #: Its file name per format
 SRGB_FILES = {"jpeg": "corrected.jpg", "tiff16": "corrected_srgb.tif"}
+#: Its bits per channel per format (``srgb_bits`` of :func:`measure.correct_image`)
+SRGB_BITS = {"jpeg": 8, "tiff16": 16}
 #: The linear camera-RGB 16-bit TIFF, written only on request (``linear``)
 LINEAR_FILE = "corrected.tiff"
 #: JPEG quality (Pillow's scale; 92: artefacts below visibility at normal viewing, the files
@@ -94,12 +96,13 @@ def write_jpeg(path, srgb16, quality: int = JPEG_QUALITY) -> None:
     Parameters
     ----------
     path : str or os.PathLike
-    srgb16 : numpy.ndarray, uint16, (H, W, 3)
+    srgb16 : numpy.ndarray, uint16 or uint8 (taken as it is), (H, W, 3)
     quality : int, optional
     """
     from PIL import Image
 
-    Image.fromarray(to_8bit(srgb16)).save(path, format="JPEG", quality=int(quality),
+    codes = srgb16 if srgb16.dtype == np.uint8 else to_8bit(srgb16)
+    Image.fromarray(codes).save(path, format="JPEG", quality=int(quality),
                                           icc_profile=srgb_icc())
 
 

@@ -582,7 +582,7 @@ def write_folder(outdir, image, overwrite: bool, write) -> dict:
 def _write_files(meas, folder: Path, version, report, marker, rng, opts) -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
     from .correct import correct_image
-    from .imagefiles import submit_images
+    from .imagefiles import SRGB_BITS, submit_images
 
     names = ["measurement.json"]
     (folder / "measurement.json").write_text(
@@ -591,7 +591,8 @@ def _write_files(meas, folder: Path, version, report, marker, rng, opts) -> list
     img = corrected_image(meas)
     # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
     srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
-                         if rng is None else rng, linear=False, method=opts["method"]).srgb
+                         if rng is None else rng, linear=False, method=opts["method"],
+                         srgb_bits=SRGB_BITS[opts["output_format"]]).srgb
     # the images are encoded (imagecodecs and Pillow outside the GIL) while this thread draws
     # the previews and the report; an error is raised before the marker is written
     with ThreadPoolExecutor(max_workers=2) as pool:

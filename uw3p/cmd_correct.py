@@ -154,6 +154,7 @@ def run(args, out, err) -> int:
     """
     from measure.correct import MAX_GAIN, applied, correct_image, seathru_coefficients
     from measure.correct_output import NOT_MODELLED, write_corrected
+    from measure.imagefiles import SRGB_BITS
 
     check_spectra_args(args)
     src = Path(args.image)
@@ -172,7 +173,8 @@ def run(args, out, err) -> int:
     photo = read_photo(args, src)
     corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
                          max_range=args.max_range, unknown=args.unknown, white=args.white,
-                         method=args.method, linear=args.linear, depth=args.depth, photo=args.photo,
+                         method=args.method, linear=args.linear,
+                         srgb_bits=SRGB_BITS[args.output_format], depth=args.depth, photo=args.photo,
                          exposure_ratio=_exposure(args, photo, args.water), **_camera_options(args))
     record = {"image": str(src), "range": {"given": str(args.range)} | corr.ranges,
               "seathru": seathru_coefficients(corr.table), "notes": corr.notes,

@@ -83,6 +83,7 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
     from ..correct_output import NOT_MODELLED, write_corrected
     from ..correctwater import exposure_ratio
     from ..image import read_image
+    from ..imagefiles import SRGB_BITS
 
     images = image_options() if images is None else images
     digest = water_digest(joint_data) if joint_data else None
@@ -110,7 +111,8 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
             corr = correct_image(photo, joint_data, correction_range(inputs), setup=setup,
                                  depth=float(inputs["depth_m"]), photo=name,
                                  exposure_ratio=ratio, model=water, linear=images["linear"],
-                                 method=images["method"])
+                                 method=images["method"],
+                                 srgb_bits=SRGB_BITS[images["output_format"]])
             if ratio is None:
                 corr.notes.append(f"exposure ratio to {name} unknown (EXIF): taken as 1")
             record = {"image": row["image"], "range": {"given": str(correction_range(inputs))}
