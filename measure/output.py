@@ -588,7 +588,11 @@ def _write_files(meas, folder: Path, version, report, marker, rng, opts) -> list
     (folder / "measurement.json").write_text(
         json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
-    img = corrected_image(meas)
+    img = corrected_image(meas) if opts["linear"] else None
+    # the preview's pixels of the linear image (only they, without corrected.tiff)
+    step = _stride(meas.photo.data.shape)
+    small = img[::step, ::step] if img is not None else demosaic(
+        meas.photo, meas.gains, meas.offset, uint16=True, step=step)
     # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
     srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
                          if rng is None else rng, linear=False, method=opts["method"],
@@ -596,10 +600,9 @@ def _write_files(meas, folder: Path, version, report, marker, rng, opts) -> list
     # the images are encoded (imagecodecs and Pillow outside the GIL) while this thread draws
     # the previews and the report; an error is raised before the marker is written
     with ThreadPoolExecutor(max_workers=2) as pool:
-        jobs = submit_images(pool, folder, srgb, img if opts["linear"] else None,
-                             opts["output_format"], opts["tiff"])
+        jobs = submit_images(pool, folder, srgb, img, opts["output_format"], opts["tiff"])
         white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white
-        _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
+        _save_png(folder / "corrected.png", srgb_preview(small, meas.setup, white))
         if report:
             _report(meas, folder / "report.png", srgb_preview(_quick_rgb(meas.photo), meas.setup,
                                                               meas.sample.rgb[:, WHITE_PATCH]))

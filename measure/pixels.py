@@ -67,18 +67,22 @@ def bilinear_pixel(data, channel, y, x, H, W, gains, offset):  # pragma: no cove
 
 
 @njit(parallel=True, cache=True)
-def bilinear_all(data, channel, gains, offset, out, to_uint16):  # pragma: no cover - compiled
+def bilinear_all(data, channel, gains, offset, out, to_uint16, step):  # pragma: no cover
+    """:func:`bilinear_pixel` at every ``step``-th row and column (out: (ceil(H / step),
+    ceil(W / step), 3)), rounded and clipped to uint16 or as float."""
     H, W = data.shape
-    for y in prange(H):
-        for x in range(W):
+    for yi in prange(out.shape[0]):
+        y = yi * step
+        for xi in range(out.shape[1]):
+            x = xi * step
             vals = bilinear_pixel(data, channel, y, x, H, W, gains, offset)
             for c in range(3):
                 v = vals[c]
                 if to_uint16:
                     v = min(max(v + 0.5, 0.0), 65535.0)
-                    out[y, x, c] = int(v)
+                    out[yi, xi, c] = int(v)
                 else:
-                    out[y, x, c] = v
+                    out[yi, xi, c] = v
 
 
 @njit(cache=True, inline="always")

@@ -89,6 +89,33 @@ def test_per_pixel_correction_of_a_map_matches_the_table(shot):
     assert out.linear.dtype == np.uint16 and out.srgb.dtype == np.uint16
 
 
+def test_the_kernel_makes_the_jpegs_codes_and_the_range_summary_in_its_one_pass(shot):
+    """srgb_bits=8: the 16-bit image's codes rounded to 8 bits (measure.imagefiles.to_8bit),
+    made by the kernel; the kernel's per-row counts give the map's summary (unknown, beyond
+    the cap, the finite span) as the map itself does. A preview's demosaic at a step is the
+    full one's pixels there."""
+    from measure.imagefiles import to_8bit
+
+    m = shot["meas"]
+    rmap = np.tile(np.linspace(1.0, 6.0, W, dtype=np.float32), (H, 1))
+    rmap[:7], rmap[-5:] = np.nan, np.inf
+    full = correct_image(m.photo, m, rmap, linear=False)
+    small = correct_image(m.photo, m, rmap, linear=False, srgb_bits=8)
+    assert small.srgb.dtype == np.uint8 and np.array_equal(small.srgb, to_8bit(full.srgb))
+    assert small.ranges == full.ranges
+    r = full.ranges
+    assert r["unknown_fraction"] == pytest.approx(7 / H) and r["capped_fraction"] == \
+        pytest.approx(5 / H)
+    assert (r["min_m"], r["max_m"]) == (1.0, pytest.approx(6.0))
+    with pytest.raises(ValueError, match="^srgb_bits"):
+        correct_image(m.photo, m, 2.0, srgb_bits=12)
+    for step in (1, 3, 7):
+        np.testing.assert_array_equal(measure.demosaic(m.photo, m.gains, m.offset, uint16=True,
+                                                       step=step),
+                                      measure.demosaic(m.photo, m.gains, m.offset,
+                                                       uint16=True)[::step, ::step])
+
+
 def test_range_inputs(tmp_path):
     import tifffile
     from PIL import Image
