@@ -13,7 +13,7 @@ import numpy as np
 
 from sca.compiled import njit, prange
 
-__all__ = ["bilinear_pixel", "bilinear_all", "correct_pixels", "unpack"]
+__all__ = ["bilinear_pixel", "bilinear_all", "census_rows", "correct_pixels", "unpack"]
 
 
 @njit(parallel=True, cache=True)
@@ -28,6 +28,35 @@ def unpack(mosaic, colors, lut, blacks, white, data, channel, clipped):  # pragm
             data[y, x] = np.float32(v) - blacks[c]
             channel[y, x] = lut[c]
             clipped[y, x] = v >= white
+
+
+@njit(parallel=True, cache=True)
+def census_rows(a, counts):  # pragma: no cover - compiled
+    """One pass over a map (parallel over rows): counts[y] = how many of row y's values are
+    known (finite, > 0), NaN, 0, negative (finite), -inf and +inf."""
+    H, W = a.shape
+    for y in prange(H):
+        known = nan = zero = negative = neg_inf = pos_inf = 0
+        for x in range(W):
+            v = a[y, x]
+            if v != v:
+                nan += 1
+            elif v == np.inf:
+                pos_inf += 1
+            elif v == -np.inf:
+                neg_inf += 1
+            elif v > 0:
+                known += 1
+            elif v == 0:
+                zero += 1
+            else:
+                negative += 1
+        counts[y, 0] = known
+        counts[y, 1] = nan
+        counts[y, 2] = zero
+        counts[y, 3] = negative
+        counts[y, 4] = neg_inf
+        counts[y, 5] = pos_inf
 
 
 @njit(cache=True, inline="always")

@@ -172,12 +172,16 @@ def census(arr) -> dict:
         ``pixels`` (all), ``known`` (finite and > 0) and, of :data:`VALUE_KINDS`, ``nan``,
         ``zero``, ``negative`` (finite), ``-inf`` and ``+inf``: counts (int).
     """
+    from .pixels import census_rows
+
     a = np.asarray(arr, np.float32)
-    finite = np.isfinite(a)
-    return {"pixels": int(a.size), "known": int((finite & (a > 0)).sum()),
-            "nan": int(np.isnan(a).sum()), "zero": int((a == 0).sum()),
-            "negative": int((finite & (a < 0)).sum()), "-inf": int(np.isneginf(a).sum()),
-            "+inf": int(np.isposinf(a).sum())}
+    a = np.ascontiguousarray(a.reshape(a.shape[0], -1) if a.ndim > 1 else a.reshape(1, -1))
+    rows = np.zeros((a.shape[0], 6), np.int64)
+    if a.size:
+        census_rows(a, rows)  # one compiled pass (numpy took seven)
+    total = rows.sum(axis=0)
+    return {"pixels": int(a.size)} | {k: int(v) for k, v in zip(
+        ("known", "nan", "zero", "negative", "-inf", "+inf"), total)}
 
 
 def _check_units(arr: np.ndarray, units: str, name: str) -> None:
