@@ -83,7 +83,7 @@ def add_parser(sub):
                    help="Y of a perfect white reflector in the sRGB image, 0-1 (default 1)")
     p.add_argument("--output-format", default="jpeg", choices=["jpeg", "tiff16"],
                    help="the corrected sRGB image: corrected.jpg, 8-bit (default), or "
-                        "corrected_srgb.tif, 16-bit (4-10 times larger)")
+                        "corrected_srgb.tif, 16-bit (about 12 times larger)")
     p.add_argument("--linear", action="store_true",
                    help="also corrected.tiff: 16-bit linear camera RGB in air")
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],

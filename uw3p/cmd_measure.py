@@ -83,7 +83,7 @@ def add_parser(sub):
                         "of other inputs)")
     p.add_argument("--output-format", default="jpeg", choices=["jpeg", "tiff16"],
                    help="the corrected photo at full resolution in sRGB: corrected.jpg, 8-bit "
-                        "(default), or corrected_srgb.tif, 16-bit (4-10 times larger)")
+                        "(default), or corrected_srgb.tif, 16-bit (about 12 times larger)")
     p.add_argument("--linear", action="store_true",
                    help="also corrected.tiff: 16-bit linear camera RGB, corrected at the chart")
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],

@@ -5,8 +5,9 @@ After the joint fit (joint.json), every frame in which no chart was found is cor
 pixel (:func:`measure.correct_image`) with the joint water at its own depth (its metadata row,
 EXIF or the default), along its range (its ``range_map``, else ``range_m``, else
 ``distance_m``), with the veiling light and gain of the dive photo nearest in depth, scaled by
-the two photos' EXIF exposure ratio where both are known. Its folder (corrected_srgb.tif,
-corrected.jpg, corrected.tiff, correction.json, complete.json) is written whole or not at all,
+the two photos' EXIF exposure ratio where both are known. Its folder (the run's sRGB image,
+corrected.jpg or corrected_srgb.tif, corrected.tiff with ``linear``, correction.json,
+complete.json: the run's images and method) is written whole or not at all,
 its row's status becomes "corrected with the dive's water", its ``reliable`` and ``flags`` those
 of the joint water (``extrapolated`` added when the frame's depth lies outside the dive's
 photos' depths, by at most :data:`measure.correctwater.DEPTH_EXTRAPOLATION_MAX_M`; a frame
