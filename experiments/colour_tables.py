@@ -5,7 +5,8 @@
 
 The table :data:`forward.spectra.COLOUR_CACHE` is what :mod:`forward.spectra` reads instead of
 importing colour-science (seconds) for the default camera, illuminant, chart and the CIE 1931
-observer. Every column is :func:`forward.spectra.colour_spectrum` -- colour-science's own data,
+observer, and the training reflectances of the colour matrix (:mod:`measure.correct_matrix`).
+Every column is :func:`forward.spectra.colour_spectrum` -- colour-science's own data,
 resampled as the package resamples it -- written with every digit (``repr``), so the cache
 gives the same numbers bit for bit; ``tests/test_wait.py`` compares it with the installed
 colour-science. The sRGB table (:data:`forward.spectra.SRGB_CACHE`, read by
@@ -162,7 +163,9 @@ def write_table(path) -> str:
         "#   MSDS_CAMERA_SENSITIVITIES['Nikon 5100 (NPL)'] (NPL measurements),",
         "#   SDS_ILLUMINANTS['D65'] (CIE standard illuminant D65, CIE 015:2018),",
         "#   SDS_COLOURCHECKERS['BabelColor Average'] (BabelColor ColorChecker average, patches",
-        "#   1-24 in reading order) and MSDS_CMFS['CIE 1931 2 Degree Standard Observer'];",
+        "#   1-24 in reading order), MSDS_CMFS['CIE 1931 2 Degree Standard Observer'] and",
+        "#   colour.quality.datasets SDS_TCS['CIE 1995'] (CIE 13.3 test colour samples TCS01-14)",
+        "#   and SDS_VS['NIST CQS 9.0'] (VS1-15): the colour matrix's training set;",
         "#   resampled by forward.spectra.colour_spectrum (linear between the source's nodes;",
         "#   written by python -m experiments.colour_tables)",
         "# Units: wavelength_nm in nm; camera sensitivities relative (as tabulated, not",

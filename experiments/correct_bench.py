@@ -9,16 +9,22 @@ Whole processes, side by side, each timed from its start to its exit by ``/usr/b
 * ``decode``: rawpy's decode of the DNG to a 16-bit TIFF (:data:`experiments.wait_bench._DECODE`,
   the reference of issue 21);
 * ``correct (map)``: ``uw3p correct DNG --water measurement.json --range map.tif --out DIR``
-  with a full-resolution float32 range map (default outputs: corrected_srgb.tif and
-  corrected.tiff deflate-compressed, corrected.jpg, correction.json);
+  with a full-resolution float32 range map (default outputs: corrected.jpg with its ICC
+  profile, correction.json; decision 0084-output-format);
 * ``correct (map / 4)``: the same with a map of a quarter of the photo's width and height
   (resampled to the photo: what photogrammetry and depth networks usually give);
-* ``measure``: ``uw3p measure`` of the same photo (the chart's corners given), whose outputs
-  now include the full-resolution sRGB TIFF and JPEG.
+* ``correct (tiff16, linear)``: the full-resolution map with ``--output-format tiff16
+  --linear`` (corrected_srgb.tif and corrected.tiff, deflated: what the defaults were);
+* ``measure``: ``uw3p measure`` of the same photo (the chart's corners given; default outputs:
+  corrected.jpg, the previews, measurement.json).
+
+Each command's output folder is weighed (``sizes_mb``: every file and the total, MB = 10^6
+bytes): what a photo takes on disk.
 
 The fixture is wait_bench's (:func:`experiments.wait_bench.fixture`: a 6000 x 4000 RGGB DNG of
-a chart on a reef); the water is the fixture's own measurement. Targets: ``correct`` <= 1 x
-``decode`` and peak memory <= 2 GB.
+a chart on a reef); the water is the fixture's own measurement. Targets (issue 48): ``correct``
+<= 1 x ``decode``, peak memory <= 1 GB, default outputs <= 40 MB. The machine's load average
+is recorded beside the times (other processes share its cores).
 """
 
 from __future__ import annotations
@@ -36,10 +42,12 @@ import numpy as np
 
 from .wait_bench import _DECODE, FRAME, _fixture_in_child, _uw3p
 
-__all__ = ["MEMORY_LIMIT_MB", "run", "main"]
+__all__ = ["MEMORY_LIMIT_MB", "SIZE_LIMIT_MB", "folder_sizes", "run", "main"]
 
 #: The peak memory target, MB
-MEMORY_LIMIT_MB = 2048
+MEMORY_LIMIT_MB = 1024
+#: The default outputs' target, MB (10^6 bytes) for a 24 MP photo
+SIZE_LIMIT_MB = 40.0
 #: Rounds (each command keeps its best time)
 REPEATS = 2
 
@@ -52,6 +60,13 @@ def _timed(argv) -> tuple:
     lines = proc.stderr.strip().splitlines()
     last = lines[-1].split()
     return float(last[0]), float(last[1]) / 1024.0, proc.returncode, " ".join(lines[-2:-1])
+
+
+def folder_sizes(folder) -> dict:
+    """Every file's size in a folder and the ``total``, MB (10^6 bytes)."""
+    sizes = {p.name: p.stat().st_size / 1e6 for p in sorted(Path(folder).iterdir())
+             if p.is_file()}
+    return sizes | {"total": sum(sizes.values())}
 
 
 def run(repeats: int = REPEATS, folder=None) -> dict:
@@ -85,6 +100,10 @@ def run(repeats: int = REPEATS, folder=None) -> dict:
             "correct (map / 4)": [*uw3p, "correct", fx["dng"], "--water", water, "--range",
                                   str(root / "range_small.tif"), "--out", str(root / "c2"),
                                   "--overwrite"],
+            "correct (tiff16, linear)": [*uw3p, "correct", fx["dng"], "--water", water,
+                                         "--range", str(root / "range.tif"), "--out",
+                                         str(root / "c3"), "--overwrite", "--output-format",
+                                         "tiff16", "--linear"],
             "measure": [*uw3p, "measure", fx["dng"], *geometry, "--corners", fx["corners"],
                         "--out", str(root / "m2"), "--overwrite"],
         }
@@ -98,7 +117,11 @@ def run(repeats: int = REPEATS, folder=None) -> dict:
                 mem[name] = max(mem[name], mb)
                 codes[name], said[name] = code, text
         best = {k: min(v) for k, v in times.items()}
+        outs = {"correct (map)": "c1", "correct (map / 4)": "c2",
+                "correct (tiff16, linear)": "c3", "measure": "m2"}
+        sizes = {k: folder_sizes(root / d) for k, d in outs.items() if (root / d).is_dir()}
         return {"frame": list(FRAME), "best_s": best, "times_s": times, "peak_mb": mem,
+                "sizes_mb": sizes, "load_average": os.getloadavg(),
                 "exit": codes, "stderr": said, "ratio_to_decode": {k: best[k] / best["decode"] for k in best},
                 "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                             "platform": platform.platform()}}
@@ -109,11 +132,13 @@ def run(repeats: int = REPEATS, folder=None) -> dict:
 
 def table(res: dict) -> str:
     """A Markdown table of the results."""
-    lines = ["| command | best wall time (s) | x decode | peak memory (MB) | exit |",
-             "|---|---|---|---|---|"]
+    lines = ["| command | best wall time (s) | x decode | peak memory (MB) | outputs (MB) | exit |",
+             "|---|---|---|---|---|---|"]
     for k, s in res["best_s"].items():
+        size = res["sizes_mb"].get(k, {}).get("total")
         lines.append(f"| {k} | {s:.2f} | {res['ratio_to_decode'][k]:.2f} | "
-                     f"{res['peak_mb'][k]:.0f} | {res['exit'][k]} |")
+                     f"{res['peak_mb'][k]:.0f} | {'-' if size is None else f'{size:.1f}'} | "
+                     f"{res['exit'][k]} |")
     return "\n".join(lines)
 
 
@@ -129,6 +154,7 @@ def main(argv=None) -> int:
         Path(args.out).write_text(json.dumps(res, indent=1) + "\n", encoding="utf-8")
     print(table(res))
     ok = all(res["ratio_to_decode"][k] <= 1.0 and res["peak_mb"][k] <= MEMORY_LIMIT_MB
+             and res["sizes_mb"][k]["total"] <= SIZE_LIMIT_MB
              for k in ("correct (map)", "correct (map / 4)"))
     return 0 if ok else 1
 

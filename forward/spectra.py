@@ -43,6 +43,7 @@ __all__ = [
     "camera_sensitivities",
     "chart_reflectances",
     "cie_1931_cmfs",
+    "colour_samples",
     "colour_spectrum",
     "colour_wavelength_range",
     "illuminant_spd",
@@ -100,7 +101,13 @@ COLOUR_CACHE_COLUMNS = {
                                                         for j in range(1, 25)),
     ("MSDS_CMFS", "CIE 1931 2 Degree Standard Observer"): ("cie_1931_x", "cie_1931_y",
                                                            "cie_1931_z"),
+    # the training reflectances of measure.correct_matrix (colour.quality.datasets): CIE 13.3
+    # / CIE 1995 test colour samples TCS01-14 and NIST CQS 9.0 samples VS1-15, in order
+    ("SDS_TCS", "CIE 1995"): tuple(f"tcs{j:02d}" for j in range(1, 15)),
+    ("SDS_VS", "NIST CQS 9.0"): tuple(f"vs{j}" for j in range(1, 16)),
 }
+#: The databases of ``colour.quality.datasets`` (the others are top-level names of ``colour``)
+QUALITY_DATABASES = ("SDS_TCS", "SDS_VS")
 #: The cached cameras' data ranges in colour-science, nm (first and last wavelength measured)
 COLOUR_CACHE_RANGES_NM = {("MSDS_CAMERA_SENSITIVITIES", "Nikon 5100 (NPL)"): (380.0, 780.0)}
 #: colour-science's sRGB for 8-bit images, cached in the package data (``data/README.md``): the
@@ -555,8 +562,9 @@ def colour_spectrum(database: str, name: str, wavelengths=None, *, arg: str = "n
     Parameters
     ----------
     database : str
-        ``'MSDS_CAMERA_SENSITIVITIES'``, ``'SDS_ILLUMINANTS'``, ``'SDS_COLOURCHECKERS'`` or
-        ``'MSDS_CMFS'``.
+        ``'MSDS_CAMERA_SENSITIVITIES'``, ``'SDS_ILLUMINANTS'``, ``'SDS_COLOURCHECKERS'``,
+        ``'MSDS_CMFS'``, or ``'SDS_TCS'`` / ``'SDS_VS'`` (``colour.quality.datasets``: sets of
+        samples, stacked like a chart).
     name : str
         A name of that database.
     wavelengths : array_like, shape (q,), optional
@@ -577,7 +585,7 @@ def colour_spectrum(database: str, name: str, wavelengths=None, *, arg: str = "n
     """
     import colour
 
-    db = getattr(colour, database)
+    db = getattr(colour.quality.datasets if database in QUALITY_DATABASES else colour, database)
     if name not in db:
         raise InputError(arg, f"unknown name {name!r}; known: {sorted(db.keys())}")
     wl = wavelength_grid(wavelengths)
@@ -631,6 +639,33 @@ def _named(database: str, arg: str, name: str, wl_key: tuple) -> np.ndarray:
         out = colour_spectrum(database, name, wl, arg=arg)
     out.setflags(write=False)  # cached: read-only
     return out
+
+
+def colour_samples(database: str, name: str, wavelengths=None) -> tuple:
+    """A set of colour-science reflectance samples on the grid, from :data:`COLOUR_CACHE` when
+    it holds the set (no colour-science import), else from colour-science.
+
+    Parameters
+    ----------
+    database : str
+        ``'SDS_COLOURCHECKERS'``, ``'SDS_TCS'`` or ``'SDS_VS'``.
+    name : str
+        A name of that database, e.g. ``'CIE 1995'``.
+    wavelengths : array_like, shape (q,), optional
+        Wavelengths in nm (default: 400-700 nm at 1 nm).
+
+    Returns
+    -------
+    samples : tuple of str
+        The samples' names, ``'<name> <sample>'`` (e.g. 'CIE 1995 TCS01'); for a set the cache
+        does not hold, ``'<name> <k>'`` from 1.
+    reflectances : numpy.ndarray, (q, k)
+        Read-only, the samples in the set's order.
+    """
+    wl = wavelength_grid(wavelengths)
+    refl = _named(database, "name", name, tuple(wl))
+    columns = COLOUR_CACHE_COLUMNS.get((database, name)) or range(1, refl.shape[1] + 1)
+    return tuple(f"{name} {str(c).upper()}" for c in columns), refl
 
 
 def camera_sensitivities(camera=DEFAULT_CAMERA, wavelengths=None, *,

@@ -373,6 +373,17 @@ def srgb_encoding_lut(bits: int = SRGB_LUT_BITS) -> np.ndarray:
     return _LUT[bits]
 
 
+def _srgb_lut_8bit() -> np.ndarray:
+    """:func:`srgb_encoding_lut`'s codes in 8 bits (:func:`measure.imagefiles.to_8bit`)."""
+    if "8bit" not in _LUT:
+        from .imagefiles import to_8bit
+
+        lut = to_8bit(srgb_encoding_lut())
+        lut.setflags(write=False)
+        _LUT["8bit"] = lut
+    return _LUT["8bit"]
+
+
 def srgb_matrix(setup, white: float = 1.0) -> np.ndarray:
     """Camera model units in air -> linear sRGB (3, 3): :func:`forward.camera_to_xyz_matrix`
     then colour-science's XYZ -> sRGB (D65, :func:`forward.spectra.srgb_8bit`), a white
@@ -404,7 +415,8 @@ class Corrected:
         uint16 (H, W, 3) camera RGB in air, a white reflector at ``white_linear`` x 65535 in the
         most sensitive channel.
     srgb : numpy.ndarray or None
-        uint16 (H, W, 3) sRGB (IEC 61966-2-1), a white reflector in air at Y = ``white``.
+        uint16 (or uint8, ``srgb_bits=8``) (H, W, 3) sRGB (IEC 61966-2-1), a white reflector in
+        air at Y = ``white``.
     values : numpy.ndarray or None
         float32 (H, W, 3) J, camera model units in air (``float_output=True``).
     table : CorrectionTable
@@ -429,7 +441,7 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
                   max_range: float | None = None, unknown="reference", white: float = 1.0,
                   white_linear: float = WHITE_TARGET, linear: bool = True, srgb: bool = True,
                   float_output: bool = False, black_level=None, white_level=None,
-                  method: str = "matrix", **water_options) -> Corrected:
+                  method: str = "matrix", srgb_bits: int = 16, **water_options) -> Corrected:
     """Correct a photo pixel by pixel along each pixel's range, from the measured water.
 
     Parameters
@@ -452,6 +464,10 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         full scale (default :data:`WHITE_TARGET`).
     linear, srgb, float_output : bool, optional
         Which images to make.
+    srgb_bits : {16, 8}, optional
+        The sRGB image's codes: 16-bit (default) or 8-bit, round(code16 255 / 65535) of the
+        same image (:func:`measure.imagefiles.to_8bit`; what a JPEG takes), made by the kernel
+        itself.
     black_level, white_level : optional
         For :func:`measure.read_image`.
     method : 'matrix' or 'diagonal', optional
@@ -508,6 +524,8 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         if not (math.isfinite(v) and 0 < v <= 1):
             raise InputError(name, f"must be in (0, 1], got {v!r}")
     check_method(method)
+    if srgb_bits not in (8, 16):
+        raise InputError("srgb_bits", f"8 or 16, got {srgb_bits!r}")
     photo = image if isinstance(image, Photo) else read_image(image, black_level=black_level,
                                                               white_level=white_level)
     rng, counts = range_and_census(range, photo.size)  # a refusal before the table
@@ -520,10 +538,11 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
     H, W = photo.data.shape[:2]
     C, B = table.kernel()
     M = srgb_matrix(table.water.setup, white)
-    lut = srgb_encoding_lut()
+    lut = srgb_encoding_lut() if srgb_bits == 16 else _srgb_lut_8bit()
     empty16 = np.zeros((1, 1, 3), np.uint16)
     lin16 = np.empty((H, W, 3), np.uint16) if linear else empty16
-    s16 = np.empty((H, W, 3), np.uint16) if srgb else empty16
+    s16 = np.empty((H, W, 3) if srgb else (1, 1, 3), lut.dtype)
+    stats = np.empty((H, 4))
     flt = np.empty((H, W, 3), np.float32) if float_output else np.zeros((1, 1, 3), np.float32)
     raw = photo.kind == "raw"
     mosaic = photo.data if raw else np.zeros((1, 1), np.float32)
@@ -534,28 +553,26 @@ def correct_image(image, water, range, *, max_gain: float = MAX_GAIN,  # noqa: A
         correct_pixels(mosaic, channel, rgb, raw, H, W, rmap, has_map, 0.0 if has_map else float(rng),
                  float(table.unknown), float(table.cap), table.step, C, B, M, lut,
                  float(white_linear * UINT16_MAX), lin16, s16, flt,
-                 np.array([linear, srgb, float_output]))
-    summary, notes = _range_summary(rng, counts, table, () if use is None else use.notes)
+                 np.array([linear, srgb, float_output]), stats)
+    summary, notes = _range_summary(has_map, stats, H * W, counts, table,
+                                    () if use is None else use.notes)
     return Corrected(lin16 if linear else None, s16 if srgb else None,
                      flt if float_output else None, table, photo, summary, notes)
 
 
-def _range_summary(rng, counts, table: CorrectionTable, camera_notes=()):
+def _range_summary(has_map, stats, pixels, counts, table: CorrectionTable, camera_notes=()):
     """What the range was and what was done with it: the ``ranges`` of :class:`Corrected`
     (fractions of the photo's pixels, as the pixels were corrected: NaN at ``unknown``, beyond
     the cap, +inf included, at the cap; ``map_values``: the map's :func:`measure.rangemap.census`
-    as given) and the notes (the water's, the camera's, then the range's)."""
-    if counts is None:
-        summary = {"kind": "constant" if isinstance(rng, float) else "map",
-                   "min_m": float(np.min(rng)), "max_m": float(np.max(rng)),
-                   "unknown_fraction": 0.0, "capped_fraction": float(np.mean(rng > table.cap))}
-    else:
-        finite = rng[np.isfinite(rng)]
-        summary = {"kind": "map", "min_m": float(finite.min()) if finite.size else None,
-                   "max_m": float(finite.max()) if finite.size else None,
-                   "unknown_fraction": float(np.isnan(rng).mean()),
-                   "capped_fraction": float((rng > table.cap).mean()),
-                   "map_values": counts, "map_values_treated": dict(VALUE_KINDS)}
+    as given) and the notes (the water's, the camera's, then the range's), from the kernel's
+    ``stats`` per row (:func:`measure.pixels.correct_pixels`: no other pass over the map)."""
+    lo, hi = float(stats[:, 2].min()), float(stats[:, 3].max())
+    summary = {"kind": "map" if has_map else "constant",
+               "min_m": lo if np.isfinite(lo) else None, "max_m": hi if np.isfinite(hi) else None,
+               "unknown_fraction": float(stats[:, 0].sum() / pixels),
+               "capped_fraction": float(stats[:, 1].sum() / pixels)}
+    if counts is not None:
+        summary.update(map_values=counts, map_values_treated=dict(VALUE_KINDS))
     summary.update(cap_m=table.cap, cap_reason=table.cap_reason, unknown_m=table.unknown)
     notes = list(table.water.notes) + list(camera_notes)
     no_range = [k for k, v in VALUE_KINDS.items() if v == "no range"]

@@ -27,7 +27,6 @@ M interpolated linearly between the table's ranges like the diagonal factors.
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 
@@ -54,22 +53,10 @@ def check_method(method) -> str:
     return method
 
 
-@functools.lru_cache(maxsize=8)
-def _training(wl_key: tuple):
-    from colour.quality import datasets
-
-    import forward
-
-    sds = {f"{name} {k}": sd for db, name in TRAINING_SETS
-           for k, sd in getattr(datasets, db)[name].items()}
-    refl = forward.chart_reflectances(sds, np.array(wl_key))
-    refl.setflags(write=False)
-    return tuple(sds), refl
-
-
 def training_reflectances(wavelengths) -> tuple:
-    """The training reflectances on the grid (colour-science's, resampled as the package
-    resamples every spectrum).
+    """The training reflectances on the grid: colour-science's, resampled as the package
+    resamples every spectrum and read from the package's cached table
+    (:func:`forward.spectra.colour_samples`; no colour-science import).
 
     Parameters
     ----------
@@ -83,7 +70,12 @@ def training_reflectances(wavelengths) -> tuple:
     reflectances : numpy.ndarray, (q, 29)
         Read-only.
     """
-    return _training(tuple(float(w) for w in np.asarray(wavelengths, float)))
+    from forward.spectra import colour_samples
+
+    sets = [colour_samples(db, name, wavelengths) for db, name in TRAINING_SETS]
+    refl = np.hstack([r for _, r in sets])
+    refl.setflags(write=False)
+    return sum((n for n, _ in sets), ()), refl
 
 
 def check_held_out(chart, training, argument: str = "reflectances") -> None:

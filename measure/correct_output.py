@@ -1,11 +1,12 @@
 """The files of a corrected photo: images people open and the correction's numbers.
 
-- ``corrected_srgb.tif``: full resolution, 16-bit sRGB with the sRGB ICC profile embedded (TIFF
-  tag 34675, InterColorProfile; the profile is Pillow's ``ImageCms.createProfile("sRGB")``),
-  deflate-compressed and lossless by default (:data:`measure.imagefiles.TIFF_COMPRESSION`);
-- ``corrected.jpg``: the same image, 8-bit JPEG (Pillow, quality
-  :data:`measure.imagefiles.JPEG_QUALITY`, the ICC profile embedded);
-- ``corrected.tiff``: linear camera RGB, 16-bit (as ``uw3p measure`` writes it);
+- the full-resolution sRGB image with the sRGB ICC profile embedded (the profile is Pillow's
+  ``ImageCms.createProfile("sRGB")``), one file in the format asked for (``output_format``,
+  decision 0084-output-format): ``corrected.jpg``, 8-bit JPEG (Pillow, quality
+  :data:`measure.imagefiles.JPEG_QUALITY`; the default), or ``corrected_srgb.tif``, 16-bit
+  TIFF (tag 34675, InterColorProfile), deflate-compressed and lossless unless ``tiff='full'``
+  (:data:`measure.imagefiles.TIFF_COMPRESSION`);
+- ``corrected.tiff`` on request (``linear``): linear camera RGB, 16-bit;
 - ``correction.json``: the correction's per-channel coefficients in Sea-thru's form, its table
   of ranges, the range used, the water, the cap, what is not modelled, and (when computed) its
   uncertainty;
@@ -24,11 +25,10 @@ import json
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-
 from forward.errors import InputError
 
-from .imagefiles import TIFF_COMPRESSION, write_jpeg, write_srgb_tiff
-from .output import MARKER, TIFF_MODES, check_out, strict_json, write_folder
+from .imagefiles import submit_images
+from .output import MARKER, check_out, image_options, strict_json, write_folder
 
 __all__ = ["NOT_MODELLED", "check_correct_out", "write_corrected"]
 
@@ -90,14 +90,14 @@ def check_correct_out(outdir, image, inputs=(), overwrite: bool = False) -> None
 
 
 def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str = "compressed",
-                    jpeg: bool = True, overwrite: bool = False, marker: dict | None = None,
-                    inputs=()) -> dict:
+                    output_format: str = "jpeg", overwrite: bool = False,
+                    marker: dict | None = None, inputs=()) -> dict:
     """Write a corrected photo's folder, whole or not at all.
 
     Parameters
     ----------
     corr : measure.correct.Corrected
-        With ``srgb`` (and ``linear`` unless ``tiff='none'``).
+        With ``srgb``; its ``linear`` image, when made, is written as corrected.tiff.
     outdir : str or os.PathLike
         The folder (replaced when it holds a correction of the same photo; another photo's only
         with ``overwrite``; never when it holds an input or a measurement:
@@ -107,10 +107,10 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
     version : str, optional
         uw3p's version.
     tiff : {'compressed', 'full', 'none'}, optional
-        corrected.tiff and corrected_srgb.tif deflate-compressed (default), uncompressed, or
-        not written.
-    jpeg : bool, optional
-        Write corrected.jpg.
+        The TIFFs deflate-compressed (default) or uncompressed; 'none': no TIFF
+        (:func:`measure.output.image_options`).
+    output_format : {'jpeg', 'tiff16'}, optional
+        The sRGB image: corrected.jpg (default) or corrected_srgb.tif.
     overwrite : bool, optional
     marker : dict, optional
         More entries of complete.json.
@@ -121,42 +121,27 @@ def write_corrected(corr, outdir, *, record: dict, version: str = "", tiff: str 
     Returns
     -------
     dict
-        file name -> path.
+        file name -> path (complete.json records each file's size in bytes).
 
     Raises
     ------
     forward.errors.InputError
-        Naming ``tiff`` or ``out`` (:func:`check_correct_out`).
+        Naming ``tiff``, ``output_format`` or ``out`` (:func:`check_correct_out`).
     """
-    if tiff not in TIFF_MODES:
-        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
+    image_options(output_format, corr.linear is not None, tiff, corr.table.method)
     check_correct_out(outdir, corr.photo.path, inputs, overwrite)
 
     def write(tmp: Path) -> list:
         names = ["correction.json"]
         _json(tmp / "correction.json", record)
-        # the TIFFs are compressed by imagecodecs outside the GIL while the JPEG is encoded
         with ThreadPoolExecutor(max_workers=2) as pool:
-            jobs = []
-            if tiff != "none":
-                if corr.srgb is not None:
-                    jobs.append(("corrected_srgb.tif", pool.submit(
-                        write_srgb_tiff, tmp / "corrected_srgb.tif", corr.srgb,
-                        compressed=tiff == "compressed")))
-                if corr.linear is not None:
-                    import tifffile
-
-                    jobs.append(("corrected.tiff", pool.submit(
-                        tifffile.imwrite, tmp / "corrected.tiff", corr.linear, photometric="rgb",
-                        **(TIFF_COMPRESSION if tiff == "compressed" else {}))))
-            if jpeg and corr.srgb is not None:
-                write_jpeg(tmp / "corrected.jpg", corr.srgb)
-                names.append("corrected.jpg")
-            for name, job in jobs:
+            for name, job in submit_images(pool, tmp, corr.srgb, corr.linear, output_format,
+                                           tiff):
                 job.result()
                 names.append(name)
+        sizes = {n: (tmp / n).stat().st_size for n in names}
         names.append(MARKER)
-        _json(tmp / MARKER, {"image": str(corr.photo.path), "version": version, "files": names}
-              | (marker or {}))
+        _json(tmp / MARKER, {"image": str(corr.photo.path), "version": version, "files": names,
+                             "sizes": sizes, "output_format": output_format} | (marker or {}))
         return names
     return write_folder(outdir, corr.photo.path, overwrite, write)

@@ -220,7 +220,8 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
     return Photo(str(p), "rgb", data, None, clipped, white - black, black, *_exif(p))
 
 
-def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> np.ndarray:
+def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False,
+             step: int = 1) -> np.ndarray:
     """Linear camera RGB of a photo, with a per-channel affine map applied first.
 
     A RAW mosaic is demosaiced by bilinear interpolation: normalised convolution of each
@@ -238,10 +239,13 @@ def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> 
         Per-channel offsets subtracted before the gains, raw units (default 0).
     uint16 : bool, optional
         Round and clip the result to 0..UINT16_MAX.
+    step : int, optional
+        Only every ``step``-th row and column (a preview): the full result's ``[::step,
+        ::step]``, computed there alone.
 
     Returns
     -------
-    numpy.ndarray, (H, W, 3)
+    numpy.ndarray, (H, W, 3) (or (ceil(H / step), ceil(W / step), 3))
         gains * (value - offset): float32 in (mapped) raw units, or uint16.
 
     References
@@ -252,13 +256,13 @@ def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False) -> 
     gains = np.ones(3) if gains is None else np.asarray(gains, float)
     offset = np.zeros(3) if offset is None else np.asarray(offset, float)
     if photo.kind == "rgb":
-        out = (photo.data - offset.astype(np.float32)) * gains.astype(np.float32)
+        out = (photo.data[::step, ::step] - offset.astype(np.float32)) * gains.astype(np.float32)
         return np.clip(np.rint(out), 0, UINT16_MAX).astype(np.uint16) if uint16 else out
     H, W = photo.data.shape
-    out = np.empty((H, W, 3), np.uint16 if uint16 else np.float32)
+    out = np.empty((-(-H // step), -(-W // step), 3), np.uint16 if uint16 else np.float32)
     with _KERNEL_LOCK:
         bilinear_all(photo.data, photo.channel, gains.astype(np.float32),
-                  offset.astype(np.float32), out, uint16)
+                     offset.astype(np.float32), out, uint16, step)
     return out
 
 

@@ -17,8 +17,9 @@ import os
 
 import numpy as np
 
-__all__ = ["JPEG_QUALITY", "JPEG_ROWS", "TIFF_COMPRESSION", "srgb_icc", "to_8bit",
-           "write_jpeg", "write_srgb_tiff"]
+__all__ = ["JPEG_QUALITY", "JPEG_ROWS", "LINEAR_FILE", "OUTPUT_FORMATS", "SRGB_BITS", "SRGB_FILES",
+           "TIFF_COMPRESSION", "srgb_icc", "submit_images", "to_8bit", "write_jpeg",
+           "write_srgb_tiff"]
 
 #: tifffile's options for a compressed corrected.tiff: Adobe deflate with the
 #: horizontal-differencing predictor (TIFF 6.0 section 14), lossless, any TIFF reader; zlib
@@ -29,6 +30,17 @@ __all__ = ["JPEG_QUALITY", "JPEG_ROWS", "TIFF_COMPRESSION", "srgb_icc", "to_8bit
 #: photo's noise leaves deflate little to find)
 TIFF_COMPRESSION = {"compression": "zlib", "compressionargs": {"level": 1}, "predictor": True,
                     "maxworkers": os.cpu_count() or 1}
+#: The full-resolution sRGB image of a corrected photo, the file a photographer keeps
+#: (``output_format``): 8-bit JPEG (the default: about 10 MB for 24 MP) or 16-bit deflated
+#: TIFF (about 100 MB: a photo's noise leaves deflate little to find); decision
+#: 0084-output-format
+OUTPUT_FORMATS = ("jpeg", "tiff16")
+#: Its file name per format
+SRGB_FILES = {"jpeg": "corrected.jpg", "tiff16": "corrected_srgb.tif"}
+#: Its bits per channel per format (``srgb_bits`` of :func:`measure.correct_image`)
+SRGB_BITS = {"jpeg": 8, "tiff16": 16}
+#: The linear camera-RGB 16-bit TIFF, written only on request (``linear``)
+LINEAR_FILE = "corrected.tiff"
 #: JPEG quality (Pillow's scale; 92: artefacts below visibility at normal viewing, the files
 #: about a quarter of quality 100's)
 JPEG_QUALITY = 92
@@ -84,10 +96,46 @@ def write_jpeg(path, srgb16, quality: int = JPEG_QUALITY) -> None:
     Parameters
     ----------
     path : str or os.PathLike
-    srgb16 : numpy.ndarray, uint16, (H, W, 3)
+    srgb16 : numpy.ndarray, uint16 or uint8 (taken as it is), (H, W, 3)
     quality : int, optional
     """
     from PIL import Image
 
-    Image.fromarray(to_8bit(srgb16)).save(path, format="JPEG", quality=int(quality),
+    codes = srgb16 if srgb16.dtype == np.uint8 else to_8bit(srgb16)
+    Image.fromarray(codes).save(path, format="JPEG", quality=int(quality),
                                           icc_profile=srgb_icc())
+
+
+def submit_images(pool, folder, srgb16, linear16, output_format: str, tiff: str) -> list:
+    """Start writing a corrected photo's images on ``pool``: the sRGB image in
+    ``output_format`` (:data:`SRGB_FILES`) and, when ``linear16`` is given, the linear TIFF
+    (:data:`LINEAR_FILE`); TIFFs deflated unless ``tiff`` is 'full'.
+
+    Parameters
+    ----------
+    pool : concurrent.futures.Executor
+    folder : pathlib.Path
+    srgb16, linear16 : numpy.ndarray, uint16, (H, W, 3), or None
+        Not written when None.
+    output_format : {'jpeg', 'tiff16'}
+    tiff : {'compressed', 'full'}
+
+    Returns
+    -------
+    list of (str, concurrent.futures.Future)
+        The file names and their writes (``result()`` raises a write's error).
+    """
+    import tifffile
+
+    jobs = []
+    if srgb16 is not None:
+        name = SRGB_FILES[output_format]
+        jobs.append((name, pool.submit(write_jpeg, folder / name, srgb16)
+                     if output_format == "jpeg" else
+                     pool.submit(write_srgb_tiff, folder / name, srgb16,
+                                 compressed=tiff != "full")))
+    if linear16 is not None:
+        jobs.append((LINEAR_FILE, pool.submit(
+            tifffile.imwrite, folder / LINEAR_FILE, linear16, photometric="rgb",
+            **(TIFF_COMPRESSION if tiff != "full" else {}))))
+    return jobs

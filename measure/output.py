@@ -1,5 +1,6 @@
-"""The files of ``uw3p measure``: measurement.json, corrected.tiff, corrected_srgb.tif,
-corrected.jpg, corrected.png, report.png, complete.json.
+"""The files of ``uw3p measure``: measurement.json, the full-resolution sRGB image (corrected.jpg
+by default, or corrected_srgb.tif: :func:`image_options`), corrected.tiff (linear, on request),
+corrected.png, report.png, complete.json.
 
 A photo's folder is written whole or not at all: the files go to a temporary folder beside it
 (its name starts with :data:`TEMP_PREFIX`), ``complete.json`` (:data:`MARKER`) is written last,
@@ -23,19 +24,19 @@ from forward.spectra import WHITE_PATCH, srgb_8bit
 
 from .filemodes import follow_umask
 from .image import demosaic
-from .imagefiles import TIFF_COMPRESSION
 from forward.errors import InputError
 
 __all__ = ["MARKER", "PREVIEW_PIXELS", "REPORT_TEXT_ROWS", "TEMP_PREFIX", "TIFF_MODES",
-           "check_out", "corrected_image", "encode_srgb_8bit", "read_marker", "report_figure",
+           "check_out", "corrected_image", "encode_srgb_8bit", "image_options", "read_marker", "report_figure",
            "result_owner", "srgb_preview", "strict_json", "write_folder", "write_outputs"]
 
 #: Longest side of the PNG previews, pixels
 PREVIEW_PIXELS = 1000
 #: PNG compression level of the previews (zlib 1: fast; they are previews)
 PNG_OPTIONS = {"compress_level": 1}
-#: ``tiff=`` of :func:`write_outputs`: corrected.tiff deflate-compressed (default), uncompressed,
-#: or not written (the sRGB preview corrected.png is always written)
+#: ``tiff=`` of :func:`write_outputs` and :func:`measure.correct_output.write_corrected`: the
+#: TIFFs asked for (``output_format='tiff16'``, ``linear``) deflate-compressed (default) or
+#: uncompressed; 'none': no TIFF at all (then neither may be asked for)
 TIFF_MODES = ("compressed", "full", "none")
 #: The file written last into a photo's folder: its presence says the folder is complete; it
 #: names the image and (in a dive) the key of the inputs and options used
@@ -44,6 +45,33 @@ MARKER = "complete.json"
 TEMP_PREFIX = ".uw3p-tmp-"
 #: Without a given white, the preview's white (Y = 1) is this percentile of the image's Y
 WHITE_PERCENTILE = 99.5
+
+
+def image_options(output_format: str = "jpeg", linear: bool = False, tiff: str = "compressed",
+                  method: str = "matrix") -> dict:
+    """The images a corrected photo's folder gets, checked: ``output_format``
+    (:data:`measure.imagefiles.OUTPUT_FORMATS`), ``linear``, ``tiff`` (:data:`TIFF_MODES`) and
+    the correction's ``method`` (:data:`measure.correct_matrix.METHODS`).
+
+    Raises
+    ------
+    forward.errors.InputError
+        Naming the bad argument; naming ``tiff`` when it is 'none' and a TIFF is asked for.
+    """
+    from .correct_matrix import check_method
+    from .imagefiles import OUTPUT_FORMATS
+
+    if output_format not in OUTPUT_FORMATS:
+        raise InputError("output_format", f"one of {', '.join(OUTPUT_FORMATS)}, got "
+                         f"{output_format!r}")
+    if tiff not in TIFF_MODES:
+        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
+    if tiff == "none" and (linear or output_format == "tiff16"):
+        raise InputError("tiff", "'none' writes no TIFF, yet "
+                         + ("the linear TIFF" if linear else "a 16-bit sRGB TIFF")
+                         + " was asked for")
+    return {"output_format": output_format, "linear": bool(linear), "tiff": tiff,
+            "method": check_method(method)}
 
 
 def strict_json(x):
@@ -445,7 +473,8 @@ def _swap(tmp: Path, out: Path) -> None:
 def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
                   tiff: str = "compressed", overwrite: bool = False,
                   marker: dict | None = None, range=None,  # noqa: A002
-                  method: str = "matrix") -> dict:
+                  method: str = "matrix", output_format: str = "jpeg",
+                  linear: bool = False) -> dict:
     """Write the files of ``uw3p measure``, whole or not at all.
 
     The files are written into a temporary folder beside ``outdir``, :data:`MARKER` last, and
@@ -464,43 +493,45 @@ def write_outputs(meas, outdir, version: str = "", report: bool = True, *,
     report : bool, optional
         Also draw report.png (the photo with the sampled boxes, the fit, k and the estimate).
     tiff : {'compressed', 'full', 'none'}, optional
-        corrected.tiff deflate-compressed and lossless (:data:`measure.imagefiles.TIFF_COMPRESSION`; default),
-        uncompressed, or not written.
+        The TIFFs asked for deflate-compressed and lossless
+        (:data:`measure.imagefiles.TIFF_COMPRESSION`; default) or uncompressed; 'none': no
+        TIFF (:func:`image_options`).
     overwrite : bool, optional
         Replace a folder that holds another photo's results.
     marker : dict, optional
         More entries of complete.json (a dive records the key of its inputs and options).
     range : float, str or os.PathLike, optional
-        What corrected_srgb.tif and corrected.jpg are corrected along
-        (:func:`measure.correct_image`: a distance in m, a range map or a plane); default the
-        chart's distance.
+        What the full-resolution sRGB image is corrected along (:func:`measure.correct_image`:
+        a distance in m, a range map or a plane); default the chart's distance.
     method : 'matrix' or 'diagonal', optional
-        Their correction (:func:`measure.correct_image`; default the colour matrix per range),
+        Its correction (:func:`measure.correct_image`; default the colour matrix per range),
         recorded as ``correction_method`` in complete.json.
+    output_format : {'jpeg', 'tiff16'}, optional
+        The full-resolution sRGB image with its ICC profile: corrected.jpg (8-bit, default) or
+        corrected_srgb.tif (16-bit) (decision 0084-output-format).
+    linear : bool, optional
+        Also corrected.tiff: 16-bit linear camera RGB, von Kries-corrected at the chart.
 
     Returns
     -------
     dict
-        {file name: path} of measurement.json, corrected.tiff (16-bit linear, corrected; unless
-        ``tiff='none'``), corrected_srgb.tif (16-bit sRGB with its ICC profile, full
-        resolution; unless ``tiff='none'``), corrected.jpg (the same, 8-bit JPEG),
-        corrected.png (sRGB preview), report.png and complete.json.
+        {file name: path} of measurement.json, the sRGB image (corrected.jpg or
+        corrected_srgb.tif), corrected.tiff (with ``linear``), corrected.png (sRGB preview),
+        report.png and complete.json (which records every file's size in bytes).
 
     Raises
     ------
     ValueError
-        Naming ``tiff`` when it is not one of :data:`TIFF_MODES`; naming ``out`` when the folder
-        cannot be created or written, is a file, holds files that are not uw3p results, or holds
-        another photo's results without ``overwrite``.
+        Naming ``tiff``, ``output_format`` or ``method`` (:func:`image_options`); naming
+        ``out`` when the folder cannot be created or written, is a file, holds files that are
+        not uw3p results, or holds another photo's results without ``overwrite``.
     """
-    if tiff not in TIFF_MODES:
-        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
-    from .correct_matrix import check_method
-
-    marker = (marker or {}) | {"correction_method": check_method(method)}
+    opts = image_options(output_format, linear, tiff, method)
+    marker = (marker or {}) | {"correction_method": method, "output_format": output_format,
+                               "linear": bool(linear)}
     return write_folder(outdir, meas.photo.path, overwrite,
-                        lambda tmp: _write_files(meas, tmp, version, report, tiff, marker, range,
-                                                 method))
+                        lambda tmp: _write_files(meas, tmp, version, report, marker, range,
+                                                 opts))
 
 
 def write_folder(outdir, image, overwrite: bool, write) -> dict:
@@ -548,43 +579,37 @@ def write_folder(outdir, image, overwrite: bool, write) -> dict:
     return {k: str(out / k) for k in names}
 
 
-def _write_files(meas, folder: Path, version, report, tiff, marker, rng=None,
-                 method="matrix") -> list:
+def _write_files(meas, folder: Path, version, report, marker, rng, opts) -> list:
     """Every file into ``folder``, :data:`MARKER` last; returns their names."""
-    import tifffile
-
     from .correct import correct_image
-    from .imagefiles import write_jpeg, write_srgb_tiff
+    from .imagefiles import SRGB_BITS, submit_images
 
     names = ["measurement.json"]
     (folder / "measurement.json").write_text(
         json.dumps(strict_json(meas.to_dict(version)), indent=1, allow_nan=False) + "\n",
         encoding="utf-8")
-    img = corrected_image(meas)
+    img = corrected_image(meas) if opts["linear"] else None
+    # the preview's pixels of the linear image (only they, without corrected.tiff)
+    step = _stride(meas.photo.data.shape)
+    small = img[::step, ::step] if img is not None else demosaic(
+        meas.photo, meas.gains, meas.offset, uint16=True, step=step)
     # full resolution sRGB: the per-pixel correction (measure.correct) at the chart's distance
     srgb = correct_image(meas.photo, meas, float(meas.inputs.get("distance_m") or 1.0)
-                         if rng is None else rng, linear=False, method=method).srgb
-    # corrected.tiff is compressed by imagecodecs outside the GIL while this thread draws the
-    # previews and the report; its error, if any, is raised before the marker is written
-    with ThreadPoolExecutor(max_workers=1) as pool:
-        pending = None
-        if tiff != "none":
-            options = TIFF_COMPRESSION if tiff == "compressed" else {}
-            pending = pool.submit(tifffile.imwrite, folder / "corrected.tiff", img,
-                                  photometric="rgb", **options)
-            pending_srgb = pool.submit(write_srgb_tiff, folder / "corrected_srgb.tif", srgb,
-                                       compressed=tiff == "compressed")
-        write_jpeg(folder / "corrected.jpg", srgb)
+                         if rng is None else rng, linear=False, method=opts["method"],
+                         srgb_bits=SRGB_BITS[opts["output_format"]]).srgb
+    # the images are encoded (imagecodecs and Pillow outside the GIL) while this thread draws
+    # the previews and the report; an error is raised before the marker is written
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        jobs = submit_images(pool, folder, srgb, img, opts["output_format"], opts["tiff"])
         white = meas.gains * (meas.sample.rgb[:, WHITE_PATCH] - meas.offset)  # the corrected white
-        _save_png(folder / "corrected.png", srgb_preview(img, meas.setup, white))
+        _save_png(folder / "corrected.png", srgb_preview(small, meas.setup, white))
         if report:
             _report(meas, folder / "report.png", srgb_preview(_quick_rgb(meas.photo), meas.setup,
                                                               meas.sample.rgb[:, WHITE_PATCH]))
-        if pending is not None:
-            pending.result()
-            pending_srgb.result()
-            names += ["corrected.tiff", "corrected_srgb.tif"]
-    names += ["corrected.jpg", "corrected.png"]
+        for name, job in jobs:
+            job.result()
+            names.append(name)
+    names.append("corrected.png")
     if report:
         names.append("report.png")
     sizes = {n: (folder / n).stat().st_size for n in names}

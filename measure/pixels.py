@@ -13,7 +13,7 @@ import numpy as np
 
 from sca.compiled import njit, prange
 
-__all__ = ["bilinear_pixel", "bilinear_all", "correct_pixels", "unpack"]
+__all__ = ["bilinear_pixel", "bilinear_all", "census_rows", "correct_pixels", "unpack"]
 
 
 @njit(parallel=True, cache=True)
@@ -28,6 +28,35 @@ def unpack(mosaic, colors, lut, blacks, white, data, channel, clipped):  # pragm
             data[y, x] = np.float32(v) - blacks[c]
             channel[y, x] = lut[c]
             clipped[y, x] = v >= white
+
+
+@njit(parallel=True, cache=True)
+def census_rows(a, counts):  # pragma: no cover - compiled
+    """One pass over a map (parallel over rows): counts[y] = how many of row y's values are
+    known (finite, > 0), NaN, 0, negative (finite), -inf and +inf."""
+    H, W = a.shape
+    for y in prange(H):
+        known = nan = zero = negative = neg_inf = pos_inf = 0
+        for x in range(W):
+            v = a[y, x]
+            if v != v:
+                nan += 1
+            elif v == np.inf:
+                pos_inf += 1
+            elif v == -np.inf:
+                neg_inf += 1
+            elif v > 0:
+                known += 1
+            elif v == 0:
+                zero += 1
+            else:
+                negative += 1
+        counts[y, 0] = known
+        counts[y, 1] = nan
+        counts[y, 2] = zero
+        counts[y, 3] = negative
+        counts[y, 4] = neg_inf
+        counts[y, 5] = pos_inf
 
 
 @njit(cache=True, inline="always")
@@ -67,18 +96,22 @@ def bilinear_pixel(data, channel, y, x, H, W, gains, offset):  # pragma: no cove
 
 
 @njit(parallel=True, cache=True)
-def bilinear_all(data, channel, gains, offset, out, to_uint16):  # pragma: no cover - compiled
+def bilinear_all(data, channel, gains, offset, out, to_uint16, step):  # pragma: no cover
+    """:func:`bilinear_pixel` at every ``step``-th row and column (out: (ceil(H / step),
+    ceil(W / step), 3)), rounded and clipped to uint16 or as float."""
     H, W = data.shape
-    for y in prange(H):
-        for x in range(W):
+    for yi in prange(out.shape[0]):
+        y = yi * step
+        for xi in range(out.shape[1]):
+            x = xi * step
             vals = bilinear_pixel(data, channel, y, x, H, W, gains, offset)
             for c in range(3):
                 v = vals[c]
                 if to_uint16:
                     v = min(max(v + 0.5, 0.0), 65535.0)
-                    out[y, x, c] = int(v)
+                    out[yi, xi, c] = int(v)
                 else:
-                    out[y, x, c] = v
+                    out[yi, xi, c] = v
 
 
 @njit(cache=True, inline="always")
@@ -91,27 +124,39 @@ def _row(C, i, w, k, d0, d1, d2):  # pragma: no cover - compiled
 
 @njit(parallel=True, cache=True)
 def correct_pixels(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, unknown, cap, step,
-             C, B, M, lut, lin_scale, lin16, srgb16, flt, modes):  # pragma: no cover - compiled
+                   C, B, M, lut, lin_scale, lin16, srgb, flt, modes,
+                   stats):  # pragma: no cover - compiled
     """Per pixel: demosaic the RAW ``mosaic`` or read the RGB ``rgb`` (the other a dummy), the
     range (map, or const_r), the table row interpolated, J = C (v - B) (C (n, 3, 3): a diagonal
     for the von Kries correction, the colour matrix times it for the spectral); then linear uint16
-    (J lin_scale), sRGB uint16 (the table lut of clip(M J)) and float J, as ``modes`` (lin,
-    srgb, float) ask."""
+    (J lin_scale), sRGB (the table lut of clip(M J): uint16 codes, or uint8 ones into a uint8
+    ``srgb``) and float J, as ``modes`` (lin, srgb, float) ask. ``stats`` (H, 4) gets each row's
+    count of unknown ranges (not > 0), of ranges beyond the cap, and its least and largest
+    finite range (+inf, -inf for none), as given."""
     n = C.shape[0]
     top = lut.shape[0] - 1
     ones = np.ones(3, np.float32)
     zeros = np.zeros(3, np.float32)
     for y in prange(H):
+        n_unknown = 0.0
+        n_capped = 0.0
+        lo = np.inf
+        hi = -np.inf
         for x in range(W):
             if raw:
                 v0, v1, v2 = bilinear_pixel(mosaic, channel, y, x, H, W, ones, zeros)
             else:
                 v0, v1, v2 = rgb[y, x, 0], rgb[y, x, 1], rgb[y, x, 2]
             r = ranges[y, x] if has_map else const_r
-            if not (r > 0.0):  # NaN or 0: unknown
-                r = unknown
-            if r > cap:
+            if abs(r) < np.inf:  # finite (NaN is not)
+                lo = min(lo, r)
+                hi = max(hi, r)
+            if r > cap:  # +inf too
+                n_capped += 1.0
                 r = cap
+            elif not (r > 0.0):  # NaN or 0: unknown
+                n_unknown += 1.0
+                r = min(unknown, cap)
             f = r / step
             i = int(f)
             if i >= n - 1:
@@ -133,8 +178,12 @@ def correct_pixels(mosaic, channel, rgb, raw, H, W, ranges, has_map, const_r, un
                 for c in range(3):
                     s = M[c, 0] * j0 + M[c, 1] * j1 + M[c, 2] * j2
                     s = min(max(s, 0.0), 1.0)
-                    srgb16[y, x, c] = lut[int(s * top + 0.5)]
+                    srgb[y, x, c] = lut[int(s * top + 0.5)]
             if modes[2]:
                 flt[y, x, 0] = j0
                 flt[y, x, 1] = j1
                 flt[y, x, 2] = j2
+        stats[y, 0] = n_unknown
+        stats[y, 1] = n_capped
+        stats[y, 2] = lo
+        stats[y, 3] = hi

@@ -687,7 +687,7 @@ def test_a_killed_runs_lock_and_temporary_files_do_not_block_or_stay(tmp_path, s
              rows=["a.dng,5,1.5", "b.dng,6,1.5", "c.dng,4,1.2"])
     out = tmp_path / "out"
     args = ["measure", d, "--metadata", d / "dive.csv", "--profile", src["profile"], "--out",
-            out, "--exact", "--tiff", "compressed", "--scheduler", "synchronous"]
+            out, "--exact", "--tiff", "compressed", "--linear", "--scheduler", "synchronous"]
     killed = 0
     for extra in (0.0, 0.3, 0.7):  # SIGKILL at several moments of the photo after the first
         proc = popen(args)
@@ -777,7 +777,7 @@ def test_a_full_disk_leaves_no_half_written_results(tmp_path, src):
 
     d = dive(tmp_path, src, {"a.dng": "a", "b.dng": "b"}, rows=["a.dng,5,1.5", "b.dng,6,1.5"])
     out = tmp_path / "out"
-    fast = ["--exact", "--tiff", "compressed", "--scheduler", "synchronous"]
+    fast = ["--exact", "--tiff", "compressed", "--linear", "--scheduler", "synchronous"]
 
     def limit():
         resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))

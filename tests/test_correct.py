@@ -89,6 +89,33 @@ def test_per_pixel_correction_of_a_map_matches_the_table(shot):
     assert out.linear.dtype == np.uint16 and out.srgb.dtype == np.uint16
 
 
+def test_the_kernel_makes_the_jpegs_codes_and_the_range_summary_in_its_one_pass(shot):
+    """srgb_bits=8: the 16-bit image's codes rounded to 8 bits (measure.imagefiles.to_8bit),
+    made by the kernel; the kernel's per-row counts give the map's summary (unknown, beyond
+    the cap, the finite span) as the map itself does. A preview's demosaic at a step is the
+    full one's pixels there."""
+    from measure.imagefiles import to_8bit
+
+    m = shot["meas"]
+    rmap = np.tile(np.linspace(1.0, 6.0, W, dtype=np.float32), (H, 1))
+    rmap[:7], rmap[-5:] = np.nan, np.inf
+    full = correct_image(m.photo, m, rmap, linear=False)
+    small = correct_image(m.photo, m, rmap, linear=False, srgb_bits=8)
+    assert small.srgb.dtype == np.uint8 and np.array_equal(small.srgb, to_8bit(full.srgb))
+    assert small.ranges == full.ranges
+    r = full.ranges
+    assert r["unknown_fraction"] == pytest.approx(7 / H) and r["capped_fraction"] == \
+        pytest.approx(5 / H)
+    assert (r["min_m"], r["max_m"]) == (1.0, pytest.approx(6.0))
+    with pytest.raises(ValueError, match="^srgb_bits"):
+        correct_image(m.photo, m, 2.0, srgb_bits=12)
+    for step in (1, 3, 7):
+        np.testing.assert_array_equal(measure.demosaic(m.photo, m.gains, m.offset, uint16=True,
+                                                       step=step),
+                                      measure.demosaic(m.photo, m.gains, m.offset,
+                                                       uint16=True)[::step, ::step])
+
+
 def test_range_inputs(tmp_path):
     import tifffile
     from PIL import Image
@@ -208,15 +235,32 @@ def test_cli_correct_writes_whole_outputs_with_an_icc_profile(shot, tmp_path, ca
                  "plane:3,0,-2", "--out", str(out), "--uncertainty"])
     assert code in (0, 1)
     names = sorted(p.name for p in out.iterdir())
-    assert names == ["complete.json", "corrected.jpg", "corrected.tiff", "corrected_srgb.tif",
-                     "correction.json"]
-    with tifffile.TiffFile(out / "corrected_srgb.tif") as tf:
+    # by default one sRGB image, the JPEG, with its profile; complete.json records the sizes
+    assert names == ["complete.json", "corrected.jpg", "correction.json"]
+    with Image.open(out / "corrected.jpg") as im:
+        assert im.size == (W, H) and im.info.get("icc_profile")
+        jpeg = np.asarray(im)
+    done = json.loads((out / "complete.json").read_text())
+    assert done["sizes"] == {n: (out / n).stat().st_size for n in names if n != "complete.json"}
+    rec = json.loads((out / "correction.json").read_text())
+    tiffs = tmp_path / "t"
+    assert main(["correct", str(shot["dng"]), "--water", str(shot["json"]), "--range",
+                 "plane:3,0,-2", "--out", str(tiffs), "--output-format", "tiff16",
+                 "--linear"]) in (0, 1)
+    assert sorted(p.name for p in tiffs.iterdir()) == [
+        "complete.json", "corrected.tiff", "corrected_srgb.tif", "correction.json"]
+    with tifffile.TiffFile(tiffs / "corrected_srgb.tif") as tf:
         page = tf.pages[0]
         assert page.dtype == np.uint16 and page.shape == (H, W, 3)
         assert page.compression != 1 and 34675 in page.tags
-    with Image.open(out / "corrected.jpg") as im:
-        assert im.size == (W, H) and im.info.get("icc_profile")
-    rec = json.loads((out / "correction.json").read_text())
+        from measure.imagefiles import to_8bit
+
+        # the same image (the JPEG's loss is noise-like: its channel means within 0.5 code)
+        np.testing.assert_allclose(to_8bit(page.asarray()).mean(axis=(0, 1)),
+                                   jpeg.mean(axis=(0, 1)), atol=0.5)
+    assert main(["correct", str(shot["dng"]), "--water", str(shot["json"]), "--range", "2",
+                 "--out", str(tmp_path / "n"), "--tiff", "none", "--linear"]) == 2
+    assert "error: --tiff:" in capsys.readouterr().err and not (tmp_path / "n").exists()
     assert set(rec["seathru"]) >= {"beta_D", "beta_B", "B_inf", "white_balance"}
     assert rec["uncertainty"]["grey_de00"]
     assert rec["range"]["kind"] == "map"
@@ -231,7 +275,7 @@ def test_cli_bad_range_names_the_option(shot, tmp_path, capsys):
 
 
 def test_a_failed_write_leaves_the_old_folder_whole(shot, tmp_path, monkeypatch):
-    from measure import correct_output
+    from measure import imagefiles
 
     out = tmp_path / "c"
     args = ["correct", str(shot["dng"]), "--water", str(shot["json"]), "--range", "2",
@@ -241,7 +285,7 @@ def test_a_failed_write_leaves_the_old_folder_whole(shot, tmp_path, monkeypatch)
 
     def fail(*a, **k):
         raise OSError(28, "No space left on device")
-    monkeypatch.setattr(correct_output, "write_jpeg", fail)
+    monkeypatch.setattr(imagefiles, "write_jpeg", fail)
     assert main(args) == 2
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
@@ -280,15 +324,19 @@ def test_a_dive_with_chartless_frames_gives_every_frame_a_corrected_srgb_image(t
         f'chart.dng,5,1.5,"{text}",,\nreef1.tif,6,1.5,,3.0,\nreef2.tif,5,1.5,,,../reef2_range.npy\n')
     kw = dict(out=tmp_path / "out", metadata=d / "dive.csv", profile=str(tmp_path / "profile.json"),
               scheduler="synchronous", joint=True, report=False, figure=False,
-              light_field="none")
+              light_field="none", method="diagonal")
     res = dive.measure_dive(d, **kw)
     by = {r["image"].split("/")[-1]: r for r in res.rows}
     assert by["chart.dng"]["status"] == "measured"
     for name in ("reef1.tif", "reef2.tif"):
         assert by[name]["status"] == "corrected with the dive's water", by[name]["error"]
         folder = tmp_path / "out" / name.replace(".", "_")
-        assert (folder / "corrected_srgb.tif").exists() and (folder / "corrected.jpg").exists()
-    assert (tmp_path / "out" / "chart_dng" / "corrected_srgb.tif").exists()
+        assert sorted(p.name for p in folder.iterdir()) == [
+            "complete.json", "corrected.jpg", "correction.json"]  # the default: the JPEG
+        assert json.loads((folder / "correction.json").read_text())["method"] == "diagonal"
+    assert (tmp_path / "out" / "chart_dng" / "corrected.jpg").exists()
+    assert json.loads((tmp_path / "out" / "chart_dng" / "complete.json").read_text())[
+        "correction_method"] == "diagonal"  # --method through the dive path, both kinds
     assert res.code == (0 if by["chart.dng"]["reliable"] in (True, "True") else 1)
     rec = json.loads((tmp_path / "out" / "reef2_tif" / "correction.json").read_text())
     assert rec["range"]["kind"] == "map" and rec["range"]["max_m"] == pytest.approx(6.0)

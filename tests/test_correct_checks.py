@@ -72,7 +72,7 @@ def _joint(shot, depths=(4.0, 8.0), camera=True) -> dict:
 def _correct(shot, tmp_path, water, *extra, image=None):
     out = tmp_path / "c"
     code = main(["correct", str(image or shot["dng"]), "--water", str(water), "--range", "1.5",
-                 "--out", str(out), "--tiff", "none", "--no-jpeg", *extra])
+                 "--out", str(out), "--tiff", "none", *extra])
     rec = json.loads((out / "correction.json").read_text()) if code != 2 else None
     return code, rec
 

@@ -313,7 +313,7 @@ def test_a_failed_tiff_leaves_the_old_results_whole(tmp_path, meas, monkeypatch)
 
     monkeypatch.setattr(tifffile, "imwrite", broken)
     with pytest.raises(ValueError, match="out: cannot write"):
-        measure.write_outputs(meas, folder)
+        measure.write_outputs(meas, folder, linear=True)
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
     assert set(first) == set(before)
@@ -322,9 +322,17 @@ def test_a_failed_tiff_leaves_the_old_results_whole(tmp_path, meas, monkeypatch)
 def test_compressed_tiff_is_smaller_and_reads_back_equal(tmp_path, meas):
     import tifffile
 
-    full = measure.write_outputs(meas, tmp_path / "full", report=False, tiff="full")
-    small = measure.write_outputs(meas, tmp_path / "small", report=False)
+    full = measure.write_outputs(meas, tmp_path / "full", report=False, tiff="full", linear=True)
+    small = measure.write_outputs(meas, tmp_path / "small", report=False, linear=True)
     none = measure.write_outputs(meas, tmp_path / "none", report=False, tiff="none")
+    # by default one full-resolution sRGB image, the JPEG (decision 0084-output-format)
+    plain = measure.write_outputs(meas, tmp_path / "plain", report=False)
+    assert sorted(plain) == ["complete.json", "corrected.jpg", "corrected.png",
+                             "measurement.json"]
+    tif = measure.write_outputs(meas, tmp_path / "tif", report=False, output_format="tiff16")
+    assert "corrected_srgb.tif" in tif and "corrected.jpg" not in tif
+    with pytest.raises(ValueError, match="^tiff: 'none' writes no TIFF"):
+        measure.write_outputs(meas, tmp_path / "y", tiff="none", linear=True)
     a, b = tifffile.imread(full["corrected.tiff"]), tifffile.imread(small["corrected.tiff"])
     assert np.array_equal(a, b) and a.dtype == np.uint16
     assert (tmp_path / "small" / "corrected.tiff").stat().st_size < \
@@ -421,6 +429,9 @@ def test_a_rerun_with_other_options_is_refused_before_anything_is_written(tmp_pa
     assert _snapshot(out) == before  # nothing written, nothing removed
     with pytest.raises(ValueError, match=r"^out: .*uncertain"):
         _run(d, out, shots, uncertain={"patch": 0.01})
+    assert _snapshot(out) == before
+    with pytest.raises(ValueError, match=r"^out: .*method"):  # run.json records the method
+        _run(d, out, shots, method="diagonal")
     assert _snapshot(out) == before
     again = _run(d, out, shots, tiff="none", overwrite=True)
     assert [r["status"] for r in again.rows] == ["measured", "measured"]
@@ -727,6 +738,33 @@ def test_a_second_run_into_the_same_out_is_refused(tmp_path, shots):
     res = _run(d, out, shots, progress=second_run)
     assert len(refused) == 2 and [r["status"] for r in res.rows] == ["measured", "measured"]
     assert [r["status"] for r in _run(d, out, shots).rows] == ["done earlier"] * 2
+    assert not (out / ".uw3p.lock").exists()  # a clean run leaves no lock file
+
+
+def test_the_lock_file_goes_with_the_run_and_a_removed_one_is_not_shared(tmp_path):
+    """No .uw3p.lock is left after a run; a run whose opened lock file was removed by a run
+    that ended (it locks a file no longer in the folder) is refused, not let in beside a
+    third run that locks the new file."""
+    import os
+
+    from measure.dive.files import locked
+
+    out = tmp_path / "out"
+    with locked(out):
+        assert (out / ".uw3p.lock").exists()
+    assert not (out / ".uw3p.lock").exists()
+    real_open = os.open
+
+    def open_then_removed(path, *a, **k):  # the previous run removes the file after our open
+        fd = real_open(path, *a, **k)
+        os.unlink(path)
+        return fd
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(os, "open", open_then_removed)
+        with pytest.raises(ValueError, match="^out: another uw3p run is writing"):
+            with locked(out):
+                pass
 
 
 def test_an_out_that_cannot_be_written_is_bad_input(tmp_path, shots, monkeypatch, capsys):

@@ -285,8 +285,9 @@ def test_cli_calibrate_then_measure(files, corners, tmp_path, capsys):
         assert key in data["patches"]
     assert data["orientation"] == "as given" and len(data["correction"]["gains"]) == 3
     assert {"path", "size", "exposure"} <= set(data["image"]) and data["version"]
-    for name in ("corrected.tiff", "corrected.png", "report.png"):
+    for name in ("corrected.jpg", "corrected.png", "report.png"):  # corrected.tiff: --linear
         assert (out / name).stat().st_size > 0
+    assert not (out / "corrected.tiff").exists()
     # without the profile: measured, the camera flagged, not reliable (exit 1; here, not in a
     # test of its own, which measured the same photo the same way again); a non-image: exit 2
     assert main(["measure", f["uw"], "--corners", ct, "--depth", "5", "--distance", "1.5",

@@ -92,7 +92,7 @@ def test_ifdo_exposure_factor_is_one_quantity_for_measured_and_chartless_rows(sh
     meas = shot["meas"]
     corr = measure.correct_image(meas.photo, meas, 1.5, linear=False)
     measure.write_corrected(corr, tmp_path / "frame", record={
-        "seathru": seathru_coefficients(corr.table)}, tiff="none", jpeg=False)
+        "seathru": seathru_coefficients(corr.table)}, tiff="none")
     rows = [{"image": "/d/A.dng", "status": sorted(MEASURED)[0]},
             {"image": "/d/frame.dng", "status": CORRECTED, "out": str(tmp_path / "frame")}]
     items = ifdo_fields(rows, {"/d/A.dng": meas.to_dict()})["image-set-items"]

@@ -143,7 +143,7 @@ def test_the_reported_fractions_are_what_was_done_to_the_pixels(shot, tmp_path, 
                                                   abs=1e-6)
     np.save(tmp_path / "odd.npy", rmap)
     main(["correct", str(shot["dng"]), "--water", str(shot["json"]), "--range",
-          str(tmp_path / "odd.npy"), "--out", str(tmp_path / "c"), "--tiff", "none", "--no-jpeg"])
+          str(tmp_path / "odd.npy"), "--out", str(tmp_path / "c"), "--tiff", "none"])
     rec = json.loads((tmp_path / "c" / "correction.json").read_text())["range"]
     assert rec["unknown_fraction"] == pytest.approx(unknown.mean())
     assert rec["capped_fraction"] == pytest.approx(capped.mean())

@@ -21,7 +21,8 @@ def _loaded(code: str) -> set:
     """Top-level packages of HEAVY (and numpy) that ``code`` leaves in sys.modules, run in a
     fresh interpreter."""
     probe = (f"{code}\nimport sys\n"
-             "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
+             "print('\\n' + ' '.join(sorted({m.split('.')[0] for m in sys.modules})))")
+    # the last line only: what ``code`` prints (a help text's words) is not a module
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          check=True).stdout.splitlines()[-1].split()  # not the code's own output
     return set(out) & set(HEAVY + ("numpy",))
@@ -76,6 +77,23 @@ def test_default_spectra_and_tables_need_no_colour_science():
             "assert camera_note('Nikon 5100 (NPL)') == ''\nforward.camera_sensitivities()\n"
             "forward.illuminant_spd()\nforward.chart_reflectances()\nforward.cie_1931_cmfs()")
     assert "colour" not in _loaded(code)
+
+
+def test_the_colour_matrix_training_set_needs_no_colour_science():
+    """The colour matrix's 29 training reflectances come from the cached table (issue 48):
+    the same samples, in colour-science's order and with its names, without importing it."""
+    code = ("import forward\nfrom measure.correct_matrix import training_reflectances\n"
+            "training_reflectances(forward.wavelength_grid())")
+    assert "colour" not in _loaded(code)
+    from colour.quality import datasets
+
+    from measure.correct_matrix import TRAINING_SETS, training_reflectances
+
+    names, refl = training_reflectances(spectra.wavelength_grid())
+    assert names == tuple(f"{name} {k}" for db, name in TRAINING_SETS
+                          for k in getattr(datasets, db)[name])
+    np.testing.assert_array_equal(refl, np.hstack([spectra.colour_spectrum(db, name)
+                                                   for db, name in TRAINING_SETS]))
 
 
 @pytest.mark.parametrize("wavelengths", [None, np.arange(400.0, 701.0, 10.0),

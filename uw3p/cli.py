@@ -28,7 +28,6 @@ separator is not a comma (the README's command-line section).
 from __future__ import annotations
 
 import argparse
-import difflib
 import io
 import re
 import shlex
@@ -114,6 +113,8 @@ class Parser(argparse.ArgumentParser):
                 owners = [c for c, p in self.commands.items() if p is not self
                           and name in p._options()]
                 hints += [f"an option of uw3p {', '.join(owners)}"] if owners else []
+                import difflib  # only for a usage error (its import: 0.1 s)
+
                 close = difflib.get_close_matches(name, self._options(), n=SUGGESTIONS)
                 hints += [f"did you mean {' or '.join(close)}?"] if close else []
             words.append(f"{arg} ({'; '.join(hints)})" if hints else arg)
@@ -125,6 +126,8 @@ class Parser(argparse.ArgumentParser):
         try:
             super()._check_value(action, value)
         except argparse.ArgumentError as exc:
+            import difflib
+
             close = difflib.get_close_matches(str(value), [str(c) for c in action.choices],
                                               n=SUGGESTIONS)
             if not close:

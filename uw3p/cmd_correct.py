@@ -5,9 +5,10 @@ water (measure.correct).
     uw3p correct PHOTO.dng --water RESULTS/joint.json --depth 8 --range PHOTO_range.tif --out DIR
     uw3p correct PHOTO.dng --water measurement.json --range plane:4,0,-3 --out DIR
 
-Writes corrected_srgb.tif (16-bit sRGB with its ICC profile), corrected.jpg, corrected.tiff
-(linear camera RGB) and correction.json (the coefficients in Sea-thru's form, the range, the
-cap, the water) into DIR, whole or not at all. DIR is replaced whole, so it may not hold the
+Writes the corrected photo at full resolution in sRGB with its ICC profile -- corrected.jpg
+(8-bit JPEG, the default) or, with --output-format tiff16, corrected_srgb.tif (16-bit TIFF) --,
+corrected.tiff (linear camera RGB) only with --linear, and correction.json (the coefficients in
+Sea-thru's form, the range, the cap, the water) into DIR, whole or not at all. DIR is replaced whole, so it may not hold the
 photo, the --water file, the --range map or a measurement (a measurement.json of uw3p measure
 or a dive's photo): that is refused, naming --out (exit 2), and nothing is written or removed. Exit status 0 when the water's measurement is
 reliable, 1 when it is not, 2 bad input.
@@ -80,9 +81,14 @@ def add_parser(sub):
                         "divided by the white's transmittance alone (von Kries)")
     p.add_argument("--white", type=float, default=1.0,
                    help="Y of a perfect white reflector in the sRGB image, 0-1 (default 1)")
+    p.add_argument("--output-format", default="jpeg", choices=["jpeg", "tiff16"],
+                   help="the corrected sRGB image: corrected.jpg, 8-bit (default), or "
+                        "corrected_srgb.tif, 16-bit (about 12 times larger)")
+    p.add_argument("--linear", action="store_true",
+                   help="also corrected.tiff: 16-bit linear camera RGB in air")
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
-                   help="the TIFFs lossless deflate (default), uncompressed, or none")
-    p.add_argument("--no-jpeg", action="store_true", help="do not write corrected.jpg")
+                   help="the TIFFs asked for: lossless deflate (default) or uncompressed; none: "
+                        "no TIFF")
     p.add_argument("--uncertainty", action="store_true",
                    help="also the ΔE00 spread over the water's 95 %% intervals, and what a depth "
                         "outside the measured ones may cost (correction.json)")
@@ -148,6 +154,7 @@ def run(args, out, err) -> int:
     """
     from measure.correct import MAX_GAIN, applied, correct_image, seathru_coefficients
     from measure.correct_output import NOT_MODELLED, write_corrected
+    from measure.imagefiles import SRGB_BITS
 
     check_spectra_args(args)
     src = Path(args.image)
@@ -158,14 +165,16 @@ def run(args, out, err) -> int:
     if Path(args.out).is_file():
         raise InputError("out", f"{args.out} is a file; give a folder (created if missing)")
     from measure.correct_output import check_correct_out
+    from measure.output import image_options
 
+    image_options(args.output_format, args.linear, args.tiff, args.method)  # before the work
     inputs = (args.water, args.range)
     check_correct_out(args.out, src, inputs, args.overwrite)  # a refusal before the work
     photo = read_photo(args, src)
     corr = correct_image(photo, args.water, args.range, max_gain=MAX_GAIN if args.max_gain is None else args.max_gain,
                          max_range=args.max_range, unknown=args.unknown, white=args.white,
-                         method=args.method,
-                         linear=args.tiff != "none", depth=args.depth, photo=args.photo,
+                         method=args.method, linear=args.linear,
+                         srgb_bits=SRGB_BITS[args.output_format], depth=args.depth, photo=args.photo,
                          exposure_ratio=_exposure(args, photo, args.water), **_camera_options(args))
     record = {"image": str(src), "range": {"given": str(args.range)} | corr.ranges,
               "seathru": seathru_coefficients(corr.table), "notes": corr.notes,
@@ -178,7 +187,8 @@ def run(args, out, err) -> int:
         record["uncertainty"] = correction_spread(corr.table.water, method=args.method) | {
             "extrapolation": extrapolation_spread(corr.table.water)}
     written = write_corrected(corr, args.out, record=record, version=__version__,
-                              tiff=args.tiff, jpeg=not args.no_jpeg, overwrite=args.overwrite,
+                              tiff=args.tiff, output_format=args.output_format,
+                              overwrite=args.overwrite,
                               inputs=inputs)
     r = corr.ranges
     span = "no finite range" if r["min_m"] is None else f"{r['min_m']:.3g}-{r['max_m']:.3g} m"

@@ -81,12 +81,17 @@ def add_parser(sub):
     p.add_argument("--overwrite", action="store_true",
                    help="replace output folders that hold another photo's results (or results "
                         "of other inputs)")
+    p.add_argument("--output-format", default="jpeg", choices=["jpeg", "tiff16"],
+                   help="the corrected photo at full resolution in sRGB: corrected.jpg, 8-bit "
+                        "(default), or corrected_srgb.tif, 16-bit (about 12 times larger)")
+    p.add_argument("--linear", action="store_true",
+                   help="also corrected.tiff: 16-bit linear camera RGB, corrected at the chart")
     p.add_argument("--tiff", default="compressed", choices=["compressed", "full", "none"],
-                   help="corrected.tiff: lossless deflate (default), uncompressed, or none (the "
-                        "preview corrected.png is always written)")
+                   help="the TIFFs asked for: lossless deflate (default) or uncompressed; none: "
+                        "no TIFF (the preview corrected.png is always written)")
     p.add_argument("--method", default="matrix", choices=["matrix", "diagonal"],
-                   help="corrected_srgb.tif and corrected.jpg: a 3x3 matrix per range "
-                        "(default) or the per-channel (von Kries) correction alone")
+                   help="the corrected photo: a 3x3 matrix per range (default) or the "
+                        "per-channel (von Kries) correction alone; a dive's frames too")
     p.add_argument("--joint", action="store_true",
                    help="a folder: also fit all its photos as one water (joint.json) and "
                         "correct the frames without a chart with it")
@@ -163,6 +168,13 @@ def daylight_line(uncertain) -> str:
     return f"daylight: prior {float(day):g} mired" if float(day) > 0 else "daylight: as given"
 
 
+def _images(args) -> dict:
+    """The images asked for (:func:`measure.output.image_options`, checked)."""
+    from measure.output import image_options
+
+    return image_options(args.output_format, args.linear, args.tiff, args.method)
+
+
 def _measure_one(args, image, outdir):
     """Measure one image into ``outdir``; returns (exit code, summary of the estimate)."""
     import measure
@@ -172,6 +184,7 @@ def _measure_one(args, image, outdir):
     from sca.pathmodels import span_note
 
     check_out(outdir, image, args.overwrite)  # a refusal before the work
+    _images(args)
     opts = _options(args)
     opts.pop("black_level"), opts.pop("white_level")
     meas = measure.measure(read_photo(args, image), corners=args.corners, depth=args.depth,
@@ -179,8 +192,8 @@ def _measure_one(args, image, outdir):
     meas.inputs["command"] = getattr(args, "command_line", "")
     aux = opts.get("auxiliary")
     meas.inputs["auxiliary"] = auxiliary_record(aux, option_sources(aux))
-    written = measure.write_outputs(meas, outdir, version=__version__, tiff=args.tiff,
-                                    overwrite=args.overwrite, method=args.method)
+    written = measure.write_outputs(meas, outdir, version=__version__, overwrite=args.overwrite,
+                                    **_images(args))
     e = meas.estimate
     row = {"chl": e.chl, "chl_lo": e.chl_ci[0], "chl_hi": e.chl_ci[1], "cdom": e.cdom,
            "cdom_lo": e.cdom_ci[0], "cdom_hi": e.cdom_ci[1], "gain": e.gain,
@@ -289,7 +302,7 @@ def _measure_folder(args, src, out, err):
         warnings.simplefilter("ignore", DiveWarning)  # written below, in the command's words
         res = measure_dive(src, out=args.out, metadata=args.metadata, depth=args.depth,
                            distance=args.distance, corners=args.corners,
-                           overwrite=args.overwrite, tiff=args.tiff, joint=args.joint,
+                           overwrite=args.overwrite, joint=args.joint, **_images(args),
                            scheduler=args.scheduler, bar=err, version=__version__,
                            command=getattr(args, "command_line", ""), **_options(args))
     for text in res.warnings:

@@ -5,8 +5,9 @@ After the joint fit (joint.json), every frame in which no chart was found is cor
 pixel (:func:`measure.correct_image`) with the joint water at its own depth (its metadata row,
 EXIF or the default), along its range (its ``range_map``, else ``range_m``, else
 ``distance_m``), with the veiling light and gain of the dive photo nearest in depth, scaled by
-the two photos' EXIF exposure ratio where both are known. Its folder (corrected_srgb.tif,
-corrected.jpg, corrected.tiff, correction.json, complete.json) is written whole or not at all,
+the two photos' EXIF exposure ratio where both are known. Its folder (the run's sRGB image,
+corrected.jpg or corrected_srgb.tif, corrected.tiff with ``linear``, correction.json,
+complete.json: the run's images and method) is written whole or not at all,
 its row's status becomes "corrected with the dive's water", its ``reliable`` and ``flags`` those
 of the joint water (``extrapolated`` added when the frame's depth lies outside the dive's
 photos' depths, by at most :data:`measure.correctwater.DEPTH_EXTRAPOLATION_MAX_M`; a frame
@@ -21,7 +22,7 @@ import hashlib
 import json
 from pathlib import Path
 
-from ..output import read_marker, strict_json
+from ..output import image_options, read_marker, strict_json
 from .plan import correction_range
 from .summary import CORRECTED
 
@@ -50,7 +51,7 @@ def _water_verdict(joint_data: dict, extrapolated) -> dict:
 
 
 def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, version="",
-                   command="", tiff="compressed") -> int:
+                   command="", images=None) -> int:
     """Correct the chartless frames of a dive with its joint water (rows updated in place).
 
     Parameters
@@ -70,8 +71,9 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
         The run's water model.
     version, command : str
         Recorded in correction.json and complete.json.
-    tiff : str
-        The run's ``tiff`` option.
+    images : dict, optional
+        The run's images (:func:`measure.output.image_options`; default its defaults): the
+        frames get the same format, linear TIFF and method as the measured photos.
 
     Returns
     -------
@@ -82,7 +84,9 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
     from ..correct_output import NOT_MODELLED, write_corrected
     from ..correctwater import exposure_ratio
     from ..image import read_image
+    from ..imagefiles import SRGB_BITS
 
+    images = image_options() if images is None else images
     digest = water_digest(joint_data) if joint_data else None
     done = 0
     for row in rows:
@@ -107,7 +111,9 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
             ratio = exposure_ratio(photo.exposure, (ref or {}).get("image", {}).get("exposure"))
             corr = correct_image(photo, joint_data, correction_range(inputs), setup=setup,
                                  depth=float(inputs["depth_m"]), photo=name,
-                                 exposure_ratio=ratio, model=water, linear=tiff != "none")
+                                 exposure_ratio=ratio, model=water, linear=images["linear"],
+                                 method=images["method"],
+                                 srgb_bits=SRGB_BITS[images["output_format"]])
             if ratio is None:
                 corr.notes.append(f"exposure ratio to {name} unknown (EXIF): taken as 1")
             record = {"image": row["image"], "range": {"given": str(correction_range(inputs))}
@@ -115,7 +121,8 @@ def correct_frames(rows, records, jobs, joint_data, setup, *, water=None, versio
                       "notes": corr.notes, "not_modelled": list(NOT_MODELLED),
                       "water_digest": digest, "command": command, "version": version
                       } | applied(corr.table)
-            write_corrected(corr, row["out"], record=record, version=version, tiff=tiff,
+            write_corrected(corr, row["out"], record=record, version=version,
+                            tiff=images["tiff"], output_format=images["output_format"],
                             overwrite=True, marker={
                                 "key": key, "water": digest, "corrected": True,
                                 "extrapolated": corr.table.water.extrapolated is not None})

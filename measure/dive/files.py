@@ -4,7 +4,10 @@ killed run left removed (:func:`clean_temp`).
 
 The lock is ``fcntl.flock`` on :data:`measure.dive.names.LOCK_FILE` in the folder, held while
 the run lasts: a second run into the folder is refused at once, and a killed run's lock goes
-with its process (the kernel releases it), so a stale lock file never blocks. Every failure
+with its process (the kernel releases it), so a stale lock file never blocks. A run removes the
+file before it releases the lock, so no ``.uw3p.lock`` is left after it; a run that opened the
+file before that removal and locks it after finds it no longer linked, and is refused like a
+run that found it locked. Every failure
 to create or write the folder is a ``ValueError`` naming ``out``.
 """
 
@@ -125,6 +128,21 @@ def locked(root: Path):
                              "give another --out") from None
         except OSError as exc:
             raise InputError("out", f"cannot lock {root}: {_why(exc)}") from None
-        yield root
+        if not _still_linked(fd, root / LOCK_FILE):  # a run that ended removed it meanwhile
+            raise InputError("out", f"another uw3p run is writing {root}; wait for it to end, "
+                             "or give another --out")
+        try:
+            yield root
+        finally:
+            (root / LOCK_FILE).unlink(missing_ok=True)  # held: no run waits on this file
     finally:
         os.close(fd)  # releases the lock
+
+
+def _still_linked(fd: int, path: Path) -> bool:
+    """The locked file is still the one at ``path`` (a run that ended may have removed it
+    between our open and our lock: then a later run locks a new file, not ours)."""
+    try:
+        return os.path.samestat(os.fstat(fd), os.stat(path))
+    except OSError:
+        return False

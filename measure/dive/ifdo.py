@@ -10,9 +10,9 @@ positions, licence) are the user's:
 - ``photometric-exposure-factor-RGB``: per image, the RGB factors applied to it (iFDO: the
   factors that turn the recorded pixel values into the corrected ones), one quantity for every
   image: the factor per channel from a raw value (above black and the veiling light) to the
-  image's corrected.tiff (16-bit linear camera RGB in air) at the chart's distance. For a
-  measured photo it is its von Kries gains (measurement.json ``correction.gains``), for a
-  chartless frame :func:`measure.correct.linear_factor` (correction.json
+  image's corrected.tiff (16-bit linear camera RGB in air, written with ``linear``) at the
+  chart's distance. For a measured photo it is its von Kries gains (measurement.json
+  ``correction.gains``), for a chartless frame :func:`measure.correct.linear_factor` (correction.json
   ``seathru.exposure_factor``); the two differ by the white they put at 80 % of full scale (the
   white patch, a perfect white). A correction.json without it (older) gives no field;
 - ``photometric-sequence-illumination-type`` and ``-description``: sunlight;

@@ -54,15 +54,16 @@ def _is_file(value) -> bool:
     return isinstance(value, (str, os.PathLike)) and os.path.isfile(value)
 
 
-def manifest(options: dict, tiff: str, report: bool, version: str, defaults=None) -> dict:
+def manifest(options: dict, images: dict, report: bool, version: str, defaults=None) -> dict:
     """The run's options that change its results, as run.json records them.
 
     Parameters
     ----------
     options : dict
         The ``measure.measure`` options of the run (paths absolute).
-    tiff : str
-        corrected.tiff's mode.
+    images : dict
+        The images asked for (:func:`measure.output.image_options`: ``tiff``,
+        ``output_format``, ``linear``, ``method``).
     report : bool
         report.png drawn.
     version : str
@@ -91,7 +92,7 @@ def manifest(options: dict, tiff: str, report: bool, version: str, defaults=None
                 raise InputError(k, f"cannot read {v}: {exc.strerror}") from None
         opts[k] = v
     return json.loads(json.dumps({"version": version, "options": opts,
-                                  "outputs": {"tiff": tiff, "report": bool(report)},
+                                  "outputs": dict(images) | {"report": bool(report)},
                                   "defaults": dict(defaults or {})},
                                  sort_keys=True, default=_plain))
 

@@ -211,7 +211,7 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
     options : dict
         The ``measure.measure`` options.
     outputs : tuple
-        (tiff, report).
+        (images, report): :func:`measure.output.image_options`'s dict and report.png.
     run_digest : str
         The run's manifest digest (recorded in complete.json).
     overwrite : bool
@@ -227,8 +227,8 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
         Why its folder may not be written (the run is refused).
     """
     out = root / name
-    tiff, report = outputs
-    plan = {"out": str(out), "options": options, "tiff": tiff}
+    images, report = outputs
+    plan = {"out": str(out), "options": options, "tiff": images["tiff"]}
     if meta is not None and photo.name not in meta:
         return None, summary_row(photo, plan, "not in metadata", error=(
             f"metadata: no row for {photo.name}: not measured")), None
@@ -267,7 +267,7 @@ def plan_photo(photo: Path, name: str, root: Path, meta, exif: dict, defaults, o
             return None, None, f"{out} holds results of {photo.name} made with other options"
         # the same photo and options, its content or inputs changed: redone
     job = {"image": str(photo), "out": str(out), "inputs": inputs, "options": options,
-           "tiff": tiff, "report": report, "key": key, "run": run_digest, "plan": plan}
+           "images": images, "report": report, "key": key, "run": run_digest, "plan": plan}
     return job, None, None
 
 

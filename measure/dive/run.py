@@ -34,7 +34,7 @@ from forward.spectra import is_path
 
 from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
 from ..chart import parse_corners
-from ..output import TIFF_MODES, read_marker, result_owner, strict_json
+from ..output import image_options, read_marker, result_owner, strict_json
 from .chartless import correct_frames
 from .execute import execute
 from .files import atomic, clean_temp, locked
@@ -240,6 +240,7 @@ def _one_ctrl_c():
 
 def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=None,
                  corners=None, overwrite: bool = False, tiff: str = "compressed",
+                 output_format: str = "jpeg", linear: bool = False, method: str = "matrix",
                  joint: bool = False, scheduler=None, progress=None, bar=None,
                  report: bool = True, figure: bool = True, version: str = "",
                  command: str = "",
@@ -270,8 +271,11 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     overwrite : bool, optional
         Redo every photo (complete ones too), even when the folder holds results of other
         options or of other photos: those are replaced.
-    tiff : {'compressed', 'full', 'none'}, optional
-        corrected.tiff (:func:`measure.write_outputs`).
+    tiff, output_format, linear, method : optional
+        Each photo's images (:func:`measure.write_outputs`): the full-resolution sRGB image
+        (corrected.jpg by default, or corrected_srgb.tif), corrected.tiff with ``linear``, the
+        TIFFs' compression and the correction's method ('matrix' or 'diagonal'); the frames
+        without a chart corrected with the dive's water get the same (recorded in run.json).
     joint : bool, optional
         Also fit the dive's photos as one water (``measure.joint.fit_joint``): joint.json.
     scheduler : str, optional
@@ -306,7 +310,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     ------
     ValueError
         Naming the argument, before anything is written: no photos, a bad ``metadata`` file,
-        a ``tiff`` not in :data:`measure.output.TIFF_MODES`, a ``depth``, ``distance`` or
+        a bad ``tiff``, ``output_format`` or ``method`` (:func:`measure.output.image_options`), a ``depth``, ``distance`` or
         ``corners`` out of range or unreadable, an unknown ``camera`` or ``illuminant``, an
         option's file that cannot be read, an empty ``out``, a ``scheduler`` that is not
         'synchronous' nor an address that accepts a connection (:func:`check_scheduler`); naming
@@ -343,8 +347,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     Exit status 1: both photos measured, neither reliable, for the camera was not calibrated (a
     profile from a photo of the chart in air, :func:`measure.calibrate`, removes the flag).
     """
-    if tiff not in TIFF_MODES:
-        raise InputError("tiff", f"must be one of {TIFF_MODES}, got {tiff!r}")
+    images = image_options(output_format, linear, tiff, method)
     if not str(out):
         raise InputError("out", "empty; give the output folder (created if missing)")
     _check_defaults(depth, distance, corners)
@@ -368,13 +371,13 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
     meta = _match_rows(meta, [p.name for p in photos])
     options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
     run_setup(options)  # a bad camera, illuminant, profile or chart: refused up front
-    run = manifest(options, tiff, report, version, defaults={
+    run = manifest(options, images, report, version, defaults={
         "depth": depth, "distance": distance,
         "corners": None if corners is None else parse_corners(corners).tolist()})
     digest = manifest_digest(run)
     with locked(root):
         return _locked_run(root, photos, others, folder, meta, metadata, run, digest, options,
-                           (depth, distance, corners), overwrite, (tiff, report), joint,
+                           (depth, distance, corners), overwrite, (images, report), joint,
                            scheduler, progress, bar, figure, version, command)
 
 
@@ -505,7 +508,7 @@ def _finished(job):
 
 
 def _finish(rows, records, root, interrupted, joint, options, version, command, figure,
-            jobs=None, tiff="compressed", measured=None):
+            jobs=None, images=None, measured=None):
     """Write joint.json, correct the chartless frames with it, then summary.csv, survey.nc,
     ifdo.json and survey.png of this run (removing a joint.json or survey.png it does not
     make); the DiveResult."""
@@ -519,7 +522,7 @@ def _finish(rows, records, root, interrupted, joint, options, version, command, 
     if not interrupted:
         correct_frames(rows, records, jobs or {}, joint_data if joint else None,
                        run_setup(options), water=options.get("water"), version=version,
-                       command=command, tiff=tiff)
+                       command=command, images=images)
     counts = {s: sum(r["status"] == s for r in rows) for s in STATUSES}
     res = DiveResult(rows, dive_code(rows, interrupted), interrupted=interrupted, counts=counts)
     res.joint, res.joint_error, res.joint_estimate = joint_path, joint_error, fit

@@ -118,7 +118,7 @@ def run_job(job: dict) -> dict:
         meas.inputs["command"] = job["command"]
         photo = JointPhoto.from_measurement(meas)  # what the dive's joint fit takes
         write_outputs(meas, job["out"], version=job["version"], report=job["report"],
-                      tiff=job["tiff"], range=correction_range(inputs),
+                      range=correction_range(inputs), **job["images"],
                       overwrite=True, marker={"key": job["key"], "run": job["run"]})
         record = strict_json(meas.to_dict(job["version"]))
         return {"status": "measured", "record": record, "photo": photo}
