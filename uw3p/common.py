@@ -7,12 +7,10 @@ functions that need them), so that ``uw3p --help`` stays cheap.
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import tempfile
 from pathlib import Path
 
+from forward import files
 from forward.errors import InputError
 
 __all__ = [
@@ -552,7 +550,6 @@ def read_photo(args, image):
 
 
 # --------------------------------------------------------------------------- output
-@contextlib.contextmanager
 def atomic_open(path, option: str = "--out"):
     """Open a file to be written whole or not at all: the ``with`` block writes a temporary
     file in the same folder, which replaces ``path`` when the block ends without an error (an
@@ -565,10 +562,10 @@ def atomic_open(path, option: str = "--out"):
     option : str, optional
         The option named in error messages (default ``--out``).
 
-    Yields
-    ------
-    text stream
-        UTF-8, newline '' (for the csv module).
+    Returns
+    -------
+    context manager yielding a text stream
+        UTF-8, newline '' (for the csv module): :func:`forward.files.atomic_open`.
 
     Raises
     ------
@@ -576,27 +573,12 @@ def atomic_open(path, option: str = "--out"):
         The file cannot be written (a folder, a missing folder, no permission); the message
         names ``option`` and the reason.
     """
-    from measure.filemodes import follow_umask
-
     p = Path(path)
     if p.is_dir():
         raise InputError(option, f"{p} is a folder; give a file name")
     if not p.parent.is_dir():
         raise InputError(option, f"cannot write {p}: its folder does not exist")
-    try:
-        fd, tmp = tempfile.mkstemp(dir=p.parent, prefix=f".{p.name}.", suffix=".tmp")
-    except OSError as exc:
-        raise InputError(option, f"cannot write {p}: {exc.strerror}") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            follow_umask(tmp)  # renamed into place: the user's umask, not mkstemp's 0600
-            yield fh
-        os.replace(tmp, p)
-    except OSError as exc:
-        raise InputError(option, f"cannot write {p}: {exc.strerror}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    return files.atomic_open(p, "w", option, encoding="utf-8", newline="")
 
 
 def write_atomic(path, write, option: str = "--out") -> Path:

@@ -16,36 +16,32 @@ from __future__ import annotations
 import contextlib
 import os
 import shutil
-import tempfile
 from pathlib import Path
 
-from ..filemodes import follow_umask
+from forward.files import TEMP_SUFFIX, atomic_path
 from ..output import TEMP_PREFIX
 from .names import LOCK_FILE, RUN_FILES
 from forward.errors import InputError
 
 __all__ = ["TEMP_SUFFIX", "atomic", "clean_temp", "locked"]
 
-#: The run's files are written as ``.<name>.<random>`` + this suffix beside their place
-TEMP_SUFFIX = ".tmp"
-
 
 def _why(exc: OSError) -> str:
     return exc.strerror or str(exc)
 
 
-@contextlib.contextmanager
 def atomic(path: Path):
-    """A temporary path beside ``path`` that replaces it when the block ends without error.
+    """A temporary path beside ``path`` that replaces it when the block ends without error
+    (:func:`forward.files.atomic_path`).
 
     Parameters
     ----------
     path : pathlib.Path
         The file to write.
 
-    Yields
-    ------
-    pathlib.Path
+    Returns
+    -------
+    context manager yielding pathlib.Path
         The temporary file (``.<name>.<random>.tmp``, which :func:`clean_temp` removes if a
         kill leaves it).
 
@@ -54,20 +50,7 @@ def atomic(path: Path):
     ValueError
         Naming ``out``: the file cannot be written (an ``OSError`` in the block included).
     """
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=TEMP_SUFFIX)
-        os.close(fd)
-        follow_umask(tmp)  # renamed into place: the user's umask, not mkstemp's 0600
-    except OSError as exc:
-        raise InputError("out", f"cannot write {path}: {_why(exc)}") from None
-    try:
-        yield Path(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise InputError("out", f"cannot write {path}: {_why(exc)}") from None
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    return atomic_path(path, "out")
 
 
 def clean_temp(root: Path) -> None:
