@@ -17,13 +17,13 @@ linear levels where the 8-bit code of its sRGB encoding steps up.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 from importlib import metadata
 from pathlib import Path
 
 import numpy as np
 
+from forward.files import write_atomic
 from forward.spectra import (
     COLOUR_CACHE,
     COLOUR_CACHE_COLUMNS,
@@ -99,11 +99,7 @@ def reference_chart_from_colour() -> np.ndarray:
 
 def _write_whole(path, lines) -> str:
     """``lines`` into ``path`` through a temporary file beside it (whole or not at all)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    os.replace(tmp, path)
-    return str(path)
+    return str(write_atomic(path, "\n".join(lines) + "\n"))
 
 
 def write_srgb_table(path) -> str:

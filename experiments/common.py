@@ -9,6 +9,7 @@ from pathlib import Path
 
 import matplotlib
 
+from forward.files import atomic_open, atomic_path
 from measure.csvsafe import safe_writer
 
 matplotlib.use("Agg")  # the figure scripts draw to files only
@@ -60,9 +61,9 @@ def save_figure(fig, name: str, outdir=None) -> list[Path]:
     paths = [out / f"{name}.png", out / f"{name}.pdf"]
     tight = None if fig.get_layout_engine() is not None else "tight"
     for p in paths:
-        tmp = p.with_name(p.stem + ".tmp" + p.suffix)
-        fig.savefig(tmp, dpi=DPI, bbox_inches=tight, metadata=_metadata(p.suffix))
-        os.replace(tmp, p)
+        with atomic_path(p) as tmp:
+            fig.savefig(tmp, format=p.suffix[1:], dpi=DPI, bbox_inches=tight,
+                        metadata=_metadata(p.suffix))
     return paths
 
 
@@ -82,8 +83,7 @@ def read_csv(path) -> list[dict]:
 def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -> Path:
     """Write rows to ``path`` atomically; ``comment`` lines go first, prefixed with '#'."""
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", newline="", encoding="utf-8") as f:
+    with atomic_open(path, "w", newline="", encoding="utf-8") as f:
         if comment:
             for line in comment.splitlines():
                 f.write(f"# {line}\n")
@@ -91,7 +91,6 @@ def write_csv(path: Path, header: list[str], rows, comment: str | None = None) -
         w.writerow(header)
         for row in rows:
             w.writerow(row)
-    os.replace(tmp, path)
     return path
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from forward.files import write_atomic
 from . import independent_world as iw
 from .dive_honesty import render_dive
 from .honesty import CLEAN_OPTIONS, EXPOSURE_RANGE
@@ -400,9 +401,7 @@ def main(argv=None) -> int:
         cmd += f" --seed {args.seed}"
     text = report(summaries, cmd)
     path = Path(args.out)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_atomic(path, text)
     print(text)
     ok = all(v[0] for s in summaries for v in check(s).values())
     return 1 if args.strict and not ok else 0

@@ -77,6 +77,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from forward.files import write_atomic
 from . import independent_world as iw
 from .honesty import _sky_change
 from .dive_worlds import (DIVE_DEPTHS, DIVE_DISTANCES, MIXED_FACTOR, PHOTOS, draw_dive,
@@ -591,9 +592,7 @@ def report(s: dict, command: str, clean: dict | None = None) -> str:
 
 def _write(path: Path, content: str):
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(content, encoding="utf-8")
-    os.replace(tmp, path)
+    write_atomic(path, content)
 
 
 

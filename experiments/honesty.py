@@ -73,7 +73,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
 import sys
 import time
 from collections import Counter
@@ -83,6 +82,7 @@ from types import SimpleNamespace
 import numpy as np
 from scipy import stats
 
+from forward.files import write_atomic
 import sca
 from sca.budget import DEFAULT_UNCERTAIN
 from sca.reference import REFERENCE_MINUTES, measure_light, sky_sd, with_reference
@@ -1409,9 +1409,7 @@ def _timing(results) -> str:
 def _write_atomic(path: Path, text: str):
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_atomic(path, text)
 
 
 def write_outputs(out: dict, report_path, json_path):

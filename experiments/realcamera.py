@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from forward.files import write_atomic
 from .common import figures_dir, save_figure, style, write_csv
 
 __all__ = ["main", "run", "summarise", "fingerprint", "leave_one_chart_out", "paired_test",
@@ -175,9 +176,7 @@ def run(workers: int = 2, cache_dir=None, charts=None) -> dict:
     out = {"available": True, "names": names, "charts": per, "fingerprint": fp,
            "seconds": time.perf_counter() - t0}
     cache.parent.mkdir(parents=True, exist_ok=True)
-    tmp = cache.with_name(cache.name + ".tmp")
-    tmp.write_text(json.dumps(out))
-    os.replace(tmp, cache)
+    write_atomic(cache, json.dumps(out))
     return out
 
 
@@ -360,9 +359,7 @@ def main(outdir=None, grid_name=None, cache_dir=None, workers=None):
                           "error beyond photon noise of each variant (fraction), held-out grey "
                           "angles (degrees), uw3p measure's grey angles on its own samples")
     text = json.dumps(summary, indent=1, sort_keys=True)
-    tmp = folder / (RESULT + ".tmp")
-    tmp.write_text(text + "\n")
-    os.replace(tmp, folder / RESULT)
+    write_atomic(folder / RESULT, text + "\n")
     if out.get("available"):
         print(f"realcamera: {summary['n']} charts, {summary['seconds']:.0f} s")
     else:

@@ -22,6 +22,8 @@ import sys
 import time
 from pathlib import Path
 
+from forward.files import write_atomic
+
 __all__ = ["DEFAULT_JSON", "main", "record", "stopwatch", "write_json"]
 
 #: Where the times are kept by default.
@@ -67,9 +69,7 @@ def write_json(path, data) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True))
-    os.replace(tmp, path)
+    write_atomic(path, json.dumps(data, indent=1, sort_keys=True))
 
 
 def record(path, name: str, rec: dict) -> None:

@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from forward.files import write_atomic
 # Eq 19 divides by sqrt(q): the figures evaluate it on the paper's q = 31 bands of the true and
 # estimated k, whatever grid they are simulated and fitted on (re-exported for the figures).
 from sca import RRMSE_BANDS_NM, rrmse_bands  # noqa: F401
@@ -241,9 +242,7 @@ def fit_condition(cond: dict) -> dict:
 
 
 def _write_atomic(path: Path, data: dict) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data))
-    os.replace(tmp, path)
+    write_atomic(path, json.dumps(data))
 
 
 def _work(args):

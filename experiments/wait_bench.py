@@ -44,6 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
+from forward.files import write_atomic
+
 __all__ = [
     "CARD_WIDTH",
     "DEPTH_M",
@@ -301,10 +303,7 @@ def main(argv=None) -> int:
     results = run(args.repeats)
     print(table(results))
     if args.out:
-        out = Path(args.out)
-        tmp = out.with_name(out.name + ".tmp")
-        tmp.write_text(json.dumps(results, indent=1))
-        os.replace(tmp, out)
+        write_atomic(args.out, json.dumps(results, indent=1))
     return 0
 
 

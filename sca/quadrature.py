@@ -43,12 +43,12 @@ import dataclasses
 import functools
 import hashlib
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from forward.files import atomic_open
 from forward.water import PAPER_WATER, PATH_MODELS, resolve_water
 
 __all__ = ["CACHE_ENV", "CERTIFIED_ERROR", "CERTIFY_SIGMA", "QUADRATURE_STEP_NM",
@@ -251,11 +251,9 @@ def _save(path: Path, rule: QuadratureRule) -> None:
     removed; an unwritable cache is no cache."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "wb") as fh:
+        with atomic_open(path, "wb") as fh:
             np.savez(fh, index=rule.index, B=rule.B, D=rule.D, white=rule.white,
                      error=rule.error)
-        os.replace(tmp, path)
         rules = sorted(path.parent.glob("*.npz"), key=lambda f: f.stat().st_mtime, reverse=True)
         for old in rules[CACHE_KEEP:]:
             old.unlink(missing_ok=True)

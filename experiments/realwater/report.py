@@ -7,8 +7,9 @@ module is missing or fails says so in the report (failures are reported, never h
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
+
+from forward.files import write_atomic
 
 __all__ = ["HEADER", "TITLE", "header", "write_report"]
 
@@ -60,7 +61,5 @@ def write_report(path: Path, sections: list, numbers: dict, json_path: Path,
     text = (header + "\n" if header else "") + "\n\n".join(s.rstrip() + "\n" for s in sections)
     for target, body in ((Path(json_path), json.dumps(numbers, indent=1, default=float)),
                          (Path(path), text)):
-        tmp = target.with_name(target.name + ".tmp")
-        tmp.write_text(body, encoding="utf-8")
-        os.replace(tmp, target)
+        write_atomic(target, body)
     return Path(path)
