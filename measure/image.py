@@ -18,22 +18,20 @@ import numpy as np
 
 from sca.compiled import KERNEL_LOCK
 
+from .exif import photo_tags
 from .pixels import bilinear_all, unpack
 from forward.errors import InputError
 
 # numba's fork-safe threading layer and the kernel lock: one place (sca.compiled)
 _KERNEL_LOCK = KERNEL_LOCK
 
-__all__ = ["Photo", "read_image", "demosaic", "RAW_EXTENSIONS", "TIFF_EXTENSIONS", "UINT16_MAX"]
+__all__ = ["IMAGE_READERS", "Photo", "photo_extensions", "read_image", "rgb_photo", "demosaic",
+           "RAW_EXTENSIONS", "TIFF_EXTENSIONS", "UINT16_MAX"]
 
 #: Extensions read as TIFF (demosaiced RGB); everything else goes to LibRaw.
 TIFF_EXTENSIONS = (".tif", ".tiff")
 #: Common RAW extensions (informative: LibRaw decides what it can read).
 RAW_EXTENSIONS = (".dng", ".nef", ".cr2", ".cr3", ".arw", ".orf", ".rw2", ".raf", ".pef", ".srw")
-#: EXIF tags recorded (TIFF tag codes)
-EXIF_TAGS = {33434: "exposure_s", 33437: "f_number", 34855: "iso"}
-#: TIFF tags naming the camera that took the photo (TIFF tag codes; text)
-CAMERA_TAGS = {271: "make", 272: "model"}
 #: LibRaw's colour letters -> the model's channel index (both greens of a Bayer CFA are green)
 CHANNEL_OF_LETTER = {"R": 0, "G": 1, "B": 2}
 #: Full scale of a 16-bit image (the ``uint16`` output of :func:`demosaic`)
@@ -83,50 +81,15 @@ class Photo:
         return (int(self.data.shape[1]), int(self.data.shape[0]))
 
 
-def _tag_value(val):
-    """A TIFF tag's value as a float (a rational divided out) or, for text, stripped text."""
-    if isinstance(val, bytes):
-        val = val.decode("ascii", "replace")
-    if isinstance(val, str):
-        return val.strip("\x00 ")
-    if isinstance(val, tuple) and len(val) == 2 and val[1]:
-        return val[0] / val[1]
-    return float(val[0] if isinstance(val, tuple) and len(val) >= 1 else val)
-
-
-def _exif(path) -> tuple:
-    """(exposure, camera): exposure time (s), f-number and ISO (:data:`EXIF_TAGS`), and Make
-    and Model (:data:`CAMERA_TAGS`) from the file's TIFF/EXIF tags, where present."""
-    import tifffile
-
-    out = {}
-    try:
-        with tifffile.TiffFile(path) as tf:
-            for page in tf.pages[:1]:
-                tags = dict(page.tags.items())
-                exif = tags.get("ExifTag") or tags.get(34665)
-                pools = [{t.code: t.value for t in page.tags.values()}]
-                if exif is not None and isinstance(exif.value, dict):
-                    pools.append({k: v for k, v in exif.value.items()})
-                for pool in pools:
-                    for code, name in (EXIF_TAGS | CAMERA_TAGS).items():
-                        val = pool.get(code, pool.get(tifffile.TIFF.TAGS.get(code, "")))
-                        if val is not None and name not in out:
-                            out[name] = _tag_value(val)
-    except Exception:  # not a TIFF container: no metadata, which is allowed
-        return {}, {}
-    return ({n: out[n] for n in EXIF_TAGS.values() if n in out},
-            {n: out[n] for n in CAMERA_TAGS.values() if out.get(n)})
-
-
 def read_image(path, *, black_level=None, white_level=None) -> Photo:
     """Read a camera RAW (any LibRaw format, DNG included) or a linear 16-bit TIFF.
 
     Parameters
     ----------
     path : str or os.PathLike
-        The image; ``.tif`` / ``.tiff`` are read as demosaiced linear RGB (tifffile), anything
-        else as RAW (rawpy / LibRaw).
+        The image, read by its extension's reader in :data:`IMAGE_READERS`: ``.tif`` /
+        ``.tiff`` as demosaiced linear RGB (tifffile); RAW, and any extension not in the
+        table, by rawpy (LibRaw).
     black_level : float or array_like, (3,), optional
         Black level in raw units (DN), scalar or per channel (R, G, B); default the file's
         (a TIFF: 0).
@@ -148,9 +111,7 @@ def read_image(path, *, black_level=None, white_level=None) -> Photo:
     p = Path(path)
     if not p.is_file():
         raise InputError("image", f"{p}: no such file")
-    if p.suffix.lower() in TIFF_EXTENSIONS:
-        return _read_tiff(p, black_level, white_level)
-    return _read_raw(p, black_level, white_level)
+    return IMAGE_READERS.get(p.suffix.lower(), _read_raw)(p, black_level, white_level)
 
 
 def _levels(name, value, n):
@@ -197,7 +158,7 @@ def _read_raw(p: Path, black_level, white_level) -> Photo:
         unpack(mosaic, colors, lut, blacks.astype(np.float32), white, data, channel, clipped)
     black3 = np.array([blacks[[i for i in used if lut[i] == c]].mean()
                        if any(lut[i] == c for i in used) else np.nan for c in range(3)])
-    return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, *_exif(p))
+    return Photo(str(p), "raw", data, channel, clipped, white - black3, black3, *photo_tags(p))
 
 
 def _read_tiff(p: Path, black_level, white_level) -> Photo:
@@ -207,6 +168,29 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
         arr = tifffile.imread(str(p))
     except Exception as exc:  # tifffile raises many kinds for a bad file
         raise InputError("image", f"{p}: not a readable TIFF ({type(exc).__name__}: {exc})") from None
+    return rgb_photo(p, arr, black_level, white_level)
+
+
+def rgb_photo(p: Path, arr, black_level=None, white_level=None) -> Photo:
+    """The :class:`Photo` of a demosaiced linear RGB image read from ``p`` (what a reader of
+    :data:`IMAGE_READERS` for an RGB format returns): clipped at the type's maximum (a float
+    image: never) unless ``white_level``, black level 0 unless ``black_level``, exposure and
+    camera from the file's EXIF (:func:`measure.exif.photo_tags`) where it has them.
+
+    Parameters
+    ----------
+    p : pathlib.Path
+        The file read.
+    arr : numpy.ndarray, (H, W, 3 or 4)
+        Its pixels (integer or float; a 4th channel is dropped).
+    black_level, white_level : optional
+        As :func:`read_image`'s.
+
+    Returns
+    -------
+    Photo
+        Of kind 'rgb'.
+    """
     if arr.ndim != 3 or arr.shape[-1] not in (3, 4):
         raise InputError("image", f"{p}: expected an RGB TIFF (height, width, 3), got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.integer) and not np.issubdtype(arr.dtype, np.floating):
@@ -217,7 +201,21 @@ def _read_tiff(p: Path, black_level, white_level) -> Photo:
     black = _levels("black_level", 0.0 if black_level is None else black_level, 3)
     clipped = np.any(rgb >= white, axis=-1)
     data = rgb.astype(np.float32) - black.astype(np.float32)
-    return Photo(str(p), "rgb", data, None, clipped, white - black, black, *_exif(p))
+    return Photo(str(p), "rgb", data, None, clipped, white - black, black, *photo_tags(p))
+
+
+#: Extension (lower case, with the dot) -> reader(path, black_level, white_level) -> Photo:
+#: how :func:`read_image` reads a photo, as colour-science's ``READ_IMAGE_METHODS``; a new
+#: format is one entry (an RGB format's reader loads the pixels and returns
+#: :func:`rgb_photo`). An extension not here goes to LibRaw, which decides what it can read;
+#: the dive measures the files whose extension is here (:func:`photo_extensions`).
+IMAGE_READERS = {**{ext: _read_raw for ext in RAW_EXTENSIONS},
+                 **{ext: _read_tiff for ext in TIFF_EXTENSIONS}}
+
+
+def photo_extensions() -> tuple:
+    """The extensions :data:`IMAGE_READERS` reads (a dive's photos), as registered now."""
+    return tuple(IMAGE_READERS)
 
 
 def demosaic(photo: Photo, gains=None, offset=None, *, uint16: bool = False,

@@ -52,3 +52,61 @@ def test_no_other_module_renames_a_file_into_place():
                                                     "experiments")
                  for p in (ROOT / d).rglob("*.py") if pattern.search(p.read_text("utf-8")))
     assert set(own) <= RENAMERS, own
+
+
+def _read_toy(p, black_level, white_level):
+    """A toy RGB format: a .npy array under another extension."""
+    import numpy as np
+
+    from measure.image import rgb_photo
+
+    with open(p, "rb") as fh:
+        return rgb_photo(p, np.load(fh), black_level, white_level)
+
+
+def test_a_new_photo_format_is_one_entry_in_the_table(tmp_path, monkeypatch):
+    """Registering ``.toy`` in measure.image.IMAGE_READERS is all it takes: read_image (what
+    ``uw3p measure`` reads with) reads it, and a dive's folder lists it as a photo (it sent
+    every unknown extension to LibRaw, which refused it)."""
+    import numpy as np
+
+    import measure
+    from measure.dive.names import dive_files
+    from measure.image import IMAGE_READERS
+
+    rgb = np.random.default_rng(1).integers(0, 60000, (32, 48, 3), dtype=np.uint16)
+    with open(tmp_path / "shot.TOY", "wb") as fh:
+        np.save(fh, rgb)
+    (tmp_path / "notes.txt").write_text("x")
+    monkeypatch.setitem(IMAGE_READERS, ".toy", _read_toy)
+    photo = measure.read_image(tmp_path / "shot.TOY", black_level=100)
+    assert photo.kind == "rgb" and photo.size == (48, 32)
+    np.testing.assert_array_equal(photo.data, rgb.astype(np.float32) - 100)
+    assert [p.name for p in dive_files(tmp_path)[0]] == ["shot.TOY"]
+
+
+def test_the_photo_and_the_dive_read_exif_through_one_reader(tmp_path, monkeypatch):
+    """read_image's exposure and camera and exif_info's depth and time come from
+    measure.exif.read_exif (there were two readers, one per module)."""
+    import numpy as np
+    import tifffile
+
+    import measure
+    from measure import exif
+    from measure.dive import exif_info
+
+    path = tmp_path / "tagged.tif"
+    tifffile.imwrite(path, np.zeros((8, 8, 3), np.uint16), photometric="rgb",
+                     extratags=[(33434, 5, 1, (1, 250), True), (271, 2, 6, "Canon", True),
+                                (37891, 10, 1, (55, 10), True),
+                                (36867, 2, 20, "2024:05:06 10:11:12", True)])
+    seen = []
+    real = exif.read_exif
+    monkeypatch.setattr(exif, "read_exif", lambda p: seen.append(p) or real(p))
+    photo = measure.read_image(path)
+    info = exif_info(path)
+    assert len(seen) == 2
+    assert photo.exposure == {"exposure_s": pytest.approx(0.004)}
+    assert photo.camera == {"make": "Canon"}
+    assert info == {"depth_m": pytest.approx(5.5), "depth_tag": "WaterDepth",
+                    "time": "2024-05-06T10:11:12"}

@@ -9,6 +9,9 @@ import re
 from pathlib import Path
 from forward.errors import InputError
 
+from .. import exif
+from ..exif import tag_value
+
 __all__ = ["REFERENCE_COLUMNS", "AUXILIARY_COLUMNS", "DATETIME_ORIGINAL_TAG", "EXIF_DEPTH_TAGS", "KD_COLUMN",
            "METADATA_COLUMNS", "METADATA_OPTIONAL", "WATER_DEPTH_TAG", "exif_info",
            "read_metadata"]
@@ -252,22 +255,18 @@ def _auxiliary(cell, pairs, where) -> dict:
     return out
 
 
-def _rational(value):
-    if isinstance(value, tuple) and len(value) == 2:
-        return value[0] / value[1] if value[1] else None
-    if isinstance(value, tuple) and value:
-        return _rational(value[0])
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return None
+def _tag_number(value):
+    """A tag's value as a number (:func:`measure.exif.tag_value`), or None."""
+    value = tag_value(value)
+    return value if isinstance(value, float) else None
 
 
 def exif_info(path) -> dict:
     """The depth and the time a photo's EXIF records, where it does.
 
-    Read with tifffile from TIFF containers (TIFF, DNG, NEF, ARW, CR2, PEF, ...); formats
-    that are not TIFF containers give nothing. The depth: EXIF 2.31 ``WaterDepth`` (tag
+    Read by the package's one EXIF reader (:func:`measure.exif.read_exif`: tifffile, from TIFF
+    containers -- TIFF, DNG, NEF, ARW, CR2, PEF, ...); formats that are not TIFF containers give
+    nothing. The depth: EXIF 2.31 ``WaterDepth`` (tag
     0x9403, in the Exif IFD or IFD0; a negative value -- above the surface -- is not used), else
     ``GPSAltitude`` when ``GPSAltitudeRef`` is 1 (below sea level). The time:
     ``DateTimeOriginal`` (tag 0x9003), the camera's local time.
@@ -289,34 +288,19 @@ def exif_info(path) -> dict:
     2.31, tags WaterDepth (0x9403) and DateTimeOriginal (0x9003); GPS tags GPSAltitudeRef,
     GPSAltitude.
     """
-    import tifffile
-
     out = {}
-    try:
-        with tifffile.TiffFile(path) as tf:
-            page = tf.pages[0]
-            pool = {}
-            for tag in page.tags.values():
-                pool[tag.code] = tag.value
-                pool[tag.name] = tag.value
-            for sub in ("ExifTag", "GPSTag"):
-                if isinstance(pool.get(sub), dict):
-                    pool.update(pool[sub])
-    except Exception:  # noqa: BLE001 - not a TIFF container (tifffile raises many kinds): no EXIF, allowed
-        return out
-    depth = _rational(pool.get("WaterDepth", pool.get(WATER_DEPTH_TAG)))
+    pool = {k: v for ifd in exif.read_exif(path) for k, v in ifd.items()}  # Exif, GPS over IFD0
+    depth = _tag_number(pool.get("WaterDepth", pool.get(WATER_DEPTH_TAG)))
     if depth is not None and depth >= 0:
         out.update(depth_m=float(depth), depth_tag="WaterDepth")
-    elif _rational(pool.get("GPSAltitudeRef")) == 1:
-        alt = _rational(pool.get("GPSAltitude"))
+    elif _tag_number(pool.get("GPSAltitudeRef")) == 1:
+        alt = _tag_number(pool.get("GPSAltitude"))
         if alt is not None and alt >= 0:
             out.update(depth_m=float(alt), depth_tag="GPSAltitude")
-    stamp = pool.get("DateTimeOriginal", pool.get(DATETIME_ORIGINAL_TAG))
-    if isinstance(stamp, bytes):
-        stamp = stamp.decode("ascii", "replace")
+    stamp = tag_value(pool.get("DateTimeOriginal", pool.get(DATETIME_ORIGINAL_TAG)))
     if isinstance(stamp, str):
         try:
-            t = datetime.datetime.strptime(stamp.strip("\x00 "), "%Y:%m:%d %H:%M:%S")
+            t = datetime.datetime.strptime(stamp, "%Y:%m:%d %H:%M:%S")
             out["time"] = t.isoformat()
         except ValueError:
             pass

@@ -23,7 +23,7 @@ import os
 from collections import Counter
 from pathlib import Path
 
-from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
+from ..image import photo_extensions
 
 __all__ = ["LOCK_FILE", "MANIFEST", "MAX_NAME_BYTES", "NOT_UTF8", "RUN_FILES", "SUFFIX_HEX", "dive_files",
            "output_names", "printable_name"]
@@ -85,7 +85,8 @@ def dive_files(folder, exclude=()) -> tuple:
     Returns
     -------
     photos : list of pathlib.Path
-        RAW (:data:`measure.image.RAW_EXTENSIONS`) and TIFF files, sorted by name.
+        The files whose extension :data:`measure.image.IMAGE_READERS` reads (RAW and TIFF),
+        sorted by name.
     others : list of (pathlib.Path, str)
         Every other file and why it is not measured.
     """
@@ -102,11 +103,11 @@ def dive_files(folder, exclude=()) -> tuple:
             continue
         if not p.is_file() or p.resolve() in skip:
             continue
-        if p.suffix.lower() in RAW_EXTENSIONS + TIFF_EXTENSIONS:
+        if p.suffix.lower() in photo_extensions():
             photos.append(p)
         else:
             why = (f"not a RAW or linear TIFF ({p.suffix or 'no extension'}; measured: "
-                   f"{', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
+                   f"{', '.join(photo_extensions())})")
             others.append((p, why))
     return photos, others
 

@@ -32,7 +32,7 @@ from pathlib import Path
 import forward
 from forward.spectra import is_path
 
-from ..image import RAW_EXTENSIONS, TIFF_EXTENSIONS
+from ..image import photo_extensions
 from ..chart import parse_corners
 from ..output import image_options, read_marker, result_owner, strict_json
 from .chartless import correct_frames
@@ -367,7 +367,7 @@ def measure_dive(paths_or_folder, *, out, metadata=None, depth=None, distance=No
         others = []
     if not photos:
         raise InputError("image", f"no RAW or TIFF files in {src} "
-                         f"({', '.join(RAW_EXTENSIONS + TIFF_EXTENSIONS)})")
+                         f"({', '.join(photo_extensions())})")
     meta = _match_rows(meta, [p.name for p in photos])
     options = _absolute({"camera": forward.DEFAULT_CAMERA} | dict(measure_options))
     run_setup(options)  # a bad camera, illuminant, profile or chart: refused up front
