@@ -442,10 +442,14 @@ def _signed(x):
     return "–" if not np.isfinite(x) else f"{100 * x:+.0f} %"
 
 
+def _size(x):
+    return "–" if not np.isfinite(x) else f"{100 * x:.0f} %"
+
+
 def _err(v, fmt):
+    """A realised error (value, lo, hi) as 'value (lo to hi)'."""
     value, lo, hi = v
-    return f"{fmt(value)} ({fmt(lo)} to {fmt(hi)})".replace("±", "") if fmt is _pct else \
-        f"{fmt(value)} ({fmt(lo)} to {fmt(hi)})"
+    return f"{fmt(value)} ({fmt(lo)} to {fmt(hi)})"
 
 
 def _world_rows(x: dict) -> list:
@@ -462,7 +466,7 @@ def _world_rows(x: dict) -> list:
         f"{x['ratio_chl']:.2f}",
         f"{n - x['miss_chl']} / {n} (p = {x['p_chl']:.2g})",
         _err(x["error"]["bias"], _signed),
-        _err(x["error"]["p95"], _pct),
+        _err(x["error"]["p95"], _size),
         f"{x['within_target']} / {n}",
         f"{n - x['miss_cdom']} / {n} (p = {x['p_cdom']:.2g})", *_c_rows(x),
         f"{x['cpu_s']:.1f}"]
