@@ -31,16 +31,24 @@ def _percent(text) -> float:
     return float(str(text).rstrip("%")) / 100.0
 
 
-def draw_dive(rng: np.random.Generator, n: int = PHOTOS, mixed: bool = False) -> dict:
+def draw_dive(rng: np.random.Generator, n: int = PHOTOS, mixed: bool = False, *, water=None,
+              photos=None, patch_factor: float = 1.0) -> dict:
     """The truth of one budget-prior dive: its water, chart, camera, light, slopes and photos.
 
     Parameters
     ----------
     rng : numpy.random.Generator
     n : int
-        Photos.
+        Photos (ignored where ``photos`` is given).
     mixed : bool
         The last photo's C is ``MIXED_FACTOR`` times the others'.
+    water : (float, float), optional
+        The water's (C, a_CDOM(440)); default drawn log-uniform in the honesty ranges.
+    photos : sequence of (depth, distance), optional
+        The photos' true depths and distances, m; default drawn uniform in
+        :data:`DIVE_DEPTHS` x :data:`DIVE_DISTANCES`.
+    patch_factor : float
+        The per-patch reflectance error's sd times the budget's (1: within the budget).
 
     Returns
     -------
@@ -54,9 +62,10 @@ def draw_dive(rng: np.random.Generator, n: int = PHOTOS, mixed: bool = False) ->
     from sca.joint import PATCH_CORRELATION
 
     u = DEFAULT_UNCERTAIN
-    chl, cdom = _log_uniform(rng, CHL_RANGE), _log_uniform(rng, CDOM_RANGE)
-    shared = np.sqrt(PATCH_CORRELATION) * u["patch"]
-    own = np.sqrt(1.0 - PATCH_CORRELATION) * u["patch"]
+    chl, cdom = water if water is not None else (_log_uniform(rng, CHL_RANGE),
+                                                 _log_uniform(rng, CDOM_RANGE))
+    shared = np.sqrt(PATCH_CORRELATION) * u["patch"] * patch_factor
+    own = np.sqrt(1.0 - PATCH_CORRELATION) * u["patch"] * patch_factor
     opts = {**CLEAN_OPTIONS,
             "reflectance_factors": tuple(1 + rng.normal(0, shared, 24)),
             "camera_gains": tuple(1 + rng.normal(0, u["balance"], 3)),
@@ -64,8 +73,11 @@ def draw_dive(rng: np.random.Generator, n: int = PHOTOS, mixed: bool = False) ->
             "daylight_mired": float(_daylight_draws(rng, 1)[0]),
             "cdom_slope": float(rng.normal(iw.CDOM_SLOPE_PER_NM, u["cdom_slope"])),
             "nap_slope": float(rng.normal(iw.NAP_SLOPE_PER_NM, u["nap_slope"]))}
-    depth = rng.uniform(*DIVE_DEPTHS, n)
-    distance = rng.uniform(*DIVE_DISTANCES, n)
+    if photos is None:
+        depth, distance = rng.uniform(*DIVE_DEPTHS, n), rng.uniform(*DIVE_DISTANCES, n)
+    else:
+        depth, distance = (np.array(x, float) for x in zip(*photos))
+        n = depth.size
     chl_photo = np.full(n, chl)
     if mixed:
         chl_photo[-1] *= MIXED_FACTOR

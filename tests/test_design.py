@@ -268,72 +268,6 @@ def test_cli_bad_input_exit_2_names_the_option(extra, message):
     assert code == 2 and err.startswith(f"uw3p design: error: {message}"), err
 
 
-# --------------------------------------------------------------------------- the check
-def test_design_check_draws_a_dive_of_the_protocol_with_the_samples_reading():
-    from experiments import design_check as dc
-
-    spec = dc.DESIGNS[0]
-    proto = Protocol((15.0, 2.0), (1.0, 3.0), "sample")
-    rng = np.random.default_rng(0)
-    dives = [dc.draw_dive(rng, spec, proto, 0.0025) for _ in range(200)]
-    d = dives[0]
-    assert list(zip(d["depth"], d["distance"])) == proto.photos
-    assert d["options"]["reflectance_sd"] == 0.01 and len(d["options"]["reflectance_factors"]) == 24
-    readings = np.array([x["auxiliary"]["cdom"][0] for x in dives])
-    assert np.all(readings > 0) and abs(readings.std() / 0.0025 - 1) < 0.15
-    assert abs(readings.mean() - spec["cdom"]) < 0.001
-    told = np.concatenate([x["depth_told"] - x["depth"] for x in dives])
-    assert abs(told.std() / sca.DEFAULT_UNCERTAIN["depth"] - 1) < 0.1
-    assert dc.draw_dive(rng, spec, Protocol((5.0,), (1.0,)), 0.0025)["auxiliary"] is None
-    # a water the design did not guess: the dives and the sample are of the truth, the design
-    # (its command) of the guess, and the row has no criterion
-    wrong = next(x for x in dc.DESIGNS if x.get("truth") == (1.5, 0.15))
-    d = dc.draw_dive(rng, wrong, proto, 0.0025)
-    assert d["chl"] == 1.5 and np.all(d["chl_photo"] == 1.5)
-    assert abs(d["auxiliary"]["cdom"][0] - 0.15) < 0.0125
-    assert dc.command(wrong) == dc.command(spec)
-    assert dc.command(dc.DESIGNS[1]) == ("uw3p design --chl 0.1 --cdom 0.01 --depth 2 15 "
-                                         "--distance 1 3 --target C=30% --sample-sd 0.001")
-
-
-def test_design_check_criteria_and_report_on_numbers():
-    from experiments import design_check as dc
-
-    s = {"name": "x", "command": "uw3p design", "meets": True, "dives": 40, "seconds": 1.0,
-         "protocol": "2 photos", "designed_chl": 0.2, "bound_chl": 0.13, "designed_c": 0.04,
-         "span": "beam and absorption", "limiting": "", "target_chl": 0.3, "reliable": 40,
-         "confident_wrong": 1, "realised_chl": 0.28, "ratio_chl": 1.4, "ratio_bound": 2.1,
-         "realised_chl_q": (0.2, 0.3), "within_target": 30, "worst_band": "c_443",
-         "not_reliable": [], "realised_c": 0.05, "ratio_c": 1.1, "spanned": 40,
-         "realised_chl_spanned": 0.28, "realised_chl_alone": float("nan"), "fit_s": 5.0,
-         **{f"miss_{k}": 6 for k in ("chl", "cdom") + dc.C_BANDS},
-         **{f"p_{k}": dc._binom_two_sided(6, 40) for k in ("chl", "cdom") + dc.C_BANDS}}
-    c = dc.check(s)
-    assert [v[0] for v in c.values()] == [False, True, True]  # 1.4 > 1.33; p = 0.014 > 0.01
-    assert dc.check({**s, "informational": True}) == {}
-    s["miss_chl"], s["p_chl"] = 7, dc._binom_two_sided(7, 40)
-    assert not dc.check(s)["C covered at the nominal rate (two-sided binomial p >= 0.01)"][0]
-    # over-coverage fails too where the test can see it: 0 misses in 400
-    assert dc._binom_two_sided(0, 400) < dc.CONSISTENCY_P
-    text = dc.report([s], "python -m experiments.design_check")
-    assert "| realised / designed C half-width in 0.75-1.33 | **no** | 1.40 |" in text
-    assert "nan" not in text.lower()
-
-
-@pytest.mark.slow
-def test_design_check_runs_a_dive_end_to_end():
-    from experiments import design_check as dc
-
-    res = dc.run(dives=1, workers=1, specs=dc.DESIGNS[:1])
-    s = dc.summarise(res[0])
-    assert s["meets"] and s["dives"] == 1 and s["protocol"].startswith("2 photos")
-    # the coastal design's C half-width is nearly the same on every dive (DESIGN.md: quartiles
-    # +-21 % and +-22 %, median +-22 %), so one dive already tests the promise
-    lo, hi = dc.RATIO_RANGE
-    assert s["reliable"] == 1 and lo <= s["ratio_chl"] <= hi, s["ratio_chl"]
-    assert "| C: realised / designed |" in dc.report([s], "cmd")
-
-
 # --------------------------------------------------------------------------- following the advice
 def test_the_advice_is_a_command_uw3p_measure_takes_and_a_plan_it_reads(tmp_path):
     """The dive's command parses with uw3p's own parser (a folder, the plan, --joint, the
@@ -383,21 +317,6 @@ def test_cli_writes_the_plan_and_says_how_to_follow_it(tmp_path):
     code, _, err = run(["design", "--chl", 1, "--cdom", 0.1, "--depth", 5, "--distance", 1,
                         "--camera-only", "--plan", tmp_path / "missing" / "dive.csv"])
     assert code == 2 and err.startswith("uw3p design: error: --plan: cannot write"), err
-
-
-def test_design_check_reports_a_design_that_promises_nothing_without_rendering():
-    """Where no protocol meets the target, the check renders nothing and says so; its
-    criteria are empty (nothing was promised)."""
-    from experiments import design_check as dc
-
-    spec = {"name": "impossible", "chl": 1.0, "cdom": 0.1, "depth": 5.0, "distance": 1.0,
-            "targets": {"chl": 0.001}, "sample_sd": None}
-    d = sca.design(1.0, 0.1, depth=5.0, distance=1.0, uncertain={}, targets={"chl": 0.001},
-                   max_photos=2, auxiliary=("none",))
-    s = dc.summarise({"spec": spec, "design": d, "truth": [], "fits": [], "seconds": 0.0})
-    assert not s["meets"] and s["dives"] == 0 and dc.check(s) == {}
-    text = dc.report([s], "cmd")
-    assert "No protocol of the space meets the target" in text and "limits it: noise" in text
 
 
 def test_the_reference_shot_asks_for_no_more_photos_and_narrows_c443():
