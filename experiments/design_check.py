@@ -182,7 +182,7 @@ def draw_dive(rng: np.random.Generator, spec: dict, protocol, auxiliary_sd: dict
     """
     from sca.reference import REFERENCE_MINUTES, sky_sd
 
-    from .reference_worlds import _sky_change
+    from .honesty import _sky_change
 
     w = WORLDS[world]
     water = (_log_uniform(rng, spec["chl"]), _log_uniform(rng, spec["cdom"]))
