@@ -458,7 +458,8 @@ def report(n: dict, seconds: float) -> str:
         "resampled as independent, so the intervals may be too narrow. A camera whose slopes "
         "agree does not make it the cruise's camera.",
         "",
-        "![the grey patch against depth](figures/grey_patch/grey_patch.png)",
+        "The figure, `figures/grey_patch/grey_patch.png`, is drawn by the same command (the "
+        "figures are generated, not kept in the repository).",
         ""]
     return "\n".join(lines)
 
