@@ -952,9 +952,10 @@ def _ablation(sets: dict, k: int) -> dict:
             sub = _subset(rendered, k)
             rows.append(_band_charts(fit_set(sub, budget), {"depth": cond["depth"][:k]}, sub))
         label = "none" if term is None else term
-        out["median_half_width"][label] = {b: _band_numbers(rows, b)["median_half_width"]
+        test = world_test("clean")  # the ablation's charts are the clean world's
+        out["median_half_width"][label] = {b: _band_numbers(rows, b, test)["median_half_width"]
                                            for b in C_BANDS}
-        out["reliable"][label] = _band_numbers(rows, C_BANDS[0])["reliable"]
+        out["reliable"][label] = _band_numbers(rows, C_BANDS[0], test)["reliable"]
     return out
 
 
