@@ -1440,10 +1440,13 @@ DTAU_BANDS = ("443", "490", "555")
 DTAU_TARGET = 0.10
 #: Reference shots per light of :func:`illuminant_check` (each a render and a fit: ~0.5 s)
 ILLUMINANT_SHOTS = 20
-#: The fits of the reference worlds (row labels): the light and the chart's response measured
-#: in air, the light alone (decision 0069-reference-shot) and the default budget.
-WITH_REF, LIGHT_ONLY, REF_DEFAULT = "with the reference", "the light only", "default budget"
-REFERENCE_LABELS = (WITH_REF, LIGHT_ONLY, REF_DEFAULT)
+
+#: The fits of the reference worlds (row labels): the light measured in air (the reference's
+#: default, decision 0069-reference-shot), the light and the chart's response (opt-in: decision
+#: 0079-reference-patch-response) and the default budget.
+WITH_REF, RESPONSE, REF_DEFAULT = ("with the reference", "the light and the chart's response "
+                                   "(opt-in)", "default budget")
+REFERENCE_LABELS = (WITH_REF, RESPONSE, REF_DEFAULT)
 #: The renderer's per-chart draws the reference shot shares with the photo underwater.
 SHARED_DRAWS = ("camera_shift_nm", "camera_gains", "reflectance_factors")
 
@@ -1592,12 +1595,6 @@ def _draw_set(water, n, rng):
     return world, cond, rendered, lights, time.perf_counter() - t0, (beyond_seq, uw_seq)
 
 
-def _light_only(lights) -> list:
-    """The lights without the chart's response (the plain-light reference, decision
-    0069-reference-shot)."""
-    return [dataclasses.replace(lt, factors=None, factors_sd=None) for lt in lights]
-
-
 def _water_set(water, n, rng, log, beyond=True):
     """Render and fit one water type's charts in both worlds (``beyond``: and sky-beyond)."""
     world, cond, rendered, lights, air_s, (beyond_seq, uw_seq) = _draw_set(water, n, rng)
@@ -1605,8 +1602,8 @@ def _water_set(water, n, rng, log, beyond=True):
     test = test_of("reference")
     out = {"reference": {
         label: _summary(fit_set(rendered, budget), cond, rendered, test)
-        for label, budget in ((WITH_REF, budgets), (LIGHT_ONLY, with_reference(
-            None, _light_only(lights), REFERENCE_MINUTES)), (REF_DEFAULT, None))}}
+        for label, budget in ((WITH_REF, budgets), (RESPONSE, with_reference(
+            None, lights, REFERENCE_MINUTES, response=True)), (REF_DEFAULT, None))}}
     stated = budgets["daylight"]["sd"]
     out["lights"] = {"sd_fit_median": float(np.median([lt.sd for lt in lights])),
                      "error_median_abs": float(np.median(np.abs(
@@ -1828,12 +1825,12 @@ def residual_patch(n: int = 10, seed: int = SEED, grid=RESIDUAL_GRID) -> dict:
     streams = np.random.default_rng([seed, 47, 2]).spawn(len(C_WATERS))
     sets = [_draw_set(w, n, rng) for w, rng in zip(C_WATERS, streams)]
     chi2 = {}
-    for label, strip in ((WITH_REF, False), (LIGHT_ONLY, True)):
+    for label, response in ((RESPONSE, True), (WITH_REF, False)):
         chi2[label] = []
         for p in grid:
             num = den = 0.0
             for _, _, rendered, lights, _, _ in sets:
-                budget = with_reference(None, _light_only(lights) if strip else lights)
+                budget = with_reference(None, lights, response=response)
                 est = fit_set(rendered, budget | {"patch": p})
                 num += float(np.nansum(est.chi2_dof * est.dof))
                 den += float(np.sum(est.dof))

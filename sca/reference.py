@@ -242,30 +242,33 @@ PER_CHART = ("centre", "sd", "sd_fit")
 
 
 def with_reference(uncertain, light, minutes=REFERENCE_MINUTES,
-                   source: str = "") -> dict | None:
+                   source: str = "", response: bool = False) -> dict | None:
     """``uncertain`` (None: the default budget) with its 'daylight' prior replaced by the
     reference's: a :class:`Light`'s (:meth:`Light.prior` at ``minutes``), a
     :class:`Bracket`'s (:meth:`Bracket.prior`, its own times), or a sequence of lights, one per
     chart of a batch (each chart its own prior, one fit of them all); ``uncertain`` as given
     without a reference or for the paper's exact model ``{}``.
 
-    Where the shots measured the chart's response (:attr:`Light.factors`) the budget carries it
-    too: ``'response'`` the factors ((m, n); a bracket's two inverse-variance averaged; one set
+    With ``response`` (off by default), where the shots measured the chart's response
+    (:attr:`Light.factors`), the budget carries it too: ``'response'`` the factors ((m, n); a bracket's two inverse-variance averaged; one set
     per chart of a sequence) that every estimator's model applies to the direct signal
     (:meth:`sca.budget.Budget.model`), and ``'patch'`` lowered to what the shot cannot see
-    (:meth:`Light.patch_sd`; the largest of the charts'; never above the budget's own)."""
+    (:meth:`Light.patch_sd`; the largest of the charts'; never above the budget's own). It is
+    off by default: in HONESTY.md's reference world its intervals are too narrow (decision
+    0079-reference-patch-response), where the light alone covers every quantity."""
     if light is None or uncertain == {}:
         return uncertain
     base = dict(DEFAULT_UNCERTAIN if uncertain is None else uncertain)
     if isinstance(light, Bracket):
         return base | {"daylight": light.prior(source)} | _response_entries(
-            base, [_averaged(light.lights)])
+            base, [_averaged(light.lights)] if response else [])
     if isinstance(light, Light):
         return base | {"daylight": light.prior(minutes, source)} | _response_entries(
-            base, [light])
+            base, [light] if response else [])
     each = [lt.prior(minutes, source) for lt in light]
     return base | {"daylight": {k: np.array([e[k] for e in each]) if k in PER_CHART else each[0][k]
-                                for k in each[0]}} | _response_entries(base, list(light))
+                                for k in each[0]}} | _response_entries(
+        base, list(light) if response else [])
 
 
 def _averaged(lights) -> Light:

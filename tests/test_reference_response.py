@@ -52,7 +52,7 @@ def _covered(est, c) -> int:
 def test_the_factors_remove_a_one_percent_per_patch_reflectance_error(chart):
     light, sims, c = chart
     assert light.factors.shape == (3, 24) and np.all(light.factors_sd < 0.005)
-    ref = with_reference(None, light)
+    ref = with_reference(None, light, response=True)
     assert ref["patch"] == pytest.approx(light.patch_sd()) and ref["patch"] < 0.005
     est = _fit(sims, ref)
     # with the factors the lowered term describes the photos and the intervals cover
@@ -100,7 +100,7 @@ def test_a_clipped_reference_measures_the_light_only():
     sigma[0, 18] = np.nan  # the white clipped
     light = measure_light(air.rgb, sigma)
     assert light.factors is None
-    assert "response" not in with_reference(None, light)
+    assert "response" not in with_reference(None, light, response=True)
 
 
 def test_the_profile_record_keeps_the_factors(chart):
@@ -112,7 +112,7 @@ def test_the_profile_record_keeps_the_factors(chart):
 
 def test_a_dive_takes_one_response(chart):
     light, sims, c = chart
-    ref = with_reference(None, light)
+    ref = with_reference(None, light, response=True)
     kw = dict(sigma=np.stack([s.rgb_sigma for s in sims[:3]]), depth=np.array(DEPTHS[:3]),
               distance=DISTANCE, setup=forward.chart_setup())
     est = estimate_joint(np.stack([s.rgb for s in sims[:3]]), uncertain=ref, **kw)
@@ -132,12 +132,22 @@ def test_one_response_per_chart_fits_in_one_batch_as_each_alone(chart):
     lights = [dataclasses.replace(light, factors=light.factors * k) for k in scale]
     both = sca.estimate_batch(np.stack([s.rgb for s in sims]), depth=np.array(DEPTHS[:3]),
                               distance=DISTANCE, sigma=np.stack([s.rgb_sigma for s in sims]),
-                              gain="free", uncertain=with_reference(None, lights))
+                              gain="free", uncertain=with_reference(None, lights, response=True))
     for i, (s, lt) in enumerate(zip(sims, lights)):
         alone = sca.estimate_batch(s.rgb[None], depth=DEPTHS[i], distance=DISTANCE,
                                    sigma=s.rgb_sigma[None], gain="free",
-                                   uncertain=with_reference(None, lt))
+                                   uncertain=with_reference(None, lt, response=True))
         np.testing.assert_allclose([both.chl[i], both.cdom[i]], [alone.chl[0], alone.cdom[0]],
                                    rtol=1e-6)
         np.testing.assert_allclose(both.chl_ci[i], alone.chl_ci[0], rtol=1e-4)
     assert not np.allclose(both.chl[0], both.chl[1], rtol=1e-6)  # the factors do act
+
+
+def test_the_response_is_opt_in(chart):
+    """The reference's default is the light alone (HONESTY.md's reference world: the lowered
+    per-patch term's intervals too narrow, decision 0079-reference-patch-response)."""
+    light, _, _ = chart
+    plain = with_reference(None, light)
+    assert "response" not in plain and plain["patch"] == sca.budget.DEFAULT_UNCERTAIN["patch"]
+    assert "response" in with_reference(None, light, response=True)
+
