@@ -15,6 +15,25 @@ settings.register_profile("stress", derandomize=False, deadline=None, max_exampl
                           print_blob=True)
 settings.load_profile(os.environ.get("UW3P_HYPOTHESIS", "uw3p"))
 
+def budget_prior_world(seed: int, n: int):
+    """``n`` charts of HONESTY.md's budget-prior world (the independent renderer, its own
+    ``seed``) fitted by ``sca.estimate_batch`` with the gain free: (estimate, rendered, the
+    drawn conditions)."""
+    import numpy as np
+
+    import sca
+    from experiments import honesty as h
+
+    cond_rng, render_root = np.random.default_rng(seed).spawn(2)
+    cond = h.draw_conditions(cond_rng, n)
+    worlds = {w.name: w for w in h.worlds()}
+    streams = dict(zip(worlds, render_root.spawn(len(worlds)), strict=True))
+    r = h.render_set(worlds["priors"], cond, streams["priors"])
+    est = sca.estimate_batch(np.maximum(r["rgb"], 0.0), depth=r["depth"],
+                             distance=r["distance"], sigma=r["sigma"], gain="free")
+    return est, r, cond
+
+
 # the quadrature rules' disk cache (sca.quadrature.cache_dir) of a test run is its own
 os.environ.setdefault("UW3P_CACHE_DIR", tempfile.mkdtemp(prefix="uw3p-test-cache-"))
 

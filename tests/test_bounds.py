@@ -9,8 +9,9 @@ from scipy import stats
 
 import forward
 import sca
-from experiments import honesty as h
 from sca.derived import bound_points
+
+from conftest import budget_prior_world
 
 #: Charts of the budget-prior world (the independent renderer); its own seed.
 N = 80
@@ -22,14 +23,7 @@ FALSE_FAIL = 0.001
 
 @pytest.fixture(scope="module")
 def priors_world():
-    root = np.random.default_rng(SEED)
-    cond_rng, render_root = root.spawn(2)
-    cond = h.draw_conditions(cond_rng, N)
-    worlds = {w.name: w for w in h.worlds()}
-    streams = dict(zip(worlds, render_root.spawn(len(worlds)), strict=True))
-    r = h.render_set(worlds["priors"], cond, streams["priors"])
-    est = sca.estimate_batch(np.maximum(r["rgb"], 0.0), depth=r["depth"],
-                             distance=r["distance"], sigma=r["sigma"], gain="free")
+    est, r, _ = budget_prior_world(SEED, N)
     return est, r["truth"]
 
 

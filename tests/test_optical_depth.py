@@ -10,11 +10,11 @@ from scipy import stats
 
 import forward
 import sca
-from experiments import honesty as h
 from measure import dive
 from measure.dive.summary import summary_row, write_summary
 from measure.statements import one_line, statements
 from measure.dive.survey import write_survey
+from conftest import budget_prior_world
 from sca.derived import (BANDS_NM, MEASURED_RATIO, TAU_MEASURED_HALF_WIDTH, describe, quantity_values, verdict,
                          verdicts_of)
 
@@ -86,14 +86,7 @@ def test_tau_and_its_derivatives_are_c_times_the_path():
 
 @pytest.fixture(scope="module")
 def priors_world():
-    root = np.random.default_rng(SEED)
-    cond_rng, render_root = root.spawn(2)
-    cond = h.draw_conditions(cond_rng, N)
-    worlds = {w.name: w for w in h.worlds()}
-    streams = dict(zip(worlds, render_root.spawn(len(worlds)), strict=True))
-    r = h.render_set(worlds["priors"], cond, streams["priors"])
-    est = sca.estimate_batch(np.maximum(r["rgb"], 0.0), depth=r["depth"],
-                             distance=r["distance"], sigma=r["sigma"], gain="free")
+    est, r, cond = budget_prior_world(SEED, N)
     # the world's tau: its path coefficient times its true path (the told one is perturbed)
     length = cond["depth"] + cond["distance"]
     truth = {f"tau_{b:.0f}": np.asarray(r["truth"][f"c_{b:.0f}"]) * length for b in BANDS_NM}
