@@ -153,7 +153,7 @@ def response_factors(factors, rows: int) -> np.ndarray:
 
 
 def _as_rows(factor) -> np.ndarray:
-    """A number, or one factor per (channel, patch) row, as a column (rows, 1) that divides B."""
+    """The model's scale (:meth:`ChartModel.scaled`) as a column that divides B."""
     return np.reshape(np.asarray(factor, float), (-1, 1))
 
 
@@ -297,8 +297,9 @@ class ChartModel:
         self.response = None  # the chart's response measured in air, (m n,) (with_response)
 
     def scaled(self, factor) -> "ChartModel":
-        """A copy whose signals are divided by ``factor`` (the data's scale: a number; or one
-        per (channel, patch) row, (m n,)); shares the rest and keeps a reference to this model
+        """A copy whose signals are divided by ``factor`` (the data's scale, a number: each
+        chart's response measured in air is the model function's ``response``, not this); shares
+        the rest and keeps a reference to this model
         (its Dt, when needed, is this model's / factor). It is its own full-grid model: its
         :meth:`reduced` is this model's, scaled."""
         new = copy.copy(self)
